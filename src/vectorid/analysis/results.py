@@ -1,0 +1,459 @@
+"""Test tables, the feasible set D and the Edgeworth–Pareto set, for any criteria
+constraints chosen after the run (no model is ever re-run).
+
+Criteria constraints Φ** are *bounds* on a criterion: for a ``min`` criterion the study's
+``limit`` is an upper bound, for a ``max`` criterion a lower bound. The expert may tighten,
+loosen or remove them at analysis time (``--limit 'f1<=40'``, ``--limit 'f2>=0.5'``,
+``--limit 'f1<=inf'`` removes), and may override functional constraint bounds the same way.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..errors import StudyDefinitionError, suggest
+from ..problem import OK
+from ..spec import StudySpec
+from ..store.sqlite import Trials
+from .pareto import pareto_mask
+
+__all__ = ["Analysis", "Bound", "EmptyDiagnosis", "TestTable", "parse_limit", "parse_limits"]
+
+_LIMIT = re.compile(r"^\s*([^<>=\s]+)\s*(<=|>=|<|>)\s*(\S+)\s*$")
+
+
+@dataclass(frozen=True)
+class Bound:
+    """One side of a constraint: ``name <= value`` (``side='high'``) or ``name >= value``."""
+
+    name: str
+    side: str  # "low" | "high"
+    value: float
+
+    def __str__(self) -> str:
+        return f"{self.name} {'<=' if self.side == 'high' else '>='} {self.value:.6g}"
+
+
+def parse_limit(text: str) -> Bound:
+    """Parse ``'NAME<=VALUE'`` or ``'NAME>=VALUE'`` (``inf`` removes the bound).
+
+    Raises
+    ------
+    StudyDefinitionError
+        With the expected form when ``text`` does not parse.
+    """
+    m = _LIMIT.match(text)
+    if not m:
+        raise StudyDefinitionError(
+            "--limit",
+            f"cannot read {text!r}",
+            "write NAME<=VALUE or NAME>=VALUE, e.g. --limit 'f1<=40' (quote it for the shell)",
+        )
+    name, op, raw = m.groups()
+    try:
+        value = float(raw)
+    except ValueError:
+        raise StudyDefinitionError(
+            "--limit", f"value {raw!r} in {text!r} is not a number", "write e.g. f1<=40.5"
+        ) from None
+    if math.isnan(value):
+        raise StudyDefinitionError("--limit", f"NaN limit in {text!r}", "write a number or inf")
+    return Bound(name, "high" if op.startswith("<") else "low", value)
+
+
+def parse_limits(texts: Iterable[str]) -> list[Bound]:
+    """Parse several ``--limit`` options."""
+    return [parse_limit(t) for t in texts]
+
+
+@dataclass
+class TestTable:
+    """One criterion's column of the test table (seed 000 Fig. 6): trials sorted best first.
+
+    Attributes
+    ----------
+    name, sense : str
+    min, max : float
+        Over the rows of the table (NaN if it is empty).
+    ids : (m,) int64
+        Trial ids, best first.
+    values : (m,) float64
+    feasible : (m,) bool
+        Whether each trial lies in D under the current constraints.
+    limit : float or None
+        The criterion's current Φ** on its worse side.
+    """
+
+    __test__ = False  # not a pytest class
+
+    name: str
+    sense: str
+    min: float
+    max: float
+    ids: np.ndarray
+    values: np.ndarray
+    feasible: np.ndarray
+    limit: float | None
+
+    def to_dict(self, top: int | None = None) -> dict[str, Any]:
+        m = len(self.ids) if top is None else min(top, len(self.ids))
+        return {
+            "name": self.name,
+            "sense": self.sense,
+            "min": None if math.isnan(self.min) else self.min,
+            "max": None if math.isnan(self.max) else self.max,
+            "limit": self.limit,
+            "rows": [
+                {
+                    "id": int(self.ids[i]),
+                    "value": float(self.values[i]),
+                    "feasible": bool(self.feasible[i]),
+                }
+                for i in range(m)
+            ],
+        }
+
+
+@dataclass
+class EmptyDiagnosis:
+    """Why D is empty and how to make it non-empty.
+
+    Attributes
+    ----------
+    cumulative : list of (Bound, int)
+        Constraints applied one after another (functional first, then criteria left to
+        right) with the number of trials left after each; the first to reach 0 empties D.
+    relaxations : list of (Bound, Bound, int)
+        For each constraint whose relaxation alone makes D non-empty: the current bound, the
+        smallest relaxed bound that does it, and how many trials D then holds.
+    joint : dict or None
+        When no single relaxation suffices: the trial needing the smallest relative
+        relaxation and the bounds that would admit it.
+    """
+
+    cumulative: list[tuple[Bound, int]]
+    relaxations: list[tuple[Bound, Bound, int]]
+    joint: dict[str, Any] | None
+
+    def describe(self) -> str:
+        lines = ["The feasible set D is empty."]
+        first = next((b for b, c in self.cumulative if c == 0), None)
+        if first is not None:
+            lines.append(f"Applied in order, {first} is the constraint that empties it:")
+            for b, c in self.cumulative:
+                lines.append(f"  {b!s:<32} -> {c} trials left")
+        if self.relaxations:
+            lines.append("Smallest relaxation of each constraint that alone makes D non-empty:")
+            for cur, new, gained in self.relaxations:
+                lines.append(f"  {cur!s:<32} -> {new}  ({gained} feasible)")
+        elif self.joint:
+            lines.append(
+                "No single relaxation is enough; the trial closest to feasibility is "
+                f"{self.joint['id']}, admitted by: "
+                + ", ".join(str(b) for b in self.joint["bounds"])
+            )
+        else:
+            lines.append("No trial completed successfully; see `vectorid info` for failures.")
+        return "\n".join(lines)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "cumulative": [{"constraint": str(b), "left": c} for b, c in self.cumulative],
+            "relaxations": [
+                {"constraint": str(a), "relaxed": str(b), "value": b.value, "n_feasible": n}
+                for a, b, n in self.relaxations
+            ],
+            "joint": None
+            if self.joint is None
+            else {"id": self.joint["id"], "bounds": [str(b) for b in self.joint["bounds"]]},
+        }
+
+
+class Analysis:
+    """Feasible and Pareto sets of stored trials under chosen constraints.
+
+    Parameters
+    ----------
+    spec : StudySpec
+        The study (criteria senses, roles, limits; functional constraints).
+    trials : Trials
+        Stored trials (``Store.load()``).
+    limits : iterable of Bound or mapping, optional
+        Bounds overriding the study's: ``Bound`` objects (from :func:`parse_limit`), or a
+        mapping ``name -> value`` applied to the worse side of a criterion (upper for min,
+        lower for max) or, for a constraint, ``name -> (low, high)``.
+    roles : mapping, optional
+        Override pure/pseudo roles by criterion name.
+    """
+
+    def __init__(
+        self,
+        spec: StudySpec,
+        trials: Trials,
+        limits: Iterable[Bound] | Mapping[str, Any] | None = None,
+        roles: Mapping[str, str] | None = None,
+    ) -> None:
+        self.spec = spec
+        self.trials = trials
+        self.criteria = list(spec.criteria)
+        self.constraints = list(spec.constraints)
+        self.crit_names = [c.name for c in self.criteria]
+        self.con_names = [c.name for c in self.constraints]
+        self.senses = [c.sense for c in self.criteria]
+        self.roles = [c.role for c in self.criteria]
+        if roles:
+            for name, role in roles.items():
+                if name not in self.crit_names:
+                    raise StudyDefinitionError(
+                        "roles", f"unknown criterion {name!r}", suggest(name, self.crit_names)
+                    )
+                if role not in ("pure", "pseudo"):
+                    raise StudyDefinitionError(
+                        f"roles.{name}", f"expected 'pure' or 'pseudo', got {role!r}"
+                    )
+                self.roles[self.crit_names.index(name)] = role
+        # bounds[name] = [low, high]
+        self.bounds: dict[str, list[float]] = {}
+        for c in self.criteria:
+            lo, hi = -math.inf, math.inf
+            if c.limit is not None:
+                if c.sense == "min":
+                    hi = c.limit
+                else:
+                    lo = c.limit
+            self.bounds[c.name] = [lo, hi]
+        for c in self.constraints:
+            self.bounds[c.name] = [
+                -math.inf if c.low is None else c.low,
+                math.inf if c.high is None else c.high,
+            ]
+        for b in self._normalise_limits(limits):
+            self.bounds[b.name][0 if b.side == "low" else 1] = b.value
+        self._compute()
+
+    def _normalise_limits(self, limits: Any) -> list[Bound]:
+        if limits is None:
+            return []
+        out: list[Bound] = []
+        if isinstance(limits, Mapping):
+            for name, value in limits.items():
+                if name in self.con_names:
+                    lo, hi = value
+                    out += [
+                        Bound(name, "low", -math.inf if lo is None else float(lo)),
+                        Bound(name, "high", math.inf if hi is None else float(hi)),
+                    ]
+                elif name in self.crit_names:
+                    sense = self.senses[self.crit_names.index(name)]
+                    if value is None:
+                        v = math.inf if sense == "min" else -math.inf
+                    else:
+                        v = float(value)
+                    out.append(Bound(name, "high" if sense == "min" else "low", v))
+                else:
+                    out.append(Bound(name, "high", 0.0))  # rejected below
+        else:
+            out = list(limits)
+        valid = self.crit_names + self.con_names
+        for b in out:
+            if b.name not in valid:
+                raise StudyDefinitionError(
+                    "--limit",
+                    f"limit on unknown criterion or constraint {b.name!r}",
+                    suggest(b.name, valid),
+                )
+        return out
+
+    # -- computation -----------------------------------------------------------------------
+
+    def _column(self, name: str) -> np.ndarray:
+        if name in self.crit_names:
+            return self.trials.F[:, self.crit_names.index(name)]
+        return self.trials.G[:, self.con_names.index(name)]
+
+    def _bound_mask(self, name: str, side: str, value: float | None = None) -> np.ndarray:
+        v = self.bounds[name][0 if side == "low" else 1] if value is None else value
+        col = self._column(name)
+        with np.errstate(invalid="ignore"):
+            return col >= v if side == "low" else col <= v
+
+    def active_bounds(self) -> list[Bound]:
+        """Finite bounds in force: functional constraints first, then criteria in order."""
+        out = []
+        for name in self.con_names + self.crit_names:
+            lo, hi = self.bounds[name]
+            if lo > -math.inf:
+                out.append(Bound(name, "low", lo))
+            if hi < math.inf:
+                out.append(Bound(name, "high", hi))
+        return out
+
+    def _compute(self) -> None:
+        t = self.trials
+        self.ok = t.status == OK
+        self.functional_ok = self.ok.copy()
+        for name in self.con_names:
+            lo, hi = self.bounds[name]
+            col = self._column(name)
+            with np.errstate(invalid="ignore"):
+                self.functional_ok &= (col >= lo) & (col <= hi)
+        self.feasible = self.functional_ok.copy()
+        for name in self.crit_names:
+            lo, hi = self.bounds[name]
+            col = self._column(name)
+            with np.errstate(invalid="ignore"):
+                self.feasible &= (col >= lo) & (col <= hi)
+        pure = [i for i, r in enumerate(self.roles) if r == "pure"]
+        self.pure = pure
+        self.pareto = np.zeros(len(t), dtype=bool)
+        if pure and self.feasible.any():
+            idx = np.flatnonzero(self.feasible)
+            sub = t.F[np.ix_(idx, pure)]
+            self.pareto[idx[pareto_mask(sub, [self.senses[i] for i in pure])]] = True
+
+    # -- summaries -------------------------------------------------------------------------
+
+    @property
+    def n(self) -> int:
+        """N: number of trials."""
+        return len(self.trials)
+
+    @property
+    def n_failed(self) -> int:
+        return int((~self.ok).sum())
+
+    @property
+    def n_functional(self) -> int:
+        """Trials that meet the functional constraints."""
+        return int(self.functional_ok.sum())
+
+    @property
+    def n_feasible(self) -> int:
+        """ND: trials in the feasible set D."""
+        return int(self.feasible.sum())
+
+    @property
+    def n_pareto(self) -> int:
+        """NP: trials in the Edgeworth–Pareto set."""
+        return int(self.pareto.sum())
+
+    def test_table(self, name: str, feasible_only: bool = False) -> TestTable:
+        """The test table of one criterion: trials meeting the functional constraints (or,
+        with ``feasible_only``, the feasible ones) sorted best first."""
+        if name not in self.crit_names:
+            raise StudyDefinitionError(
+                "criterion", f"unknown criterion {name!r}", suggest(name, self.crit_names)
+            )
+        j = self.crit_names.index(name)
+        rows = np.flatnonzero(self.feasible if feasible_only else self.functional_ok)
+        values = self.trials.F[rows, j]
+        order = np.argsort(-values if self.senses[j] == "max" else values, kind="stable")
+        rows, values = rows[order], values[order]
+        lo, hi = self.bounds[name]
+        limit = hi if self.senses[j] == "min" else lo
+        return TestTable(
+            name=name,
+            sense=self.senses[j],
+            min=float(values.min()) if len(values) else math.nan,
+            max=float(values.max()) if len(values) else math.nan,
+            ids=self.trials.id[rows],
+            values=values,
+            feasible=self.feasible[rows],
+            limit=None if math.isinf(limit) else float(limit),
+        )
+
+    def test_tables(self, feasible_only: bool = False) -> list[TestTable]:
+        return [self.test_table(n, feasible_only) for n in self.crit_names]
+
+    def rows(self, mask: np.ndarray) -> list[dict[str, Any]]:
+        """Trials of ``mask`` as dicts with id, seq, stage, params and criteria."""
+        t = self.trials
+        names = self.spec.space.names
+        out = []
+        for i in np.flatnonzero(mask):
+            out.append(
+                {
+                    "id": int(t.id[i]),
+                    "seq": int(t.seq[i]),
+                    "stage": int(t.stage[i]),
+                    "params": {n: float(v) for n, v in zip(names, t.X[i])},
+                    "criteria": {n: float(v) for n, v in zip(self.crit_names, t.F[i])},
+                    "functionals": {n: float(v) for n, v in zip(self.con_names, t.G[i])},
+                }
+            )
+        return out
+
+    def diagnose_empty(self) -> EmptyDiagnosis:
+        """Which constraint empties D and the smallest relaxation of each that would not."""
+        bounds = self.active_bounds()
+        masks = [self._bound_mask(b.name, b.side) for b in bounds]
+        cumulative = []
+        cur = self.ok.copy()
+        for b, m in zip(bounds, masks):
+            cur = cur & m
+            cumulative.append((b, int(cur.sum())))
+        relax = []
+        for i, b in enumerate(bounds):
+            others = self.ok.copy()
+            for j, m in enumerate(masks):
+                if j != i:
+                    others &= m
+            if not others.any():
+                continue
+            col = self._column(b.name)[others]
+            needed = float(col.min() if b.side == "high" else col.max())
+            gained = int((col <= needed).sum() if b.side == "high" else (col >= needed).sum())
+            relax.append((b, Bound(b.name, b.side, needed), gained))
+        joint = None
+        if not relax and self.ok.any() and bounds:
+            # Relative violation of each bound, scaled by the column's spread over ok trials.
+            viol = np.zeros((int(self.ok.sum()), len(bounds)))
+            idx = np.flatnonzero(self.ok)
+            for j, b in enumerate(bounds):
+                col = self._column(b.name)[idx]
+                spread = float(np.ptp(col)) or 1.0
+                d = col - b.value if b.side == "high" else b.value - col
+                viol[:, j] = np.maximum(d, 0.0) / spread
+            best = int(np.argmin(viol.max(axis=1)))
+            i = idx[best]
+            need = []
+            for j, b in enumerate(bounds):
+                if viol[best, j] > 0:
+                    need.append(Bound(b.name, b.side, float(self._column(b.name)[i])))
+            joint = {"id": int(self.trials.id[i]), "bounds": need}
+        return EmptyDiagnosis(cumulative, relax, joint)
+
+    def summary(self) -> dict[str, Any]:
+        """Counts and the constraints in force (the ``--json`` header)."""
+        return {
+            "n": self.n,
+            "n_failed": self.n_failed,
+            "n_functional": self.n_functional,
+            "n_feasible": self.n_feasible,
+            "n_pareto": self.n_pareto,
+            "criteria": [
+                {"name": c.name, "sense": self.senses[i], "role": self.roles[i]}
+                for i, c in enumerate(self.criteria)
+            ],
+            "constraints_in_force": [str(b) for b in self.active_bounds()],
+        }
+
+    def pareto_json(self) -> dict[str, Any]:
+        """The stable ``vectorid pareto --json`` document."""
+        out = self.summary()
+        out["pareto"] = self.rows(self.pareto)
+        if self.n_feasible == 0:
+            out["empty"] = self.diagnose_empty().to_dict()
+        return out
+
+
+def senses_of(spec: StudySpec, names: Sequence[str]) -> list[str]:
+    """Senses of the named criteria."""
+    lookup = {c.name: c.sense for c in spec.criteria}
+    return [lookup[n] for n in names]

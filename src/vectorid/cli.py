@@ -1,0 +1,435 @@
+"""The ``vectorid`` command line.
+
+Verbs (a contract; more may be added)::
+
+    vectorid run STUDY.toml|STORE [--trials N] [--store PATH] [--executor serial|processes]
+                                  [--workers N] [--batch-size N] [--quiet]
+    vectorid info STORE [--json]
+    vectorid table STORE [--limit 'NAME<=VALUE' ...] [--top K] [--feasible] [--json]
+    vectorid pareto STORE [--limit 'NAME<=VALUE' | 'NAME>=VALUE' ...] [--role NAME=pseudo] [--json]
+    vectorid export STORE [--format csv|json|parquet] [--out PATH]
+    vectorid init PROBLEM [--out FILE] [--trials N]
+    vectorid demo [--out DIR] [--trials N]
+
+Errors in user input print one line saying what was expected, what came and how to fix it,
+and exit with status 2; an interrupted run exits with 130 after storing what it finished.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from . import __version__
+from .errors import StoreError, StoreLockedError, VectoridError
+
+__all__ = ["main"]
+
+EXIT_USAGE = 2
+EXIT_LOCKED = 3
+EXIT_INTERRUPTED = 130
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a number >= 1, got {value}")
+    return value
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="vectorid",
+        description="Multicriteria parametric identification by the Parameter Space "
+        "Investigation (PSI) method.",
+    )
+    p.add_argument("--version", action="version", version=f"vectorid {__version__}")
+    sub = p.add_subparsers(dest="command", metavar="COMMAND")
+    sub.required = True
+
+    r = sub.add_parser("run", help="run, resume or extend a study")
+    r.add_argument("study", help="study file (.toml) or an existing store (.db) to resume/extend")
+    r.add_argument("--trials", type=_positive_int, help="total number of trials the study holds")
+    r.add_argument("--store", help="store path (default: the study's, else STUDY.db)")
+    r.add_argument("--executor", choices=["serial", "processes"], help="default: processes")
+    r.add_argument("--workers", type=_positive_int, help="worker processes (default: all cores)")
+    r.add_argument("--batch-size", type=_positive_int, help="trials per batch (default: auto)")
+    r.add_argument("--quiet", action="store_true", help="no progress bar")
+
+    i = sub.add_parser("info", help="study definition, stages, counts, failures, runs")
+    i.add_argument("store")
+    i.add_argument("--json", action="store_true")
+
+    def limits(sp: argparse.ArgumentParser) -> None:
+        sp.add_argument(
+            "--limit",
+            action="append",
+            default=[],
+            metavar="'NAME<=VALUE'",
+            help="criteria or functional constraint, e.g. 'f1<=40' or 'f2>=0.5' "
+            "(repeatable; 'f1<=inf' removes a limit)",
+        )
+        sp.add_argument(
+            "--role",
+            action="append",
+            default=[],
+            metavar="NAME=pure|pseudo",
+            help="override a criterion's role for this analysis",
+        )
+
+    t = sub.add_parser("table", help="test tables: each criterion's trials, best first")
+    t.add_argument("store")
+    limits(t)
+    t.add_argument("--top", type=_positive_int, default=10, help="rows per criterion (default 10)")
+    t.add_argument("--feasible", action="store_true", help="only trials in the feasible set D")
+    t.add_argument("--json", action="store_true")
+
+    pa = sub.add_parser("pareto", help="feasible set D and Edgeworth–Pareto set")
+    pa.add_argument("store")
+    limits(pa)
+    pa.add_argument("--json", action="store_true")
+
+    e = sub.add_parser("export", help="every trial, one row each")
+    e.add_argument("store")
+    e.add_argument("--format", choices=["csv", "json", "parquet"], default="csv")
+    e.add_argument("--out", help="output file (default: standard output; required for parquet)")
+
+    n = sub.add_parser("init", help="write a study file for a built-in analytic problem")
+    n.add_argument("problem", help="e.g. binh-korn, zdt1, dtlz2-3, tanaka, osyczka-kundu")
+    n.add_argument("--out", help="file to write (default: PROBLEM.toml)")
+    n.add_argument("--trials", type=_positive_int, default=2048)
+
+    d = sub.add_parser("demo", help="run the demonstration study and print its results")
+    d.add_argument("--out", default="vectorid-demo", help="folder for the store and files")
+    d.add_argument("--trials", type=_positive_int, default=2048)
+    d.add_argument("--quiet", action="store_true", help="no progress bar")
+    return p
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``vectorid`` console script."""
+    args = _parser().parse_args(argv)
+    try:
+        return _COMMANDS[args.command](args)
+    except StoreLockedError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return EXIT_LOCKED
+    except VectoridError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    except BrokenPipeError:
+        return 0
+
+
+# -- helpers --------------------------------------------------------------------------------
+
+
+def _is_store(path: Path) -> bool:
+    try:
+        with open(path, "rb") as fh:
+            return fh.read(16) == b"SQLite format 3\x00"
+    except OSError:
+        return False
+
+
+def _open_study(path: str, write: bool = False):
+    from .study import Study
+
+    p = Path(path)
+    if not p.exists():
+        raise StoreError(
+            f"no store at {p}; run a study first (`vectorid run STUDY.toml`) or check the path"
+        )
+    return Study.open(p, write=write)
+
+
+def _analysis(args: argparse.Namespace):
+    from .analysis import parse_limits
+    from .errors import StudyDefinitionError
+
+    roles = {}
+    for text in args.role:
+        name, sep, role = text.partition("=")
+        if not sep:
+            raise StudyDefinitionError(
+                "--role", f"cannot read {text!r}", "write NAME=pure or NAME=pseudo"
+            )
+        roles[name.strip()] = role.strip()
+    bounds = parse_limits(args.limit)
+    study = _open_study(args.store)
+    try:
+        return study.analysis(bounds, roles)
+    finally:
+        study.close()
+
+
+def _fmt(v: float) -> str:
+    if isinstance(v, float) and math.isnan(v):
+        return "nan"
+    return f"{v:.6g}"
+
+
+def _print_json(obj: Any) -> None:
+    def default(o: Any) -> Any:
+        if isinstance(o, np.generic):
+            return o.item()
+        raise TypeError(type(o).__name__)
+
+    def clean(o: Any) -> Any:
+        if isinstance(o, float) and not math.isfinite(o):
+            return None
+        if isinstance(o, dict):
+            return {k: clean(v) for k, v in o.items()}
+        if isinstance(o, list | tuple):
+            return [clean(v) for v in o]
+        return o
+
+    json.dump(clean(obj), sys.stdout, indent=2, default=default)
+    sys.stdout.write("\n")
+
+
+# -- commands -------------------------------------------------------------------------------
+
+
+def _cmd_run(args: argparse.Namespace) -> int:
+    from .run.loop import RunInterrupted
+    from .spec import load_study
+    from .study import Study, default_store_path
+
+    src = Path(args.study)
+    if _is_store(src):
+        if args.store:
+            print("note: --store is ignored when running a store directly", file=sys.stderr)
+        study = Study.open(src, write=True)
+    else:
+        spec = load_study(src)
+        store = Path(args.store) if args.store else default_store_path(spec, src)
+        study = Study.create_or_open(spec, store)
+    with study:
+        print(f"study {study.spec.name!r} -> {study.store.path}", file=sys.stderr)
+        try:
+            summary = study.run(
+                trials=args.trials,
+                executor=args.executor,
+                workers=args.workers,
+                batch_size=args.batch_size,
+                progress=not args.quiet,
+            )
+        except RunInterrupted as exc:
+            print(f"\n{exc}", file=sys.stderr)
+            print(exc.summary.describe(), file=sys.stderr)
+            return EXIT_INTERRUPTED
+        print(summary.describe())
+    return 0
+
+
+def _cmd_info(args: argparse.Namespace) -> int:
+    from .analysis import Analysis
+    from .run.loop import _reason_key
+
+    study = _open_study(args.store)
+    with study:
+        st = study.store
+        spec = study.spec
+        trials = st.load()
+        a = Analysis(spec, trials)
+        reasons: dict[str, int] = {}
+        for msg in trials.messages.values():
+            key = _reason_key(msg)
+            reasons[key] = reasons.get(key, 0) + 1
+        stages = st.stages()
+        runs = st.runs()
+        info = {
+            "store": str(st.path),
+            "study": spec.to_dict(),
+            "stages": [
+                {
+                    "stage": s.stage,
+                    "kind": s.kind,
+                    "start_seq": s.start_seq,
+                    "n": st.count(s.stage),
+                    "note": s.note,
+                    "box": s.space.to_list(),
+                }
+                for s in stages
+            ],
+            "n": a.n,
+            "n_failed": a.n_failed,
+            "n_feasible": a.n_feasible,
+            "n_pareto": a.n_pareto,
+            "failures": reasons,
+            "wall_time_per_trial_mean": float(trials.wall.mean()) if len(trials) else None,
+            "runs": runs,
+        }
+        if args.json:
+            _print_json(info)
+            return 0
+        print(f"store      {st.path}")
+        print(f"study      {spec.name}  (model {spec.to_dict()['study']['model']})")
+        print(f"trials     {a.n} stored of {spec.trials} wanted; {a.n_failed} failed")
+        print(f"sampler    {spec.sampler}{' scrambled' if spec.scramble else ''}, seed {spec.seed}")
+        print(f"sets       N={a.n}  ND={a.n_feasible}  NP={a.n_pareto}  (study limits)")
+        print("variables")
+        for v in spec.space:
+            unit = f" [{v.unit}]" if v.unit else ""
+            nom = "" if v.nominal is None else f"  nominal {_fmt(v.nominal)}"
+            print(f"  {v.name:<16} {v.kind:<10} [{_fmt(v.low)}, {_fmt(v.high)}]{unit}{nom}")
+        print("criteria")
+        for c in spec.criteria:
+            lim = "" if c.limit is None else f"  limit {_fmt(c.limit)}"
+            print(f"  {c.name:<16} {c.sense:<4} {c.role:<7}{lim}")
+        if spec.constraints:
+            print("constraints")
+            for c in spec.constraints:
+                lo = "-inf" if c.low is None else _fmt(c.low)
+                hi = "inf" if c.high is None else _fmt(c.high)
+                print(f"  {c.name:<16} [{lo}, {hi}]")
+        print("stages")
+        for s in info["stages"]:
+            print(
+                f"  {s['stage']}: {s['kind']:<7} from seq {s['start_seq']:<8} {s['n']:>8} trials"
+                f"  {s['note']}"
+            )
+        if reasons:
+            print("failures")
+            for r, c in sorted(reasons.items(), key=lambda kv: -kv[1]):
+                print(f"  {c:>7} × {r}")
+        if runs:
+            print("runs")
+            for r in runs:
+                dur = "" if r["finished"] is None else f"{r['finished'] - r['started']:.1f} s"
+                print(
+                    f"  #{r['run']} {r['executor']} × {r['workers']}  target {r['target']}  "
+                    f"{r['outcome']}  {dur}"
+                )
+    return 0
+
+
+def _cmd_table(args: argparse.Namespace) -> int:
+    a = _analysis(args)
+    tables = a.test_tables(feasible_only=args.feasible)
+    if args.json:
+        out = a.summary()
+        out["tables"] = [t.to_dict(args.top) for t in tables]
+        _print_json(out)
+        return 0
+    print(
+        f"N = {a.n}   ND = {a.n_feasible}   NP = {a.n_pareto}   (failed {a.n_failed}, "
+        f"meeting functional constraints {a.n_functional})"
+    )
+    for b in a.active_bounds():
+        print(f"  constraint {b}")
+    width = 26
+    for g in range(0, len(tables), 4):
+        group = tables[g : g + 4]
+        print()
+        print("".join(f"{t.name + ' (' + t.sense + ')':<{width}}" for t in group))
+        print("".join(f"{'min ' + _fmt(t.min):<{width}}" for t in group))
+        print("".join(f"{'max ' + _fmt(t.max):<{width}}" for t in group))
+        print(
+            "".join(
+                f"{'limit ' + ('-' if t.limit is None else _fmt(t.limit)):<{width}}" for t in group
+            )
+        )
+        print("".join(f"{'-' * (width - 2):<{width}}" for t in group))
+        rows = max((min(args.top, len(t.ids)) for t in group), default=0)
+        for i in range(rows):
+            cells = []
+            for t in group:
+                if i < min(args.top, len(t.ids)):
+                    mark = " " if t.feasible[i] else "x"
+                    cells.append(f"{t.ids[i]:>8} {_fmt(float(t.values[i])):<14}{mark}")
+                else:
+                    cells.append("")
+                cells[-1] = f"{cells[-1]:<{width}}"
+            print("".join(cells))
+    print("\n(x: outside the feasible set D under the constraints above)")
+    return 0
+
+
+def _cmd_pareto(args: argparse.Namespace) -> int:
+    a = _analysis(args)
+    if args.json:
+        _print_json(a.pareto_json())
+        return 0
+    print(f"N = {a.n}   ND = {a.n_feasible}   NP = {a.n_pareto}   (failed {a.n_failed})")
+    for b in a.active_bounds():
+        print(f"  constraint {b}")
+    pure = [a.crit_names[i] for i in a.pure]
+    print(f"  Pareto over pure criteria: {', '.join(pure) or '(none)'}")
+    if a.n_feasible == 0:
+        print()
+        print(a.diagnose_empty().describe())
+        return 0
+    rows = a.rows(a.pareto)
+    names = a.crit_names + a.spec.space.names
+    print()
+    print(f"{'id':>8}  " + "  ".join(f"{n:>12}" for n in names))
+    for r in sorted(rows, key=lambda r: r["criteria"][a.crit_names[a.pure[0]]] if a.pure else 0):
+        vals = [r["criteria"][n] for n in a.crit_names] + [
+            r["params"][n] for n in a.spec.space.names
+        ]
+        print(f"{r['id']:>8}  " + "  ".join(f"{_fmt(v):>12}" for v in vals))
+    return 0
+
+
+def _cmd_export(args: argparse.Namespace) -> int:
+    from .store.export import export_trials
+
+    study = _open_study(args.store)
+    with study:
+        out = args.out if args.out else sys.stdout
+        if args.format == "parquet" and not args.out:
+            from .errors import StudyDefinitionError
+
+            raise StudyDefinitionError("--out", "parquet needs a file", "add --out trials.parquet")
+        n = export_trials(study.store, args.format, out)
+    if args.out:
+        print(f"{n} trials written to {args.out}", file=sys.stderr)
+    return 0
+
+
+def _cmd_init(args: argparse.Namespace) -> int:
+    from .demo import study_toml
+
+    out = Path(args.out or f"{args.problem}.toml")
+    if out.exists():
+        from .errors import StudyDefinitionError
+
+        raise StudyDefinitionError(
+            "--out", f"{out} exists already", "choose another --out or remove it"
+        )
+    out.write_text(study_toml(args.problem, trials=args.trials), encoding="utf-8")
+    print(f"wrote {out}; run it with: vectorid run {out}")
+    return 0
+
+
+def _cmd_demo(args: argparse.Namespace) -> int:
+    from .demo import run_demo
+
+    return run_demo(Path(args.out), trials=args.trials, progress=not args.quiet)
+
+
+_COMMANDS = {
+    "run": _cmd_run,
+    "info": _cmd_info,
+    "table": _cmd_table,
+    "pareto": _cmd_pareto,
+    "export": _cmd_export,
+    "init": _cmd_init,
+    "demo": _cmd_demo,
+}
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

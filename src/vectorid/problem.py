@@ -1,0 +1,450 @@
+"""Criteria, functional constraints, and the batch-first model protocol.
+
+A model evaluates a whole batch of parameter vectors at once::
+
+    evaluate(X: (n, p) float array) -> criteria (n, k)            or
+    evaluate(X) -> (criteria (n, k), functionals (n, q))
+
+with columns in the order of the study's criteria and constraints. A per-trial function
+``f(x: (p,)) -> row (k,) | (row (k,), row (q,))`` is wrapped once into this form by
+:func:`as_batch`. :meth:`Problem.evaluate` never raises because of a bad trial: a trial
+whose model raises, returns NaN/inf or the wrong shape comes back with ``status = FAILED``
+and a message saying why.
+"""
+
+from __future__ import annotations
+
+import importlib
+import math
+import sys
+import time
+import traceback
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .errors import StudyDefinitionError
+
+__all__ = [
+    "FAILED",
+    "OK",
+    "Criterion",
+    "EvalResult",
+    "FunctionalConstraint",
+    "Problem",
+    "as_batch",
+    "load_model",
+]
+
+OK = 0
+FAILED = 1
+
+BatchModel = Callable[[np.ndarray], Any]
+
+
+def _opt_finite(field_name: str, value: Any) -> float | None:
+    if value is None:
+        return None
+    try:
+        out = float(value)
+    except (TypeError, ValueError):
+        raise StudyDefinitionError(
+            field_name, f"expected a number, got {value!r}", "write a finite number"
+        ) from None
+    if not math.isfinite(out):
+        raise StudyDefinitionError(
+            field_name,
+            f"expected a finite number, got {value!r}",
+            "leave the bound out to mean 'no bound'",
+        )
+    return out
+
+
+def _check_name(kind: str, name: Any) -> str:
+    if not isinstance(name, str) or not name.strip():
+        raise StudyDefinitionError(
+            f"{kind}.name",
+            f"expected a non-empty string, got {name!r}",
+            'give it a name, e.g. name = "f1"',
+        )
+    return name
+
+
+@dataclass(frozen=True)
+class Criterion:
+    """A quality (adequacy) criterion Φ_l.
+
+    Parameters
+    ----------
+    name : str
+        Column name, unique among criteria and constraints.
+    sense : {"min", "max"}
+        Whether smaller or larger values are better.
+    role : {"pure", "pseudo"}
+        Pure criteria define the Edgeworth–Pareto set; pseudo-criteria are only constrained.
+    limit : float, optional
+        Criteria constraint Φ**: the worst value accepted (an upper bound for ``min``,
+        a lower bound for ``max``).
+    unit : str, optional
+        Physical unit, for display.
+    """
+
+    name: str
+    sense: str = "min"
+    role: str = "pure"
+    limit: float | None = None
+    unit: str = ""
+
+    def __post_init__(self) -> None:
+        _check_name("criteria", self.name)
+        if self.sense not in ("min", "max"):
+            raise StudyDefinitionError(
+                f"criteria.{self.name}.sense",
+                f"expected 'min' or 'max', got {self.sense!r}",
+                'write sense = "min" or sense = "max"',
+            )
+        if self.role not in ("pure", "pseudo"):
+            raise StudyDefinitionError(
+                f"criteria.{self.name}.role",
+                f"expected 'pure' or 'pseudo', got {self.role!r}",
+                'write role = "pure" (enters the Pareto set) or role = "pseudo"',
+            )
+        object.__setattr__(self, "limit", _opt_finite(f"criteria.{self.name}.limit", self.limit))
+
+    def to_dict(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"name": self.name, "sense": self.sense, "role": self.role}
+        if self.limit is not None:
+            out["limit"] = self.limit
+        if self.unit:
+            out["unit"] = self.unit
+        return out
+
+
+@dataclass(frozen=True)
+class FunctionalConstraint:
+    """A functional constraint ``low <= f_j(α) <= high`` (eq. 6 of seed 000).
+
+    Either bound may be omitted. A trial violating it is outside the feasible set D.
+    """
+
+    name: str
+    low: float | None = None
+    high: float | None = None
+    unit: str = ""
+
+    def __post_init__(self) -> None:
+        _check_name("constraints", self.name)
+        lo = _opt_finite(f"constraints.{self.name}.low", self.low)
+        hi = _opt_finite(f"constraints.{self.name}.high", self.high)
+        if lo is not None and hi is not None and lo > hi:
+            raise StudyDefinitionError(
+                f"constraints.{self.name}",
+                f"low must not exceed high, got low={lo!r}, high={hi!r}",
+                "swap the bounds",
+            )
+        object.__setattr__(self, "low", lo)
+        object.__setattr__(self, "high", hi)
+
+    def to_dict(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"name": self.name}
+        if self.low is not None:
+            out["low"] = self.low
+        if self.high is not None:
+            out["high"] = self.high
+        if self.unit:
+            out["unit"] = self.unit
+        return out
+
+
+@dataclass
+class EvalResult:
+    """Outcome of a batch: criteria (n, k), functionals (n, q), status (n,), messages,
+    and wall time per trial in seconds (n,). Failed rows hold NaN."""
+
+    criteria: np.ndarray
+    functionals: np.ndarray
+    status: np.ndarray
+    messages: dict[int, str] = field(default_factory=dict)
+    wall: np.ndarray | None = None
+
+    @property
+    def n(self) -> int:
+        return self.criteria.shape[0]
+
+
+def load_model(spec: str | BatchModel, base_dir: str | Path | None = None) -> BatchModel:
+    """Resolve a model reference to a callable.
+
+    Parameters
+    ----------
+    spec : str or callable
+        ``"package.module:function"`` (the study file's folder ``base_dir`` is put on the
+        import path) or a built-in analytic problem name such as ``"binh-korn"``.
+    base_dir : path, optional
+        Folder of the study file.
+    """
+    if callable(spec):
+        return spec
+    if not isinstance(spec, str) or not spec:
+        raise StudyDefinitionError(
+            "study.model",
+            f"expected a built-in name or 'module:function', got {spec!r}",
+            'write model = "binh-korn" or model = "mypkg.mymodel:evaluate"',
+        )
+    if ":" not in spec:
+        from . import analytic
+
+        if spec in analytic.available():
+            return analytic.get(spec).evaluate
+        from .errors import suggest
+
+        raise StudyDefinitionError(
+            "study.model",
+            f"unknown built-in model {spec!r}",
+            suggest(spec, analytic.available())
+            + "; or name your own function as 'package.module:function'",
+        )
+    module_name, _, func_name = spec.partition(":")
+    if base_dir is not None:
+        base = str(Path(base_dir).resolve())
+        if base not in sys.path:
+            sys.path.insert(0, base)
+    try:
+        module = importlib.import_module(module_name)
+    except ImportError as exc:
+        raise StudyDefinitionError(
+            "study.model",
+            f"cannot import module {module_name!r} ({exc})",
+            "put the module next to the study file or install it in this environment",
+        ) from exc
+    try:
+        func = getattr(module, func_name)
+    except AttributeError:
+        from .errors import suggest
+
+        names = [n for n in dir(module) if not n.startswith("_")]
+        raise StudyDefinitionError(
+            "study.model",
+            f"module {module_name!r} has no attribute {func_name!r}",
+            suggest(func_name, names),
+        ) from None
+    if not callable(func):
+        raise StudyDefinitionError(
+            "study.model", f"{spec!r} is not callable", "point to a function"
+        )
+    return func
+
+
+class _PerTrial:
+    """A per-trial function lifted to the batch protocol (picklable when ``func`` is)."""
+
+    def __init__(self, func: Callable[[np.ndarray], Any]) -> None:
+        self.func = func
+        self.per_trial = True
+
+    def __call__(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        raise RuntimeError("per-trial models are evaluated row by row by Problem.evaluate")
+
+
+def as_batch(func: Callable[[np.ndarray], Any]) -> BatchModel:
+    """Mark a per-trial function ``f(x (p,)) -> row`` so it is evaluated row by row.
+
+    :meth:`Problem.evaluate` calls it once per trial, catching each trial's failure
+    separately and timing each trial.
+    """
+    return _PerTrial(func)
+
+
+def _split_output(out: Any) -> tuple[Any, Any]:
+    if isinstance(out, tuple):
+        if len(out) != 2:
+            raise ValueError(
+                f"expected criteria or a pair (criteria, functionals), got a tuple of {len(out)}"
+            )
+        return out
+    return out, None
+
+
+class Problem:
+    """A model with its criteria and functional constraints.
+
+    Parameters
+    ----------
+    model : callable
+        Batch model (see the module docstring) or a per-trial function wrapped by
+        :func:`as_batch`.
+    criteria : sequence of Criterion
+    constraints : sequence of FunctionalConstraint
+    """
+
+    def __init__(
+        self,
+        model: BatchModel,
+        criteria: Sequence[Criterion],
+        constraints: Sequence[FunctionalConstraint] = (),
+    ) -> None:
+        self.model = model
+        self.criteria = tuple(criteria)
+        self.constraints = tuple(constraints)
+        if not self.criteria:
+            raise StudyDefinitionError(
+                "criteria",
+                "a study needs at least one criterion, got none",
+                "add a [[criteria]] table with a name and a sense",
+            )
+        names = [c.name for c in self.criteria] + [c.name for c in self.constraints]
+        dup = sorted({n for n in names if names.count(n) > 1})
+        if dup:
+            raise StudyDefinitionError(
+                f"criteria.{dup[0]}",
+                f"name {dup[0]!r} is used more than once among criteria and constraints",
+                "give each criterion and constraint a unique name",
+            )
+
+    @property
+    def k(self) -> int:
+        return len(self.criteria)
+
+    @property
+    def q(self) -> int:
+        return len(self.constraints)
+
+    def evaluate(self, X: np.ndarray) -> EvalResult:
+        """Evaluate a batch, never raising for a bad trial.
+
+        A batch model that raises is bisected until the failing trials are isolated, so one
+        bad trial does not fail its neighbours.
+        """
+        X = np.ascontiguousarray(X, dtype=float)
+        if getattr(self.model, "per_trial", False):
+            return self._per_trial(X)
+        return self._batch(X)
+
+    # -- internals -----------------------------------------------------------------------
+
+    def _empty(self, n: int) -> EvalResult:
+        return EvalResult(
+            criteria=np.full((n, self.k), np.nan),
+            functionals=np.full((n, self.q), np.nan),
+            status=np.zeros(n, dtype=np.int8),
+            wall=np.zeros(n),
+        )
+
+    def _coerce(self, out: Any, n: int) -> tuple[np.ndarray, np.ndarray]:
+        crit, func = _split_output(out)
+        crit = np.asarray(crit, dtype=float)
+        if crit.ndim == 1 and self.k == 1 and crit.shape[0] == n:
+            crit = crit[:, None]
+        if crit.shape != (n, self.k):
+            raise ValueError(
+                f"model returned criteria of shape {crit.shape}, expected ({n}, {self.k}) "
+                f"(one column per criterion: {', '.join(c.name for c in self.criteria)})"
+            )
+        if func is None:
+            if self.q:
+                raise ValueError(
+                    f"model returned no functionals, expected ({n}, {self.q}) for constraints "
+                    f"{', '.join(c.name for c in self.constraints)}: return (criteria, functionals)"
+                )
+            func = np.empty((n, 0))
+        func = np.asarray(func, dtype=float)
+        if func.ndim == 1 and self.q == 1 and func.shape[0] == n:
+            func = func[:, None]
+        if func.shape != (n, self.q):
+            raise ValueError(
+                f"model returned functionals of shape {func.shape}, expected ({n}, {self.q})"
+            )
+        return crit, func
+
+    def _mark_nonfinite(self, res: EvalResult, rows: np.ndarray) -> None:
+        names = [c.name for c in self.criteria] + [c.name for c in self.constraints]
+        values = np.concatenate([res.criteria[rows], res.functionals[rows]], axis=1)
+        bad = ~np.isfinite(values)
+        for i, r in enumerate(rows):
+            if bad[i].any() and res.status[r] == OK:
+                cols = [f"{names[j]}={values[i, j]}" for j in np.flatnonzero(bad[i])]
+                res.status[r] = FAILED
+                res.messages[int(r)] = "non-finite result: " + ", ".join(cols)
+                res.criteria[r] = np.nan
+                res.functionals[r] = np.nan
+
+    def _batch(self, X: np.ndarray) -> EvalResult:
+        n = X.shape[0]
+        res = self._empty(n)
+        self._batch_into(X, np.arange(n), res)
+        self._mark_nonfinite(res, np.arange(n))
+        return res
+
+    def _batch_into(self, X: np.ndarray, rows: np.ndarray, res: EvalResult) -> None:
+        t0 = time.perf_counter()
+        try:
+            crit, func = self._coerce(self.model(X[rows]), len(rows))
+        except Exception as exc:
+            if len(rows) == 1:
+                res.status[rows[0]] = FAILED
+                res.messages[int(rows[0])] = _describe(exc)
+                res.wall[rows] = time.perf_counter() - t0
+                return
+            if isinstance(exc, ValueError) and "model returned" in str(exc):
+                # A shape error is a property of the model, not of a trial: fail the batch.
+                res.status[rows] = FAILED
+                for r in rows:
+                    res.messages[int(r)] = str(exc)
+                res.wall[rows] = (time.perf_counter() - t0) / len(rows)
+                return
+            half = len(rows) // 2
+            self._batch_into(X, rows[:half], res)
+            self._batch_into(X, rows[half:], res)
+            return
+        res.criteria[rows] = crit
+        res.functionals[rows] = func
+        res.wall[rows] = (time.perf_counter() - t0) / len(rows)
+
+    def _per_trial(self, X: np.ndarray) -> EvalResult:
+        n = X.shape[0]
+        res = self._empty(n)
+        func = self.model.func
+        for i in range(n):
+            t0 = time.perf_counter()
+            try:
+                crit, fun = _split_output(func(X[i].copy()))
+                crit = np.atleast_1d(np.asarray(crit, dtype=float))
+                if crit.shape != (self.k,):
+                    raise ValueError(
+                        f"model returned a criteria row of shape {crit.shape}, expected ({self.k},)"
+                    )
+                if fun is None:
+                    if self.q:
+                        raise ValueError(
+                            f"model returned no functionals, expected {self.q} values: "
+                            "return (criteria, functionals)"
+                        )
+                    fun = np.empty(0)
+                fun = np.atleast_1d(np.asarray(fun, dtype=float))
+                if fun.shape != (self.q,):
+                    raise ValueError(
+                        f"model returned a functionals row of shape {fun.shape}, "
+                        f"expected ({self.q},)"
+                    )
+                res.criteria[i] = crit
+                res.functionals[i] = fun
+            except Exception as exc:
+                res.status[i] = FAILED
+                res.messages[i] = _describe(exc)
+            res.wall[i] = time.perf_counter() - t0
+        self._mark_nonfinite(res, np.arange(n))
+        return res
+
+
+def _describe(exc: BaseException) -> str:
+    """One line naming the exception and where it came from."""
+    tb = traceback.extract_tb(exc.__traceback__)
+    where = ""
+    if tb:
+        frame = tb[-1]
+        where = f" (at {Path(frame.filename).name}:{frame.lineno} in {frame.name})"
+    text = str(exc).strip().splitlines()[0] if str(exc).strip() else ""
+    return f"{type(exc).__name__}: {text}{where}"

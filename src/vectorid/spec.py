@@ -1,0 +1,431 @@
+"""The study definition: Python objects and the equivalent TOML study file.
+
+A study file::
+
+    [study]
+    name = "example"
+    model = "mypkg.mymodel:evaluate"   # or a built-in name such as "binh-korn"
+    trials = 2048
+    seed = 1
+
+    [[variables]]
+    name = "x1"
+    low = 0.0
+    high = 5.0
+
+    [[criteria]]
+    name = "f1"
+    sense = "min"                      # "min" | "max"
+    role = "pure"                      # "pure" | "pseudo"; pure by default
+    limit = 40.0                       # optional criteria constraint Φ**
+
+    [[constraints]]
+    name = "g1"
+    low = 0.0                          # either bound optional
+    high = 25.0
+
+Validation rejects, naming the field, what came and how to fix it: inverted or equal bounds,
+duplicate names, unknown keys (with the nearest valid key), no criteria, a choice variable
+without values, a limit on an unknown criterion, non-finite numbers.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+from .errors import StudyDefinitionError, suggest
+from .problem import Criterion, FunctionalConstraint, Problem, as_batch, load_model
+from .sampling import SAMPLERS, Sampler
+from .space import Choice, Continuous, Integer, Space, Variable
+
+__all__ = ["StudySpec", "load_study"]
+
+_STUDY_KEYS = {
+    "name": "study name (text)",
+    "model": "built-in name or 'package.module:function'",
+    "trials": "total number of trials (integer >= 1)",
+    "seed": "seed for scrambling and Latin hypercubes (integer)",
+    "batch": "true if the model takes a batch (n, p); false for one vector at a time",
+    "batch_size": "trials per batch sent to a worker (integer >= 1)",
+    "sampler": "'sobol' (LP_tau, default) or 'lhs'",
+    "scramble": "Owen-scramble the Sobol sequence (default false)",
+    "store": "path of the SQLite store, relative to the study file",
+    "description": "free text",
+    "executor": "'serial' or 'processes'",
+    "workers": "number of worker processes",
+}
+_TOP_KEYS = {"study", "variables", "criteria", "constraints", "limits"}
+_VARIABLE_KEYS = {"name", "type", "low", "high", "nominal", "unit", "values", "description"}
+_CRITERION_KEYS = {"name", "sense", "role", "limit", "unit", "description"}
+_CONSTRAINT_KEYS = {"name", "low", "high", "unit", "description"}
+_VARIABLE_TYPES = ("continuous", "integer", "choice")
+EXECUTORS = ("serial", "processes")
+
+
+def _check_keys(where: str, got: Mapping[str, Any], valid: set[str] | Mapping[str, Any]) -> None:
+    for key in got:
+        if key not in valid:
+            raise StudyDefinitionError(
+                f"{where}.{key}", f"unknown key {key!r}", suggest(key, list(valid))
+            )
+
+
+def _int(where: str, value: Any, minimum: int | None = None) -> int:
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, int | float)
+        or (isinstance(value, float) and (not math.isfinite(value) or not value.is_integer()))
+    ):
+        raise StudyDefinitionError(where, f"expected an integer, got {value!r}", "write e.g. 2048")
+    value = int(value)
+    if minimum is not None and value < minimum:
+        raise StudyDefinitionError(
+            where, f"expected an integer >= {minimum}, got {value}", f"use a value >= {minimum}"
+        )
+    return value
+
+
+@dataclass(frozen=True)
+class StudySpec:
+    """Everything that defines a study.
+
+    Parameters
+    ----------
+    name : str
+        Study name.
+    model : str or callable
+        Built-in model name, ``"package.module:function"``, or (Python API only) a callable.
+    space : Space
+        Design variables and the box Π.
+    criteria : tuple of Criterion
+    constraints : tuple of FunctionalConstraint
+    trials : int
+        Total number of trials the study should hold.
+    seed : int
+        Seed of every random draw (scrambling, Latin hypercubes).
+    batch : bool
+        Whether the model takes a batch ``(n, p)`` (True) or one vector ``(p,)`` (False).
+    batch_size : int, optional
+        Trials per batch; chosen automatically when None.
+    sampler : {"sobol", "lhs"}
+    scramble : bool
+    store : str, optional
+        Store path (relative to ``base_dir``).
+    base_dir : str, optional
+        Folder of the study file, put on the import path for ``module:function`` models.
+    """
+
+    name: str
+    model: Any
+    space: Space
+    criteria: tuple[Criterion, ...]
+    constraints: tuple[FunctionalConstraint, ...] = ()
+    trials: int = 1024
+    seed: int = 0
+    batch: bool = True
+    batch_size: int | None = None
+    sampler: str = "sobol"
+    scramble: bool = False
+    store: str | None = None
+    base_dir: str | None = None
+    description: str = ""
+    executor: str | None = None
+    workers: int | None = None
+    extra: dict[str, Any] = field(default_factory=dict, compare=False)
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.name, str) or not self.name:
+            raise StudyDefinitionError(
+                "study.name", f"expected a non-empty name, got {self.name!r}", 'name = "my-study"'
+            )
+        if not isinstance(self.space, Space):
+            object.__setattr__(self, "space", Space(self.space))
+        object.__setattr__(self, "criteria", tuple(self.criteria))
+        object.__setattr__(self, "constraints", tuple(self.constraints))
+        if not self.criteria:
+            raise StudyDefinitionError(
+                "criteria",
+                "a study needs at least one criterion, got none",
+                "add a [[criteria]] table with a name and a sense",
+            )
+        names = (
+            self.space.names + [c.name for c in self.criteria] + [c.name for c in self.constraints]
+        )
+        for n in names:
+            if names.count(n) > 1:
+                raise StudyDefinitionError(
+                    n,
+                    f"name {n!r} is used more than once among variables, criteria and constraints",
+                    "give each a unique name (they become column names)",
+                )
+        object.__setattr__(self, "trials", _int("study.trials", self.trials, 1))
+        object.__setattr__(self, "seed", _int("study.seed", self.seed, 0))
+        if self.batch_size is not None:
+            object.__setattr__(self, "batch_size", _int("study.batch_size", self.batch_size, 1))
+        if self.sampler not in SAMPLERS:
+            raise StudyDefinitionError(
+                "study.sampler",
+                f"unknown sampler {self.sampler!r}",
+                suggest(self.sampler, SAMPLERS),
+            )
+        if self.executor is not None and self.executor not in EXECUTORS:
+            raise StudyDefinitionError(
+                "study.executor",
+                f"unknown executor {self.executor!r}",
+                suggest(str(self.executor), EXECUTORS),
+            )
+        if self.workers is not None:
+            object.__setattr__(self, "workers", _int("study.workers", self.workers, 1))
+        for flag in ("batch", "scramble"):
+            if not isinstance(getattr(self, flag), bool):
+                raise StudyDefinitionError(
+                    f"study.{flag}",
+                    f"expected true or false, got {getattr(self, flag)!r}",
+                    f"write {flag} = true or {flag} = false",
+                )
+
+    # -- derived objects -----------------------------------------------------------------
+
+    @property
+    def criterion_names(self) -> list[str]:
+        return [c.name for c in self.criteria]
+
+    @property
+    def constraint_names(self) -> list[str]:
+        return [c.name for c in self.constraints]
+
+    def sampler_for(self) -> Sampler:
+        """The point sequence of this study."""
+        return Sampler(len(self.space), self.sampler, scramble=self.scramble, seed=self.seed)
+
+    def problem(self) -> Problem:
+        """Resolve the model and build the :class:`~vectorid.problem.Problem`."""
+        func = load_model(self.model, self.base_dir)
+        if not self.batch:
+            func = as_batch(func)
+        return Problem(func, self.criteria, self.constraints)
+
+    def with_limits(self, limits: Mapping[str, float | None]) -> StudySpec:
+        """A copy with criteria constraints Φ** replaced (None removes a limit)."""
+        names = self.criterion_names
+        for key in limits:
+            if key not in names:
+                raise StudyDefinitionError(
+                    f"limits.{key}", f"limit on unknown criterion {key!r}", suggest(key, names)
+                )
+        crit = tuple(
+            replace(c, limit=limits[c.name]) if c.name in limits else c for c in self.criteria
+        )
+        return replace(self, criteria=crit)
+
+    # -- serialisation -------------------------------------------------------------------
+
+    def to_dict(self) -> dict[str, Any]:
+        """The study file as a dict (TOML structure); a callable model becomes its
+        ``module:qualname``."""
+        model = self.model
+        if callable(model):
+            model = f"{model.__module__}:{model.__qualname__}"
+        study: dict[str, Any] = {
+            "name": self.name,
+            "model": model,
+            "trials": self.trials,
+            "seed": self.seed,
+            "batch": self.batch,
+            "sampler": self.sampler,
+            "scramble": self.scramble,
+        }
+        for key in ("batch_size", "store", "executor", "workers"):
+            if getattr(self, key) is not None:
+                study[key] = getattr(self, key)
+        if self.description:
+            study["description"] = self.description
+        out: dict[str, Any] = {
+            "study": study,
+            "variables": self.space.to_list(),
+            "criteria": [c.to_dict() for c in self.criteria],
+        }
+        if self.constraints:
+            out["constraints"] = [c.to_dict() for c in self.constraints]
+        out.update(self.extra)
+        return out
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any], base_dir: str | Path | None = None) -> StudySpec:
+        """Build and validate a spec from the TOML structure."""
+        if not isinstance(data, Mapping):
+            raise StudyDefinitionError("(top)", f"expected a table, got {type(data).__name__}")
+        extra = {k: v for k, v in data.items() if k not in _TOP_KEYS}
+        for key in extra:
+            if not key.startswith("x-") and key not in ("identification",):
+                raise StudyDefinitionError(
+                    key,
+                    f"unknown top-level table {key!r}",
+                    suggest(key, sorted(_TOP_KEYS)) + " (keys starting with 'x-' are kept as is)",
+                )
+        study = data.get("study")
+        if not isinstance(study, Mapping):
+            raise StudyDefinitionError(
+                "study",
+                "missing [study] table" if study is None else f"expected a table, got {study!r}",
+                'start the file with [study] and name = "...", model = "...", trials = 1024',
+            )
+        _check_keys("study", study, _STUDY_KEYS)
+        for required in ("name", "model"):
+            if required not in study:
+                raise StudyDefinitionError(
+                    f"study.{required}",
+                    f"missing required key {required!r}",
+                    f"add {required} = ... under [study] ({_STUDY_KEYS[required]})",
+                )
+        variables = _parse_list(data, "variables", _parse_variable)
+        criteria = _parse_list(data, "criteria", _parse_criterion)
+        constraints = _parse_list(data, "constraints", _parse_constraint, required=False)
+        limits = data.get("limits", {})
+        if not isinstance(limits, Mapping):
+            raise StudyDefinitionError(
+                "limits", f"expected a table of name = value, got {limits!r}", "[limits]\nf1 = 40.0"
+            )
+        spec = cls(
+            name=study["name"],
+            model=study["model"],
+            space=Space(variables),
+            criteria=tuple(criteria),
+            constraints=tuple(constraints),
+            trials=study.get("trials", 1024),
+            seed=study.get("seed", 0),
+            batch=study.get("batch", True),
+            batch_size=study.get("batch_size"),
+            sampler=study.get("sampler", "sobol"),
+            scramble=study.get("scramble", False),
+            store=study.get("store"),
+            base_dir=None if base_dir is None else str(base_dir),
+            description=study.get("description", ""),
+            executor=study.get("executor"),
+            workers=study.get("workers"),
+            extra=dict(extra),
+        )
+        if limits:
+            spec = spec.with_limits(dict(limits))
+        return spec
+
+
+def _parse_list(data: Mapping[str, Any], key: str, parse, required: bool = True) -> list[Any]:
+    items = data.get(key)
+    if items is None:
+        if required:
+            raise StudyDefinitionError(
+                key,
+                f"a study needs at least one entry in [[{key}]], got none",
+                f"add a [[{key}]] table",
+            )
+        return []
+    if not isinstance(items, Sequence) or isinstance(items, str | bytes):
+        raise StudyDefinitionError(
+            key, f"expected an array of tables [[{key}]], got {items!r}", f"write [[{key}]] tables"
+        )
+    if required and not items:
+        raise StudyDefinitionError(key, "empty list", f"add at least one [[{key}]] table")
+    out = []
+    for i, item in enumerate(items):
+        if not isinstance(item, Mapping):
+            raise StudyDefinitionError(f"{key}[{i}]", f"expected a table, got {item!r}")
+        out.append(parse(f"{key}[{i}]", item))
+    return out
+
+
+def _parse_variable(where: str, item: Mapping[str, Any]) -> Variable:
+    _check_keys(where, item, _VARIABLE_KEYS)
+    if "name" not in item:
+        raise StudyDefinitionError(f"{where}.name", "missing name", 'add name = "x1"')
+    kind = item.get("type", "choice" if "values" in item else "continuous")
+    if kind not in _VARIABLE_TYPES:
+        raise StudyDefinitionError(
+            f"{where}.type", f"unknown variable type {kind!r}", suggest(kind, _VARIABLE_TYPES)
+        )
+    name = item["name"]
+    if kind == "choice":
+        if "values" not in item:
+            raise StudyDefinitionError(
+                f"variables.{name}.values",
+                "a choice variable needs values, got none",
+                "add values = [1.0, 2.0, 3.0]",
+            )
+        for key in ("low", "high"):
+            if key in item:
+                raise StudyDefinitionError(
+                    f"variables.{name}.{key}",
+                    "a choice variable takes values, not bounds",
+                    'remove low/high, or use type = "continuous"',
+                )
+        return Choice(name, item["values"], item.get("nominal"), item.get("unit", ""))
+    if "values" in item:
+        raise StudyDefinitionError(
+            f"variables.{name}.values",
+            f"a {kind} variable takes low and high, not values",
+            'remove values, or set type = "choice"',
+        )
+    for key in ("low", "high"):
+        if key not in item:
+            raise StudyDefinitionError(
+                f"variables.{name}.{key}", f"missing {key}", f"add {key} = <number>"
+            )
+    cls = Integer if kind == "integer" else Continuous
+    return cls(name, item["low"], item["high"], item.get("nominal"), item.get("unit", ""))
+
+
+def _parse_criterion(where: str, item: Mapping[str, Any]) -> Criterion:
+    _check_keys(where, item, _CRITERION_KEYS)
+    if "name" not in item:
+        raise StudyDefinitionError(f"{where}.name", "missing name", 'add name = "f1"')
+    return Criterion(
+        item["name"],
+        item.get("sense", "min"),
+        item.get("role", "pure"),
+        item.get("limit"),
+        item.get("unit", ""),
+    )
+
+
+def _parse_constraint(where: str, item: Mapping[str, Any]) -> FunctionalConstraint:
+    _check_keys(where, item, _CONSTRAINT_KEYS)
+    if "name" not in item:
+        raise StudyDefinitionError(f"{where}.name", "missing name", 'add name = "g1"')
+    if item.get("low") is None and item.get("high") is None:
+        raise StudyDefinitionError(
+            f"constraints.{item['name']}",
+            "a functional constraint needs low, high or both, got neither",
+            "add low = ... and/or high = ...",
+        )
+    return FunctionalConstraint(
+        item["name"], item.get("low"), item.get("high"), item.get("unit", "")
+    )
+
+
+def load_study(path: str | Path) -> StudySpec:
+    """Read and validate a TOML study file.
+
+    Parameters
+    ----------
+    path : path
+        The ``.toml`` file; its folder goes on the import path for ``module:function`` models.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise StudyDefinitionError(
+            str(path), "study file not found", "check the path (run from the right folder?)"
+        ) from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise StudyDefinitionError(
+            str(path), f"not valid TOML: {exc}", "fix the syntax at the position given"
+        ) from None
+    return StudySpec.from_dict(data, base_dir=path.resolve().parent)
