@@ -197,16 +197,14 @@ def load_model(spec: str | BatchModel, base_dir: str | Path | None = None) -> Ba
     if ":" not in spec:
         from . import analytic
 
-        if spec in analytic.available():
+        try:
             return analytic.get(spec).evaluate
-        from .errors import suggest
-
-        raise StudyDefinitionError(
-            "study.model",
-            f"unknown built-in model {spec!r}",
-            suggest(spec, analytic.available())
-            + "; or name your own function as 'package.module:function'",
-        )
+        except ValueError as exc:
+            raise StudyDefinitionError(
+                "study.model",
+                str(exc),
+                "or name your own function as 'package.module:function'",
+            ) from None
     module_name, _, func_name = spec.partition(":")
     if base_dir is not None:
         base = str(Path(base_dir).resolve())

@@ -1,0 +1,177 @@
+"""The CLI verbs on a small study, including --json (a contract)."""
+
+import csv
+import io
+import json
+import shutil
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from vectorid.cli import main
+
+
+def run_cli(capsys, *args):
+    code = main([str(a) for a in args])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+@pytest.fixture
+def ran(tmp_path, user_study, capsys):
+    store = tmp_path / "u.db"
+    code, out, err = run_cli(
+        capsys,
+        "run",
+        user_study,
+        "--store",
+        store,
+        "--executor",
+        "serial",
+        "--trials",
+        128,
+        "--quiet",
+    )
+    assert code == 0, err
+    assert "128 trials computed" in out and "failed" in out
+    return store
+
+
+def test_run_extends_with_larger_trials_and_default_store(tmp_path, user_study, capsys):
+    code, out, _ = run_cli(capsys, "run", user_study, "--executor", "serial", "--quiet")
+    assert code == 0
+    default = user_study.with_suffix(".db")
+    assert default.exists() and "256 trials computed" in out
+    code, out, _ = run_cli(
+        capsys, "run", default, "--trials", 300, "--executor", "serial", "--quiet"
+    )
+    assert code == 0 and "44 trials computed" in out and "holds 300 of 300" in out
+
+
+def test_info(ran, capsys):
+    code, out, _ = run_cli(capsys, "info", ran)
+    assert code == 0
+    assert "N=128" in out and "x1" in out and "RuntimeError" in out and "completed" in out
+    code, out, _ = run_cli(capsys, "info", ran, "--json")
+    info = json.loads(out)
+    assert info["n"] == 128 and info["study"]["study"]["name"] == "user"
+    assert info["stages"][0]["n"] == 128 and info["n_failed"] > 0
+
+
+def test_table_text_and_json(ran, capsys):
+    code, out, _ = run_cli(capsys, "table", ran, "--top", 3, "--limit", "f1<=0.5")
+    assert code == 0 and "N = 128" in out and "f1 (min)" in out and "limit 0.5" in out
+    code, out, _ = run_cli(capsys, "table", ran, "--top", 3, "--json")
+    doc = json.loads(out)
+    assert [t["name"] for t in doc["tables"]] == ["f1", "f2"]
+    rows = doc["tables"][0]["rows"]
+    assert len(rows) == 3 and rows[0]["value"] <= rows[1]["value"] <= rows[2]["value"]
+    assert doc["tables"][0]["min"] == rows[0]["value"]
+
+
+def test_pareto_json_contract(ran, capsys):
+    code, out, _ = run_cli(capsys, "pareto", ran, "--json", "--limit", "f1<=1.2")
+    doc = json.loads(out)
+    for key in ("n", "n_feasible", "n_pareto", "pareto"):
+        assert key in doc
+    assert doc["n"] == 128 and doc["n_pareto"] == len(doc["pareto"]) > 0
+    assert "f1 <= 1.2" in doc["constraints_in_force"]
+    for row in doc["pareto"]:
+        assert set(row) >= {"id", "criteria", "params"}
+        assert row["criteria"]["f1"] <= 1.2 and row["criteria"]["f2"] <= 1.0
+    # loosening a constraint never shrinks D
+    _, out2, _ = run_cli(capsys, "pareto", ran, "--json", "--limit", "f1<=inf")
+    assert json.loads(out2)["n_feasible"] >= doc["n_feasible"]
+
+
+def test_pareto_empty_set_explained(ran, capsys):
+    code, out, _ = run_cli(capsys, "pareto", ran, "--limit", "f1<=-1")
+    assert code == 0 and "ND = 0" in out and "empties it" in out and "f1 <=" in out
+    _, out, _ = run_cli(capsys, "pareto", ran, "--limit", "f1<=-1", "--json")
+    assert json.loads(out)["empty"]["relaxations"]
+
+
+def test_export_all_formats(ran, tmp_path, capsys):
+    code, out, _ = run_cli(capsys, "export", ran)
+    rows = list(csv.DictReader(io.StringIO(out)))
+    assert len(rows) == 128
+    assert list(rows[0])[:6] == ["id", "seq", "stage", "status", "message", "wall_time"]
+    assert list(rows[0])[6:] == ["x1", "x2", "x3", "f1", "f2", "g"]
+    failed = [r for r in rows if r["status"] == "failed"]
+    assert failed and all(r["message"] for r in failed)
+    code, out, _ = run_cli(capsys, "export", ran, "--format", "json")
+    doc = json.loads(out)
+    assert len(doc["trials"]) == 128 and doc["columns"][0] == "id"
+    pq = tmp_path / "t.parquet"
+    code, _, err = run_cli(capsys, "export", ran, "--format", "parquet", "--out", pq)
+    assert code == 0 and "128 trials" in err
+    import pyarrow.parquet as pqm
+
+    table = pqm.read_table(pq)
+    assert table.num_rows == 128
+    np.testing.assert_array_equal(table.column("id").to_numpy(), np.arange(1, 129))
+
+
+@pytest.mark.parametrize(
+    ("args", "match"),
+    [
+        (["table", "{store}", "--limit", "f1=3"], "NAME<=VALUE"),
+        (["pareto", "{store}", "--limit", "f9<=3"], "unknown criterion"),
+        (["info", "{tmp}/nope.db"], "no store"),
+        (["pareto", "{store}", "--role", "f1:pseudo"], "NAME=pure"),
+        (["run", "{tmp}/missing.toml"], "not found"),
+    ],
+)
+def test_errors_exit_2_with_one_line(ran, tmp_path, capsys, args, match):
+    args = [a.format(store=ran, tmp=tmp_path) for a in args]
+    code, out, err = run_cli(capsys, *args)
+    assert code == 2 and match in err and err.startswith("error: ")
+    assert "Traceback" not in err
+
+
+def test_bad_trials_argument_is_a_usage_error(user_study, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["run", str(user_study), "--trials", "-5"])
+    assert exc.value.code == 2
+    assert "expected a number >= 1" in capsys.readouterr().err
+
+
+def test_run_on_store_of_other_study_refused(ran, tmp_path, capsys):
+    other = tmp_path / "other.toml"
+    other.write_text(
+        '[study]\nname = "o"\nmodel = "binh-korn"\n'
+        '[[variables]]\nname = "x1"\nlow = 0.0\nhigh = 5.0\n'
+        '[[variables]]\nname = "x2"\nlow = 0.0\nhigh = 3.0\n'
+        '[[criteria]]\nname = "f1"\n[[criteria]]\nname = "f2"\n'
+    )
+    code, _, err = run_cli(capsys, "run", other, "--store", ran)
+    assert code == 2 and "differ" in err
+
+
+def test_init_writes_runnable_study(tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    code, out, _ = run_cli(capsys, "init", "tanaka", "--trials", 64)
+    assert code == 0 and (tmp_path / "tanaka.toml").exists()
+    code, out, _ = run_cli(capsys, "run", "tanaka.toml", "--executor", "serial", "--quiet")
+    assert code == 0 and "64 trials computed" in out
+    code, _, err = run_cli(capsys, "init", "tanaka")
+    assert code == 2 and "exists already" in err
+
+
+def test_demo_end_to_end_reduced(tmp_path, capsys):
+    code, out, _ = run_cli(capsys, "demo", "--out", tmp_path / "d", "--trials", 512, "--quiet")
+    assert code == 0
+    assert "N = 512" in out and "Edgeworth–Pareto set" in out and "Known answer check" in out
+    assert (tmp_path / "d" / "binh-korn.db").exists()
+    code, out, _ = run_cli(capsys, "pareto", tmp_path / "d" / "binh-korn.db", "--json")
+    assert json.loads(out)["n_pareto"] > 0
+
+
+def test_console_script_installed():
+    exe = shutil.which("vectorid") or str(
+        __import__("pathlib").Path(sys.executable).with_name("vectorid")
+    )
+    out = subprocess.run([exe, "--version"], capture_output=True, text=True, check=True)
+    assert out.stdout.startswith("vectorid ")
