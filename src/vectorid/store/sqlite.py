@@ -248,6 +248,11 @@ class Store:
         lock.acquire()
         try:
             con = cls._connect(path)
+            # Large pages make reading the columnar blobs back several times faster.
+            con.execute("PRAGMA journal_mode=DELETE")
+            con.execute("PRAGMA page_size = 65536")
+            con.execute("VACUUM")
+            con.execute("PRAGMA journal_mode=WAL")
             with con:
                 con.execute(f"PRAGMA application_id = {APPLICATION_ID}")
                 con.execute(f"PRAGMA user_version = {SCHEMA_VERSION}")
@@ -327,6 +332,7 @@ class Store:
         except sqlite3.Error as exc:
             raise StoreError(f"cannot open {path} as SQLite: {exc}") from exc
         con.execute("PRAGMA foreign_keys=ON")
+        con.execute("PRAGMA mmap_size=17179869184")
         return con
 
     @staticmethod
@@ -358,6 +364,11 @@ class Store:
     def close(self) -> None:
         """Close the connection and release the writer lock."""
         try:
+            if self._lock is not None:
+                try:  # fold the WAL into the main file: later reads are faster
+                    self._con.execute("PRAGMA wal_checkpoint(TRUNCATE)")
+                except sqlite3.Error:
+                    pass
             self._con.close()
         finally:
             if self._lock:
@@ -601,11 +612,15 @@ class Store:
         total = int(ns.sum()) if len(ns) else 0
 
         def cat(col: int, dtype: str, width: int | None) -> np.ndarray:
-            buf = b"".join(r[col] for r in rows)
-            arr = np.frombuffer(buf, dtype=dtype)
-            if width is not None:
-                arr = arr.reshape(total, width)
-            return arr.astype(dtype.lstrip("<"), copy=True)
+            shape = (total,) if width is None else (total, width)
+            out = np.empty(shape, dtype=dtype.lstrip("<"))
+            pos = 0
+            for r in rows:
+                m = r[2]
+                chunk = np.frombuffer(r[col], dtype=dtype)
+                out[pos : pos + m] = chunk if width is None else chunk.reshape(m, width)
+                pos += m
+            return out
 
         seq = (
             np.concatenate([np.arange(r[1], r[1] + r[2]) for r in rows])
