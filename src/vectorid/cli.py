@@ -113,14 +113,37 @@ def _parser() -> argparse.ArgumentParser:
     d.add_argument("--out", default="vectorid-demo", help="folder for the store and files")
     d.add_argument("--trials", type=_positive_int, default=2048)
     d.add_argument("--quiet", action="store_true", help="no progress bar")
+    for module in _extensions():
+        module.add_parsers(sub)
     return p
+
+
+#: Modules adding verbs: each has ``add_parsers(subparsers)`` and ``COMMANDS`` (verb -> function
+#: taking the parsed arguments and returning an exit code).
+_EXTENSION_MODULES = ("vectorid.cli_analysis",)
+
+
+def _extensions() -> list[Any]:
+    import importlib
+
+    out = []
+    for name in _EXTENSION_MODULES:
+        try:
+            out.append(importlib.import_module(name))
+        except ModuleNotFoundError as exc:
+            if exc.name != name:
+                raise
+    return out
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``vectorid`` console script."""
     args = _parser().parse_args(argv)
+    commands = dict(_COMMANDS)
+    for module in _extensions():
+        commands.update(module.COMMANDS)
     try:
-        return _COMMANDS[args.command](args)
+        return commands[args.command](args)
     except StoreLockedError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return EXIT_LOCKED
