@@ -1,0 +1,194 @@
+"""Speed of the compiled batch models against a per-trial ``solve_ivp`` baseline.
+
+Run::
+
+    .venv/bin/python benchmarks/models.py                       # parachute6dof and parafoil8dof
+    .venv/bin/python benchmarks/models.py --models parachute6dof --baseline-trials 2
+
+For each model: a batch of ``--n`` Sobol parameter vectors over the model's box, ``--t-final``
+seconds at ``--dt`` with outputs every second, on all cores; against the baseline "what a user
+would write": the model's plain-numpy right-hand side (``model.reference_rhs``: numpy vectors,
+the full 6x6 mass matrix and ``np.linalg.solve``) integrated trial by trial with
+``scipy.integrate.solve_ivp`` (default RK45, rtol=1e-3, atol=1e-6) in a Python loop, timed on
+``--baseline-trials`` trials and scaled to the batch. Both are measured in the same run; the
+ratio is what matters on a shared, noisy machine.
+
+Also printed: trials per second; an estimate of the GFLOP/s achieved (``model.flops_per_step``,
+a hand count documented in the model, divided by the wall time) against the numpy matmul
+GFLOP/s measured in the same run; the time to the first trial in a fresh process (compile cache
+warm); the peak resident memory of a 16,384-trial batch with 1-s outputs.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+import time
+
+import numpy as np
+from scipy.integrate import solve_ivp
+from scipy.stats import qmc
+
+from vectorid import models
+
+
+def matmul_gflops(n: int = 1024, reps: int = 3) -> float:
+    a = np.random.default_rng(0).standard_normal((n, n))
+    b = np.random.default_rng(1).standard_normal((n, n))
+    a @ b
+    best = np.inf
+    for _ in range(reps):
+        t0 = time.perf_counter()
+        a @ b
+        best = min(best, time.perf_counter() - t0)
+    return 2.0 * n**3 / best / 1e9
+
+
+def sobol_batch(model: models.Model, n: int, seed: int = 0) -> np.ndarray:
+    lo, hi = model.bounds.T
+    u = qmc.Sobol(len(lo), seed=seed).random(n)
+    return qmc.scale(u, lo, hi + (hi == lo) * 1e-12)
+
+
+def _subprocess_seconds(code: str) -> float:
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    return float(out.stdout.strip().splitlines()[-1])
+
+
+def first_trial_seconds(name: str) -> float:
+    code = (
+        "import time; t0 = time.perf_counter()\n"
+        "from vectorid import models\n"
+        f"m = models.get({name!r})\n"
+        "m.simulate(m.nominal, t_final=1.0, dt=0.02)\n"
+        "print(time.perf_counter() - t0)\n"
+    )
+    return _subprocess_seconds(code)
+
+
+def peak_memory_mb(name: str, n: int, t_final: float) -> tuple[float, float, float]:
+    """Peak RSS (MB), output array size (MB) and wall time (s) of an n-trial batch.
+
+    dt = 0.2 s keeps this short: memory depends on the output grid (1 s), not on dt.
+    """
+    code = (
+        "import resource, time, numpy as np\n"
+        "from scipy.stats import qmc\n"
+        "from vectorid import models\n"
+        f"m = models.get({name!r})\n"
+        "lo, hi = m.bounds.T\n"
+        f"X = qmc.scale(qmc.Sobol(len(lo), seed=0).random({n}), lo, hi + (hi == lo) * 1e-12)\n"
+        "t0 = time.perf_counter()\n"
+        f"r = m.simulate(X, t_final={t_final}, dt=0.2, output_dt=1.0)\n"
+        "el = time.perf_counter() - t0\n"
+        "print(r.outputs.nbytes / 2**20)\n"
+        "print(el)\n"
+        "print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    nbytes, el, rss = (float(v) for v in out.stdout.strip().splitlines()[-3:])
+    return rss, nbytes, el
+
+
+def bench_model(name: str, args: argparse.Namespace, gflops_peak: float) -> dict | None:
+    try:
+        model = models.get(name)
+    except ImportError as exc:
+        print(f"[skip] {name}: {exc}")
+        return None
+    X = sobol_batch(model, args.n)
+    model.simulate(X[:2], t_final=1.0, dt=args.dt)  # compile or load the cache
+    t0 = time.perf_counter()
+    res = model.simulate(X, t_final=args.t_final, dt=args.dt, output_dt=1.0)
+    wall = time.perf_counter() - t0
+    per_trial = wall / args.n
+    row = {
+        "model": name,
+        "n": args.n,
+        "wall_s": wall,
+        "trials_per_s": args.n / wall,
+        "ok": int(res.ok.sum()),
+    }
+    n_steps = round(args.t_final / args.dt)
+    flops = getattr(model, "flops_per_step", None)
+    if flops:
+        row["gflops"] = args.n * n_steps * flops / wall / 1e9
+        row["gflops_frac"] = row["gflops"] / gflops_peak
+    base = []
+    nfev = []
+    for i in range(args.baseline_trials):
+        try:
+            f, x0 = model.reference_rhs(X[i], t_final=args.t_final)
+        except NotImplementedError as exc:
+            print(f"[note] {name}: no baseline ({exc})")
+            break
+        t0 = time.perf_counter()
+        sol = solve_ivp(f, (0.0, args.t_final), x0)
+        base.append(time.perf_counter() - t0)
+        nfev.append(sol.nfev)
+        if i == 0:  # the baseline solves the same problem: compare the end states
+            x_end = res.outputs[i, -1, 2]
+            print(
+                f"  {name}: trial 0 final down position compiled {x_end:.2f} m; "
+                f"baseline reached t = {sol.t[-1]:.1f} s (status {sol.status})"
+            )
+    if base:
+        row["baseline_per_trial_s"] = float(np.mean(base))
+        row["baseline_nfev"] = float(np.mean(nfev))
+        row["speedup"] = row["baseline_per_trial_s"] / per_trial
+    row["first_trial_s"] = first_trial_seconds(name)
+    if not args.skip_memory:
+        rss, nbytes, el = peak_memory_mb(name, args.memory_trials, args.t_final)
+        row.update(mem_peak_mb=rss, mem_outputs_mb=nbytes, mem_wall_s=el)
+    return row
+
+
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
+    ap.add_argument("--models", nargs="+", default=["parachute6dof", "parafoil8dof"])
+    ap.add_argument("--n", type=int, default=1024)
+    ap.add_argument("--t-final", type=float, default=200.0)
+    ap.add_argument("--dt", type=float, default=0.02)
+    ap.add_argument("--baseline-trials", type=int, default=3)
+    ap.add_argument("--memory-trials", type=int, default=16_384)
+    ap.add_argument("--skip-memory", action="store_true")
+    args = ap.parse_args(argv)
+    import numba
+
+    gpk = matmul_gflops()
+    print(
+        f"cores: {os.cpu_count()}, numba threads: {numba.get_num_threads()}, "
+        f"load average: {os.getloadavg()[0]:.2f}, numpy matmul: {gpk:.1f} GFLOP/s"
+    )
+    rows = [r for name in args.models if (r := bench_model(name, args, gpk)) is not None]
+    print()
+    print(
+        "| model | trials | batch wall (s) | trials/s | baseline s/trial (nfev) | speed-up "
+        "| est. GFLOP/s (% of matmul) | first trial, fresh process (s) | 16k-trial peak RSS "
+        "(MB) / outputs (MB) |"
+    )
+    print("|---|---|---|---|---|---|---|---|---|")
+    for r in rows:
+        base = (
+            f"{r['baseline_per_trial_s']:.3f} ({r['baseline_nfev']:.0f})"
+            if "baseline_per_trial_s" in r
+            else "n/a"
+        )
+        sp = f"{r['speedup']:.0f}x" if "speedup" in r else "n/a"
+        gf = f"{r['gflops']:.2f} ({100 * r['gflops_frac']:.1f}%)" if "gflops" in r else "n/a"
+        mem = (
+            f"{r['mem_peak_mb']:.0f} / {r['mem_outputs_mb']:.0f}"
+            if "mem_peak_mb" in r
+            else "skipped"
+        )
+        print(
+            f"| {r['model']} | {r['n']} ({r['ok']} ok) | {r['wall_s']:.2f} | "
+            f"{r['trials_per_s']:.0f} | {base} | {sp} | {gf} | {r['first_trial_s']:.2f} | "
+            f"{mem} |"
+        )
+
+
+if __name__ == "__main__":
+    main()

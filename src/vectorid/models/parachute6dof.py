@@ -1,0 +1,753 @@
+"""Controllable circular parachute (G-12 canopy over an A-22 container), 6 degrees of freedom.
+
+Seed 001 (Multi-Criteria Identification of a Controllable Descending System), §IV-V, eq. (4)-(15),
+design variables x1..x15 (Tables 2, 3, 5). Every equation as implemented, the frames, the signs,
+the constants with their sources and the reading of each garbled equation are in docs/models.md
+("Controllable circular parachute"). Summary:
+
+- Body frame {b}: origin O on the symmetry axis at the centre of the canopy's air hemispheroid,
+  z down the axis towards the payload, x towards riser 1, y towards riser 2. The canopy centre of
+  pressure is at z_p = -2.0 m (seed), the payload at z_pl = +16 m.
+- State (16): north, east, down of O (m); φ, θ, ψ (rad, 3-2-1); u, v, w of O (m/s, body);
+  p, q, r (rad/s); relative PMA lengths l̄_1..l̄_4 of the four risers (1 = lengthened).
+- Kirchhoff equations about O with the rigid-body mass matrix (CG off O) plus the apparent-mass
+  tensor A of eq. (6)/(9); both have the same block structure, so M ν̇ = f splits into two 2x2
+  systems (u̇, q̇) and (v̇, ṗ) sharing one determinant plus two scalar equations — no 6x6 solve.
+- Outputs: position/velocity of the payload container (where the telemetry is), Euler angles,
+  body rates; airspeed, α = atan2(u_a, w_a), β = atan2(v_a, w_a) at the centre of pressure
+  (the two plane projections of the spatial angle of attack, seed §V.B); extra channels
+  ``alpha_sp`` and ``riser1..4``.
+"""
+
+from __future__ import annotations
+
+from typing import ClassVar
+
+import numpy as np
+from numba import njit, prange
+from numpy.typing import ArrayLike, NDArray
+
+from vectorid.models.atmosphere import G0, RHO0
+from vectorid.models.base import BASE_CHANNELS, Channel, InitialState, Model, Parameter
+from vectorid.models.integrate import (
+    STATUS_REJECTED,
+    Environment,
+    allocate_outputs,
+    env_at,
+    rk4_trial,
+)
+
+__all__ = ["TABLE2", "TABLE3", "TABLE5", "Parachute6DoF"]
+
+FT = 0.3048
+
+# ---- constants (sources in docs/models.md) ----------------------------------------------------
+R0 = 32.0 * FT  # nominal radius of the G-12 canopy, m (64-ft nominal diameter)
+S0 = np.pi * R0**2  # reference area = nominal area, m²
+RP = 2.0 / 3.0 * R0  # inflated radius, m (seed eq. 7-8: R_p = 2/3 R_0)
+EPS = 0.82  # canopy shape ratio ε (seed)
+ZP = -2.0  # centre of pressure on the axis, m (seed §V.C)
+M_CANOPY = 130.0 * 0.45359237  # G-12 assembly, kg (130 lb)
+M_PAYLOAD = 700.0  # A-22 load, kg (chosen, see docs)
+A_PAYLOAD = 1.2  # side of the cubic container, m (assumed)
+Z_PAYLOAD = 16.0  # container centre below O, m (assumed geometry, see docs)
+Z_CANOPY = ZP  # canopy mass centre, m (taken at the centre of pressure)
+T_TRANSITION = 4.5  # full PMA stroke time, s (seed: transitions last 4...5 s)
+TAU_PMA = 0.25  # proportional band of the actuator near its command, s (assumed)
+TAN_TILT = np.tan(0.1)  # canopy tilt per fully shortened riser, rad (assumed; scaled by x15)
+K_MA = 2.0 / 3.0 * np.pi * RP**3 * EPS  # m_a / ρ, m³ (eq. 7)
+K_IXX = 0.2 * K_MA * RP**2 * (1.0 + EPS**2) + K_MA * ZP**2  # Ĩ_xx,a / ρ about O, m⁵ (eq. 8)
+K_IZZ = 0.4 * K_MA * RP**2  # Ĩ_zz,a / ρ, m⁵ (eq. 8)
+
+# Riser azimuths: riser k at (k-1)*90° from +x towards +y.
+_E = np.array([[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0]])
+
+# Table 2 (initial domains), Table 3 (after the uncontrolled drop), Table 5 (final values).
+TABLE2 = np.array(
+    [
+        [0, 1.5],
+        [0.8, 2],
+        [0.5, 2],
+        [0.1, 1],
+        [0, 0.01],
+        [0, 0.6],
+        [0.5, 1.5],
+        [0.75, 1.5],
+        [0.01, 0.5],
+        [0.01, 0.5],
+        [0.06, 0.13],
+        [0, 0.5],
+        [0, 0.85],
+        [1.5, 5],
+        [0.5, 2.0],
+    ]
+)
+TABLE3 = TABLE2.copy()
+TABLE3[5] = [0.3, 1.0]
+TABLE5 = np.array(
+    [1.03, 0.98, 1.31, 0.22, 0.00, 0.45, 1.00, 1.45, 0.21, 0.05, 0.04, 0.25, 0.94, 3.12, 1.0]
+)
+
+_MEANING = (
+    "α11 = x1 m_a, apparent mass along x and y (eq. 9)",
+    "α15 = x2 m_a z_p = -α24, apparent mass coupling (eq. 9)",
+    "α33 = x3 m_a, apparent mass along the axis (eq. 9)",
+    "α44 = α55 = x4 Ĩ_xx,a, apparent inertia about x, y (eq. 9)",
+    "α66 = x5 Ĩ_zz,a, apparent inertia about the axis (eq. 9)",
+    "C_D base value (eq. 11)",
+    "C_D control-shape exponent (eq. 11)",
+    "C_D growth with spatial angle of attack (eq. 11)",
+    "C_D control-dependent part (eq. 11)",
+    "C_m control-shape exponent (eq. 13)",
+    "C_m amplitude (eq. 13)",
+    "C_m phase, rad (eq. 13)",
+    "C_n^l amplitude: yaw from riser transitions (eq. 14)",
+    "C_n^r: yaw damping (eq. 14)",
+    "riser force gain (eq. 15)",
+)
+
+# Indices of the per-trial constants vector P.
+(
+    _M,
+    _MZG,
+    _IXX,
+    _IZZ,
+    _C11,
+    _C15,
+    _C33,
+    _C44,
+    _C66,
+    _X6,
+    _X7,
+    _X8,
+    _X9,
+    _X10,
+    _X11,
+    _X12,
+    _X13,
+    _X14,
+    _X15,
+    _AERO,
+    _ZP,
+    _S0,
+    _R0,
+    _ZPL,
+    _TANT,
+    _VMAX,
+    _TAUP,
+    _SX12,
+    _EX10,
+    _EX7,
+) = range(30)
+_NP = 30
+_NS = 16
+_D2R = np.pi / 180.0
+
+
+@njit(cache=True, inline="always")
+def _cm_static(a_deg, x11, x12, sx12):  # pragma: no cover - compiled
+    """Eq. (13) at n_ctrl = 0, extended oddly to negative angles, angle clipped to ±35°."""
+    s = 1.0
+    if a_deg < 0.0:
+        s = -1.0
+        a_deg = -a_deg
+    if a_deg > 35.0:
+        a_deg = 35.0
+    return s * x11 * (np.sin(np.pi / 40.0 * a_deg - x12) + sx12)
+
+
+@njit(cache=True)
+def _rhs(t, x, P, u, atm, gust, dx):  # pragma: no cover - compiled
+    sphi = np.sin(x[3])
+    cphi = np.cos(x[3])
+    sth = np.sin(x[4])
+    cth = np.cos(x[4])
+    sps = np.sin(x[5])
+    cps = np.cos(x[5])
+    U = x[6]
+    V = x[7]
+    W = x[8]
+    p = x[9]
+    q = x[10]
+    r = x[11]
+    rho, g, wn, we, wd = env_at(atm, gust, t, -x[2])
+    # DCM body -> NED (3-2-1)
+    r00 = cth * cps
+    r01 = sphi * sth * cps - cphi * sps
+    r02 = cphi * sth * cps + sphi * sps
+    r10 = cth * sps
+    r11 = sphi * sth * sps + cphi * cps
+    r12 = cphi * sth * sps - sphi * cps
+    r20 = -sth
+    r21 = sphi * cth
+    r22 = cphi * cth
+    dx[0] = r00 * U + r01 * V + r02 * W
+    dx[1] = r10 * U + r11 * V + r12 * W
+    dx[2] = r20 * U + r21 * V + r22 * W
+    tq = q * sphi + r * cphi
+    dx[3] = p + tq * sth / cth
+    dx[4] = q * cphi - r * sphi
+    dx[5] = tq / cth
+    # wind in body axes, air-relative velocity of O
+    wbx = r00 * wn + r10 * we + r20 * wd
+    wby = r01 * wn + r11 * we + r21 * wd
+    wbz = r02 * wn + r12 * we + r22 * wd
+    ua = U - wbx
+    va = V - wby
+    wa = W - wbz
+    # actuators: rate-limited first order towards the command
+    vmax = P[_VMAX]
+    taup = P[_TAUP]
+    ldot0 = min(max((u[0] - x[12]) / taup, -vmax), vmax)
+    ldot1 = min(max((u[1] - x[13]) / taup, -vmax), vmax)
+    ldot2 = min(max((u[2] - x[14]) / taup, -vmax), vmax)
+    ldot3 = min(max((u[3] - x[15]) / taup, -vmax), vmax)
+    dx[12] = ldot0
+    dx[13] = ldot1
+    dx[14] = ldot2
+    dx[15] = ldot3
+    # masses
+    m = P[_M]
+    mzg = P[_MZG]
+    a11 = P[_C11] * rho
+    a15 = P[_C15] * rho
+    a33 = P[_C33] * rho
+    a44 = P[_C44] * rho
+    a66 = P[_C66] * rho
+    M11 = m + a11
+    M15 = mzg + a15
+    M33 = m + a33
+    M44 = P[_IXX] + a44
+    M66 = P[_IZZ] + a66
+    # momenta: rigid (velocity of O) and apparent (air-relative velocity)
+    P0 = m * U + mzg * q
+    P1 = m * V - mzg * p
+    P2 = m * W
+    H0 = -mzg * V + P[_IXX] * p
+    H1 = mzg * U + P[_IXX] * q
+    H2 = P[_IZZ] * r
+    Q0 = a11 * ua + a15 * q
+    Q1 = a11 * va - a15 * p
+    Q2 = a33 * wa
+    K0 = -a15 * va + a44 * p
+    K1 = a15 * ua + a44 * q
+    K2 = a66 * r
+    # gravity at the CG
+    gx = -g * sth
+    gy = g * sphi * cth
+    gz = g * cphi * cth
+    f0 = m * gx
+    f1 = m * gy
+    f2 = m * gz
+    f3 = -mzg * gy
+    f4 = mzg * gx
+    f5 = 0.0
+    if P[_AERO] != 0.0:
+        zp = P[_ZP]
+        ucp = ua + q * zp
+        vcp = va - p * zp
+        wcp = wa
+        vv = np.sqrt(ucp * ucp + vcp * vcp + wcp * wcp)
+        if vv > 1e-9:
+            qd = 0.5 * rho * vv * vv
+            l0 = x[12]
+            l1 = x[13]
+            l2 = x[14]
+            l3 = x[15]
+            n_ctrl = 4.0 - (l0 + l1 + l2 + l3)
+            if n_ctrl > 1e-12:
+                sn = np.sin(np.pi / 4.0 * n_ctrl)  # = cos(π n/4 - π/2)
+                e7 = np.exp(-P[_X7] * (1.0 - sn) ** 2)
+                dcm = np.exp(-P[_X10] * (1.0 - sn) ** 2) - P[_EX10]
+            else:
+                e7 = P[_EX7]
+                dcm = 0.0
+            cw = wcp / vv
+            if cw > 1.0:
+                cw = 1.0
+            elif cw < -1.0:
+                cw = -1.0
+            asp = np.arccos(cw) / _D2R
+            if asp > 35.0:
+                asp = 35.0
+            cd = P[_X6] + P[_X9] * e7 * (1.0 + P[_X8] * np.sin(np.pi * asp / 70.0))
+            s0 = P[_S0]
+            fd = cd * qd * s0 / vv
+            fx = -fd * ucp
+            fy = -fd * vcp
+            fz = -fd * wcp
+            # riser force (eq. 15) towards the shortened risers, at the centre of pressure
+            sx = (1.0 - l0) - (1.0 - l2)
+            sy = (1.0 - l1) - (1.0 - l3)
+            kr = P[_X15] * cd * qd * s0 * P[_TANT]
+            fx += kr * sx
+            fy += kr * sy
+            f0 += fx
+            f1 += fy
+            f2 += fz
+            f3 += -zp * fy
+            f4 += zp * fx
+            # canopy moments (eq. 12-13): restoring in both planes + control tilt
+            alpha = np.arctan2(ucp, wcp) / _D2R
+            beta = np.arctan2(vcp, wcp) / _D2R
+            snorm = np.sqrt(sx * sx + sy * sy + 1e-6)
+            mref = 2.0 * qd * s0 * P[_R0]
+            f3 += mref * (-_cm_static(beta, P[_X11], P[_X12], P[_SX12]) + dcm * sy / snorm)
+            f4 += mref * (_cm_static(alpha, P[_X11], P[_X12], P[_SX12]) - dcm * sx / snorm)
+            # yaw (eq. 14): riser transitions and damping, normalised by the yaw inertia
+            cnl = 0.0
+            if ldot0 != 0.0:
+                cnl += min(max((l3 - l1) / 0.05, -1.0), 1.0) * np.sin(np.pi * l0) * ldot0
+            if ldot1 != 0.0:
+                cnl += min(max((l0 - l2) / 0.05, -1.0), 1.0) * np.sin(np.pi * l1) * ldot1
+            if ldot2 != 0.0:
+                cnl += min(max((l1 - l3) / 0.05, -1.0), 1.0) * np.sin(np.pi * l2) * ldot2
+            if ldot3 != 0.0:
+                cnl += min(max((l2 - l0) / 0.05, -1.0), 1.0) * np.sin(np.pi * l3) * ldot3
+            f5 += P[_IZZ] * (2.0 * vv / P[_R0] * P[_X13] * cnl - P[_X14] * r)
+    # Kirchhoff terms: -Ω×P -Ω×Q ; -Ω×H - V×P - Ω×K - Va×Q ; minus A [Ω×w_b; 0]
+    S0_ = P0 + Q0
+    S1 = P1 + Q1
+    S2 = P2 + Q2
+    f0 -= q * S2 - r * S1
+    f1 -= r * S0_ - p * S2
+    f2 -= p * S1 - q * S0_
+    T0_ = H0 + K0
+    T1 = H1 + K1
+    T2 = H2 + K2
+    f3 -= q * T2 - r * T1 + (V * P2 - W * P1) + (va * Q2 - wa * Q1)
+    f4 -= r * T0_ - p * T2 + (W * P0 - U * P2) + (wa * Q0 - ua * Q2)
+    f5 -= p * T1 - q * T0_ + (U * P1 - V * P0) + (ua * Q1 - va * Q0)
+    c0 = q * wbz - r * wby
+    c1 = r * wbx - p * wbz
+    c2 = p * wby - q * wbx
+    f0 -= a11 * c0
+    f1 -= a11 * c1
+    f2 -= a33 * c2
+    f3 -= -a15 * c1
+    f4 -= a15 * c0
+    # block solve of M ν̇ = f
+    det = M11 * M44 - M15 * M15
+    dx[6] = (M44 * f0 - M15 * f4) / det
+    dx[10] = (M11 * f4 - M15 * f0) / det
+    dx[7] = (M44 * f1 + M15 * f3) / det
+    dx[9] = (M11 * f3 + M15 * f1) / det
+    dx[8] = f2 / M33
+    dx[11] = f5 / M66
+
+
+@njit(cache=True)
+def _observe(t, x, P, u, atm, gust, y):  # pragma: no cover - compiled
+    sphi = np.sin(x[3])
+    cphi = np.cos(x[3])
+    sth = np.sin(x[4])
+    cth = np.cos(x[4])
+    sps = np.sin(x[5])
+    cps = np.cos(x[5])
+    r00 = cth * cps
+    r01 = sphi * sth * cps - cphi * sps
+    r02 = cphi * sth * cps + sphi * sps
+    r10 = cth * sps
+    r11 = sphi * sth * sps + cphi * cps
+    r12 = cphi * sth * sps - sphi * cps
+    r20 = -sth
+    r21 = sphi * cth
+    r22 = cphi * cth
+    zpl = P[_ZPL]
+    y[0] = x[0] + r02 * zpl
+    y[1] = x[1] + r12 * zpl
+    y[2] = x[2] + r22 * zpl
+    ub = x[6] + x[10] * zpl
+    vb = x[7] - x[9] * zpl
+    wb = x[8]
+    y[3] = r00 * ub + r01 * vb + r02 * wb
+    y[4] = r10 * ub + r11 * vb + r12 * wb
+    y[5] = r20 * ub + r21 * vb + r22 * wb
+    y[6] = x[3]
+    y[7] = x[4]
+    y[8] = x[5]
+    y[9] = x[9]
+    y[10] = x[10]
+    y[11] = x[11]
+    rho, g, wn, we, wd = env_at(atm, gust, t, -x[2])
+    zp = P[_ZP]
+    ucp = x[6] - (r00 * wn + r10 * we + r20 * wd) + x[10] * zp
+    vcp = x[7] - (r01 * wn + r11 * we + r21 * wd) - x[9] * zp
+    wcp = x[8] - (r02 * wn + r12 * we + r22 * wd)
+    vv = np.sqrt(ucp * ucp + vcp * vcp + wcp * wcp)
+    y[12] = vv
+    y[13] = np.arctan2(ucp, wcp)
+    y[14] = np.arctan2(vcp, wcp)
+    y[15] = np.arccos(min(max(wcp / vv, -1.0), 1.0)) if vv > 0 else 0.0
+    y[16] = x[12]
+    y[17] = x[13]
+    y[18] = x[14]
+    y[19] = x[15]
+
+
+@njit(parallel=True, cache=True)
+def _kernel(
+    x0, p, ctrl_t, ctrl_v, ctrl_mode, atm, gust, dt, n_steps, stride, x_max, y, status, t_fail
+):  # pragma: no cover - compiled
+    for i in prange(x0.shape[0]):
+        if status[i] != 0:
+            continue
+        status[i], t_fail[i] = rk4_trial(
+            _rhs,
+            _observe,
+            x0[i],
+            p[i],
+            ctrl_t,
+            ctrl_v,
+            ctrl_mode,
+            atm,
+            gust,
+            dt,
+            n_steps,
+            stride,
+            x_max,
+            y[i],
+        )
+
+
+class Parachute6DoF(Model):
+    """6-DoF controllable circular parachute of seed 001 (G-12 canopy, A-22 container).
+
+    Parameters
+    ----------
+    aerodynamics : bool
+        ``False`` switches off every aerodynamic force and moment and the yaw damping
+        (gravity, rigid-body and apparent-mass inertia remain) — for energy checks.
+    payload_mass : float
+        Mass of the loaded A-22 container, kg (default 700 kg, see docs/models.md).
+
+    Notes
+    -----
+    Parameters are x1..x15 of seed 001 with the box of Table 3 (x15 in [0.5, 2]); ``nominal``
+    is the final vector of the seed's last table ("Table 5"; x15 = 1, not given there).
+    ``presets`` holds ``"table5"``; ``domains`` holds the boxes ``"table2"`` and ``"table3"``.
+    """
+
+    name = "parachute6dof"
+    parameters = tuple(
+        Parameter(
+            f"x{i + 1}",
+            float(TABLE5[i]),
+            float(TABLE3[i, 0]),
+            float(TABLE3[i, 1]),
+            "rad" if i == 11 else "-",
+            _MEANING[i],
+        )
+        for i in range(15)
+    )
+    inputs = tuple(
+        Channel(
+            f"riser{k}",
+            "-",
+            f"commanded relative PMA length of riser {k} "
+            "(1 = lengthened/not actuated, 0 = shortened)",
+            1.0,
+        )
+        for k in range(1, 5)
+    )
+    outputs = (
+        *BASE_CHANNELS,
+        Channel("alpha_sp", "rad", "spatial angle of attack at the centre of pressure"),
+        Channel("riser1", "-", "relative PMA length of riser 1"),
+        Channel("riser2", "-", "relative PMA length of riser 2"),
+        Channel("riser3", "-", "relative PMA length of riser 3"),
+        Channel("riser4", "-", "relative PMA length of riser 4"),
+    )
+    presets: ClassVar[dict[str, NDArray[np.float64]]] = {"table5": TABLE5.copy()}
+    #: Hand count of floating-point work per RK4 step, for the benchmark's GFLOP/s estimate:
+    #: ~290 arithmetic operations per right-hand side plus 13 libm calls (sin/cos x9, atan2 x2,
+    #: arccos, sqrt) counted as 10 flops each = ~420; 4 evaluations, 192 for the stage
+    #: combinations of 16 states, ~40 for control interpolation.
+    flops_per_step = 4 * 420 + 192 + 40
+    domains: ClassVar[dict[str, NDArray[np.float64]]] = {
+        "table2": TABLE2.copy(),
+        "table3": TABLE3.copy(),
+    }
+
+    def __init__(self, *, aerodynamics: bool = True, payload_mass: float = M_PAYLOAD) -> None:
+        if not (np.isfinite(payload_mass) and payload_mass > 0):
+            raise ValueError(f"payload_mass must be > 0 kg, got {payload_mass!r}")
+        self.aerodynamics = bool(aerodynamics)
+        self.payload_mass = float(payload_mass)
+
+    # ---- mass properties ------------------------------------------------------------------
+    def rigid_body(self) -> dict[str, float]:
+        """Rigid-body mass properties about O: m (kg), m z_G (kg m), I_xx = I_yy, I_zz (kg m²)."""
+        mp, mc = self.payload_mass, M_CANOPY
+        i_own_pl = mp * A_PAYLOAD**2 / 6.0
+        i_own_c = 2.0 / 3.0 * mc * RP**2
+        return {
+            "m": mp + mc,
+            "mzG": mp * Z_PAYLOAD + mc * Z_CANOPY,
+            "Ixx": i_own_pl + mp * Z_PAYLOAD**2 + i_own_c + mc * Z_CANOPY**2,
+            "Izz": i_own_pl + i_own_c,
+        }
+
+    def constants(self, X: ArrayLike) -> NDArray[np.float64]:
+        """Per-trial constants vector (n, 30) the compiled right-hand side reads."""
+        X = np.atleast_2d(np.asarray(X, dtype=float))
+        rb = self.rigid_body()
+        P = np.zeros((X.shape[0], _NP))
+        P[:, _M] = rb["m"]
+        P[:, _MZG] = rb["mzG"]
+        P[:, _IXX] = rb["Ixx"]
+        P[:, _IZZ] = rb["Izz"]
+        P[:, _C11] = X[:, 0] * K_MA
+        P[:, _C15] = X[:, 1] * K_MA * ZP
+        P[:, _C33] = X[:, 2] * K_MA
+        P[:, _C44] = X[:, 3] * K_IXX
+        P[:, _C66] = X[:, 4] * K_IZZ
+        P[:, _X6 : _X15 + 1] = X[:, 5:15]
+        P[:, _AERO] = 1.0 if self.aerodynamics else 0.0
+        P[:, _ZP] = ZP
+        P[:, _S0] = S0
+        P[:, _R0] = R0
+        P[:, _ZPL] = Z_PAYLOAD
+        P[:, _TANT] = TAN_TILT
+        P[:, _VMAX] = 1.0 / T_TRANSITION
+        P[:, _TAUP] = TAU_PMA
+        P[:, _SX12] = np.sin(X[:, 11])
+        P[:, _EX10] = np.exp(-X[:, 9])
+        P[:, _EX7] = np.exp(-X[:, 6])
+        return P
+
+    def apparent_mass(self, X: ArrayLike, rho: float = RHO0) -> NDArray[np.float64]:
+        """Apparent-mass tensor A of eq. (6)/(9) about O, shape (n, 6, 6), SI units."""
+        P = self.constants(X)
+        A = np.zeros((P.shape[0], 6, 6))
+        A[:, 0, 0] = A[:, 1, 1] = P[:, _C11] * rho
+        A[:, 0, 4] = A[:, 4, 0] = P[:, _C15] * rho
+        A[:, 1, 3] = A[:, 3, 1] = -P[:, _C15] * rho
+        A[:, 2, 2] = P[:, _C33] * rho
+        A[:, 3, 3] = A[:, 4, 4] = P[:, _C44] * rho
+        A[:, 5, 5] = P[:, _C66] * rho
+        return A
+
+    def mass_matrix(self, X: ArrayLike, rho: float = RHO0) -> NDArray[np.float64]:
+        """Total generalized mass matrix M = M_rb + A about O, shape (n, 6, 6)."""
+        rb = self.rigid_body()
+        A = self.apparent_mass(X, rho)
+        M = A.copy()
+        for i in range(3):
+            M[:, i, i] += rb["m"]
+        M[:, 0, 4] += rb["mzG"]
+        M[:, 4, 0] += rb["mzG"]
+        M[:, 1, 3] -= rb["mzG"]
+        M[:, 3, 1] -= rb["mzG"]
+        M[:, 3, 3] += rb["Ixx"]
+        M[:, 4, 4] += rb["Ixx"]
+        M[:, 5, 5] += rb["Izz"]
+        return M
+
+    def steady_descent_rate(self, X: ArrayLike, rho: float) -> NDArray[np.float64]:
+        """Steady vertical descent rate sqrt(2 m g / (ρ S0 C_D(0, 0))), m/s, per trial."""
+        X = np.atleast_2d(np.asarray(X, dtype=float))
+        cd0 = X[:, 5] + X[:, 8] * np.exp(-X[:, 6])
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return np.sqrt(2.0 * self.rigid_body()["m"] * G0 / (rho * S0 * cd0))
+
+    def mechanical_energy(
+        self, X: ArrayLike, result, rho: float, g: float = G0
+    ) -> NDArray[np.float64]:
+        """Kinetic (incl. apparent mass, calm air) plus potential energy, J, shape (n, T).
+
+        Valid for a uniform atmosphere (constant ``rho`` and ``g``), where it is a constant of
+        motion when ``aerodynamics=False``.
+        """
+        M = self.mass_matrix(X, rho)
+        rb = self.rigid_body()
+        phi, th, psi = (result.euler[..., k] for k in range(3))
+        R = _dcm(phi, th, psi)
+        om = result.rates
+        rpl = np.array([0.0, 0.0, Z_PAYLOAD])
+        v_pl_b = np.einsum("ntji,ntj->nti", R, result.velocity)
+        v_o = v_pl_b - np.cross(om, rpl)
+        nu = np.concatenate([v_o, om], axis=-1)
+        kin = 0.5 * np.einsum("nti,nij,ntj->nt", nu, M, nu)
+        d_o = result.position[..., 2] - Z_PAYLOAD * R[..., 2, 2]
+        pot = -g * (rb["m"] * d_o + rb["mzG"] * R[..., 2, 2])
+        return kin + pot
+
+    def reference_rhs(
+        self, x_row, *, t_final, inputs=None, wind=None, initial=None, atmosphere=None
+    ):
+        """Plain-numpy right-hand side ``f(t, x)`` and ``x0`` of one trial (see ``Model``).
+
+        The same equations as the compiled ``_rhs``, written the straightforward way (numpy
+        vectors, ``np.cross``, the full 6x6 mass matrix and ``np.linalg.solve``): the
+        "what a user would write" baseline of benchmarks/models.py and a cross-check in tests.
+        """
+        X, controls, env, initial = self._prepare_reference(
+            x_row, t_final, inputs, wind, initial, atmosphere
+        )
+        x0 = self._initial_states(X, initial, env, controls(np.array(0.0)))[0]
+        x6, x7, x8, x9, x10, x11, x12, x13, x14, x15 = X[0, 5:15]
+        rb = self.rigid_body()
+        m = rb["m"]
+        atm, gust = env.atm, env.gust
+        h_grid = atm[0, 0] + atm[0, 1] * np.arange(int(atm[0, 2]))
+        n_g = int(gust[0, 2])
+        t_grid = gust[0, 0] + gust[0, 1] * np.arange(n_g)
+        r_g = np.array([0.0, 0.0, rb["mzG"] / m])
+        r_cp = np.array([0.0, 0.0, ZP])
+        S = np.array([[0.0, -r_g[2], 0.0], [r_g[2], 0.0, 0.0], [0.0, 0.0, 0.0]])
+        M_rb = np.zeros((6, 6))
+        M_rb[:3, :3] = m * np.eye(3)
+        M_rb[:3, 3:] = -m * S
+        M_rb[3:, :3] = m * S
+        M_rb[3:, 3:] = np.diag([rb["Ixx"], rb["Ixx"], rb["Izz"]])
+        A1 = self.apparent_mass(X, 1.0)[0]  # per unit density
+        aero = self.aerodynamics
+
+        def cm(a_deg: float) -> float:
+            a = min(abs(a_deg), 35.0)
+            return np.sign(a_deg) * x11 * (np.sin(np.pi / 40 * a - x12) + np.sin(x12))
+
+        def f(t: float, s: NDArray[np.float64]) -> NDArray[np.float64]:
+            phi, th, psi = s[3:6]
+            V, om, lb = s[6:9], s[9:12], s[12:16]
+            h = -s[2]
+            rho = np.interp(h, h_grid, atm[1:, 0])
+            g = np.interp(h, h_grid, atm[1:, 1])
+            w_ned = np.array([np.interp(h, h_grid, atm[1:, c]) for c in (2, 3, 4)])
+            if n_g > 1:
+                w_ned += np.array([np.interp(t, t_grid, gust[1:, c]) for c in range(3)])
+            R = _dcm(phi, th, psi)
+            T = np.array(
+                [
+                    [1.0, np.sin(phi) * np.tan(th), np.cos(phi) * np.tan(th)],
+                    [0.0, np.cos(phi), -np.sin(phi)],
+                    [0.0, np.sin(phi) / np.cos(th), np.cos(phi) / np.cos(th)],
+                ]
+            )
+            wb = R.T @ w_ned
+            Va = V - wb
+            u = controls(np.array(t))
+            ldot = np.clip((u - lb) / TAU_PMA, -1 / T_TRANSITION, 1 / T_TRANSITION)
+            A = A1 * rho
+            F = m * R.T @ np.array([0.0, 0.0, g])
+            Mo = np.cross(r_g, F)
+            Vcp = Va + np.cross(om, r_cp)
+            vv = np.linalg.norm(Vcp)
+            if aero and vv > 1e-9:
+                qd = 0.5 * rho * vv**2
+                n = np.sum(1.0 - lb)
+                sn = np.sin(np.pi / 4 * n)
+                asp = min(np.degrees(np.arccos(np.clip(Vcp[2] / vv, -1, 1))), 35.0)
+                cd = x6 + x9 * np.exp(-x7 * (1 - sn) ** 2) * (1 + x8 * np.sin(np.pi * asp / 70))
+                Fd = -cd * qd * S0 * Vcp / vv
+                sv = (1.0 - lb) @ _E
+                Fr = x15 * cd * qd * S0 * TAN_TILT * np.array([sv[0], sv[1], 0.0])
+                F = F + Fd + Fr
+                Mo = Mo + np.cross(r_cp, Fd + Fr)
+                dcm = np.exp(-x10 * (1 - sn) ** 2) - np.exp(-x10) if n > 1e-12 else 0.0
+                d = sv / np.sqrt(sv @ sv + 1e-6)
+                alpha = np.degrees(np.arctan2(Vcp[0], Vcp[2]))
+                beta = np.degrees(np.arctan2(Vcp[1], Vcp[2]))
+                mref = 2 * qd * S0 * R0
+                Mo = Mo + mref * np.array([-cm(beta) + dcm * d[1], cm(alpha) - dcm * d[0], 0.0])
+                nb = np.roll(lb, 1) - np.roll(lb, -1)  # l_{k-1} - l_{k+1}
+                cnl = np.sum(np.clip(nb / 0.05, -1, 1) * np.sin(np.pi * lb) * ldot)
+                Mo[2] += rb["Izz"] * (2 * vv / R0 * x13 * cnl - x14 * om[2])
+            nu = np.concatenate([V, om])
+            nua = np.concatenate([Va, om])
+            Prb = M_rb @ nu
+            Pa = A @ nua
+            fF = F - np.cross(om, Prb[:3]) - np.cross(om, Pa[:3])
+            fM = Mo - np.cross(om, Prb[3:]) - np.cross(V, Prb[:3])
+            fM = fM - np.cross(om, Pa[3:]) - np.cross(Va, Pa[:3])
+            fvec = np.concatenate([fF, fM]) - A @ np.concatenate([np.cross(om, wb), np.zeros(3)])
+            acc = np.linalg.solve(M_rb + A, fvec)
+            return np.concatenate([R @ V, T @ om, acc, ldot])
+
+        return f, x0
+
+    # ---- Model hooks ------------------------------------------------------------------------
+    def _check_parameters(self, X: NDArray[np.float64]) -> NDArray[np.int64]:
+        P = self.constants(X)
+        bad = np.zeros(X.shape[0], dtype=bool)
+        for rho in np.linspace(0.0, 1.4, 15):  # every density the tables can produce
+            M11 = P[:, _M] + P[:, _C11] * rho
+            M15 = P[:, _MZG] + P[:, _C15] * rho
+            M44 = P[:, _IXX] + P[:, _C44] * rho
+            bad |= (M11 <= 0) | (M11 * M44 - M15**2 <= 0)
+            bad |= (P[:, _M] + P[:, _C33] * rho <= 0) | (P[:, _IZZ] + P[:, _C66] * rho <= 0)
+        return np.where(bad, STATUS_REJECTED, 0).astype(np.int64)
+
+    def _initial_states(
+        self, X: NDArray[np.float64], initial: InitialState, env: Environment, u0: NDArray
+    ) -> NDArray[np.float64]:
+        n = X.shape[0]
+        x0 = np.zeros((n, _NS))
+        phi, th, psi = initial.euler
+        R = _dcm(np.array(phi), np.array(th), np.array(psi))
+        rpl = np.array([0.0, 0.0, Z_PAYLOAD])
+        pos_pl = np.array([initial.north, initial.east, -initial.altitude])
+        x0[:, 0:3] = pos_pl - R @ rpl
+        x0[:, 3:6] = initial.euler
+        om = np.array(initial.rates)
+        x0[:, 9:12] = om
+        if initial.velocity is None:
+            h = initial.altitude
+            i = int(np.clip(round((h - env.atm[0, 0]) / env.atm[0, 1]), 0, env.atm[0, 2] - 1)) + 1
+            rho, wn, we = env.atm[i, 0], env.atm[i, 2], env.atm[i, 3]
+            vd = self.steady_descent_rate(X, rho)
+            v_ned = np.stack([np.full(n, wn), np.full(n, we), vd], axis=1)
+        else:
+            v_ned = np.broadcast_to(np.asarray(initial.velocity), (n, 3))
+        x0[:, 6:9] = v_ned @ R - np.cross(om, rpl)  # R^T v for each row
+        x0[:, 12:16] = u0
+        return x0
+
+    def _simulate(self, X, status, t_fail, *, dt, n_steps, stride, controls, env, initial):
+        P = self.constants(X)
+        u0 = controls(np.array(0.0))
+        x0 = self._initial_states(X, initial, env, u0)
+        bad0 = ~np.all(np.isfinite(x0), axis=1)
+        status[bad0 & (status == 0)] = 1
+        x_max = np.full(_NS, np.inf)
+        x_max[0:3] = 1e7
+        x_max[4] = np.deg2rad(85.0)  # Euler singularity: tumbling is a runaway
+        x_max[6:9] = 300.0
+        x_max[9:12] = 20.0
+        y = allocate_outputs(X.shape[0], n_steps, stride, len(self.outputs))
+        _kernel(
+            np.ascontiguousarray(x0),
+            P,
+            controls.times,
+            controls.values,
+            controls.mode,
+            env.atm,
+            env.gust,
+            float(dt),
+            int(n_steps),
+            int(stride),
+            x_max,
+            y,
+            status,
+            t_fail,
+        )
+        return y
+
+
+def _dcm(phi: ArrayLike, th: ArrayLike, psi: ArrayLike) -> NDArray[np.float64]:
+    """Body-to-NED direction cosine matrices (3-2-1 Euler), shape (..., 3, 3)."""
+    sf, cf = np.sin(phi), np.cos(phi)
+    st, ct = np.sin(th), np.cos(th)
+    sp, cp = np.sin(psi), np.cos(psi)
+    R = np.empty((*np.shape(phi), 3, 3))
+    R[..., 0, 0] = ct * cp
+    R[..., 0, 1] = sf * st * cp - cf * sp
+    R[..., 0, 2] = cf * st * cp + sf * sp
+    R[..., 1, 0] = ct * sp
+    R[..., 1, 1] = sf * st * sp + cf * cp
+    R[..., 1, 2] = cf * st * sp - sf * cp
+    R[..., 2, 0] = -st
+    R[..., 2, 1] = sf * ct
+    R[..., 2, 2] = cf * ct
+    return R
