@@ -6,6 +6,8 @@ nothing re-runs a model.
 
 from .pareto import pareto_indices, pareto_mask
 from .results import Analysis, Bound, EmptyDiagnosis, TestTable, parse_limit, parse_limits
+from .toolkit import *  # noqa: F403 - histograms, sections, refine, correlation, ...
+from .toolkit import __all__ as _toolkit_all
 
 __all__ = [
     "Analysis",
@@ -16,4 +18,5 @@ __all__ = [
     "pareto_mask",
     "parse_limit",
     "parse_limits",
+    *_toolkit_all,
 ]

@@ -1,0 +1,115 @@
+"""Which parameters drive which criteria, from the trials already computed (no new runs).
+
+* Rank correlation: Spearman's ρ between every parameter and every criterion over the
+  successful trials (a monotone association, insensitive to scale).
+* Monte Carlo filtering (Hornberger–Spear regional sensitivity analysis): the trials are
+  split into behavioural (in the feasible set D) and non-behavioural (all others); for each
+  parameter the two-sample Kolmogorov–Smirnov statistic between the two groups' values. A
+  large statistic means the constraints select a part of that parameter's range (the
+  parameter matters for feasibility); a statistic near 0 means D does not depend on it.
+  Uniform Sobol sampling makes the marginal of every parameter uniform, so the test is
+  meaningful without weighting.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from scipy import stats
+
+from .results import Analysis
+
+__all__ = ["Sensitivity", "ks_filtering", "rank_correlation", "sensitivity"]
+
+
+def rank_correlation(X: np.ndarray, F: np.ndarray) -> np.ndarray:
+    """Spearman's ρ between the columns of ``X`` (n, p) and ``F`` (n, k) over the rows
+    where ``F`` is finite. Returns (p, k); 0 where a column is constant, NaN where fewer than
+    3 rows are usable."""
+    X = np.asarray(X, float)
+    F = np.asarray(F, float)
+    ok = np.all(np.isfinite(F), axis=1) & np.all(np.isfinite(X), axis=1)
+    p, k = X.shape[1], F.shape[1]
+    if ok.sum() < 3:
+        return np.full((p, k), np.nan)
+    RX = np.column_stack([stats.rankdata(c) for c in X[ok].T]) if p else np.empty((ok.sum(), 0))
+    RF = np.column_stack([stats.rankdata(c) for c in F[ok].T])
+
+    def z(R: np.ndarray) -> np.ndarray:
+        Z = R - R.mean(axis=0)
+        sd = np.sqrt((Z**2).sum(axis=0))
+        return Z / np.where(sd > 0, sd, np.inf)
+
+    return np.clip(z(RX).T @ z(RF), -1.0, 1.0)
+
+
+def ks_filtering(X: np.ndarray, behavioural: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Two-sample KS statistic and p-value per parameter between behavioural rows and the
+    others. Returns ``(statistic (p,), pvalue (p,))``; NaN when a group is empty."""
+    X = np.asarray(X, float)
+    b = np.asarray(behavioural, bool)
+    p = X.shape[1]
+    stat = np.full(p, np.nan)
+    pval = np.full(p, np.nan)
+    if b.any() and (~b).any():
+        for j in range(p):
+            r = stats.ks_2samp(X[b, j], X[~b, j])
+            stat[j], pval[j] = float(r.statistic), float(r.pvalue)
+    return stat, pval
+
+
+@dataclass
+class Sensitivity:
+    """Sensitivity of the criteria and of feasibility to each parameter.
+
+    Attributes
+    ----------
+    params, criteria : list of str
+    spearman : (p, k) float
+    ks : (p,) float
+        KS statistic between D and its complement per parameter.
+    ks_pvalue : (p,) float
+    n_behavioural, n_other : int
+    """
+
+    params: list[str]
+    criteria: list[str]
+    spearman: np.ndarray
+    ks: np.ndarray
+    ks_pvalue: np.ndarray
+    n_behavioural: int
+    n_other: int
+
+    def ranking(self) -> list[tuple[str, float]]:
+        """Parameters by decreasing KS statistic."""
+        order = np.argsort(-np.nan_to_num(self.ks, nan=-1.0), kind="stable")
+        return [(self.params[j], float(self.ks[j])) for j in order]
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "params": self.params,
+            "criteria": self.criteria,
+            "spearman": self.spearman.tolist(),
+            "ks": self.ks.tolist(),
+            "ks_pvalue": self.ks_pvalue.tolist(),
+            "n_behavioural": self.n_behavioural,
+            "n_other": self.n_other,
+            "ranking": [{"param": n, "ks": v} for n, v in self.ranking()],
+        }
+
+
+def sensitivity(a: Analysis) -> Sensitivity:
+    """Rank correlations over successful trials and KS filtering on D vs the rest."""
+    X, F = a.trials.X, a.trials.F
+    ks, pv = ks_filtering(X, a.feasible)
+    return Sensitivity(
+        params=a.spec.space.names,
+        criteria=list(a.crit_names),
+        spearman=rank_correlation(X[a.ok], F[a.ok]),
+        ks=ks,
+        ks_pvalue=pv,
+        n_behavioural=a.n_feasible,
+        n_other=a.n - a.n_feasible,
+    )

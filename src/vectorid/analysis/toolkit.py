@@ -1,0 +1,66 @@
+"""The analysis toolkit of issue 5 in one namespace: histograms, colour classes, sections,
+double tuning, correlation and spread, robustness, sensitivity, signal tools and choice.
+
+Every function returns plain data (numpy arrays, dataclasses); :mod:`vectorid.views`
+draws them.
+"""
+
+from .choice import best_per_criterion, suggest_choice
+from .classes import CLASS_COLOURS, PointClasses, point_classes, subsample
+from .correlation import CorrelationResult, Spread, correlation, correlation_of, parameter_spread
+from .histograms import Histogram, default_bins, histogram, histograms, stage_histograms
+from .refine import RefineProposal, apply_refine, propose_refine, refine_history
+from .robustness import (
+    ChosenTable,
+    Robustness,
+    chosen_table,
+    load_robustness,
+    neighbourhood,
+    robustness_stats,
+    run_robustness,
+)
+from .sections import Section, load_sections, run_section, section_points
+from .sensitivity import Sensitivity, ks_filtering, rank_correlation, sensitivity
+from .signals import dominant_frequency, envelope, power_spectrum, uniform
+
+__all__ = [
+    "CLASS_COLOURS",
+    "ChosenTable",
+    "CorrelationResult",
+    "Histogram",
+    "PointClasses",
+    "RefineProposal",
+    "Robustness",
+    "Section",
+    "Sensitivity",
+    "Spread",
+    "apply_refine",
+    "best_per_criterion",
+    "chosen_table",
+    "correlation",
+    "correlation_of",
+    "default_bins",
+    "dominant_frequency",
+    "envelope",
+    "histogram",
+    "histograms",
+    "ks_filtering",
+    "load_robustness",
+    "load_sections",
+    "neighbourhood",
+    "parameter_spread",
+    "point_classes",
+    "power_spectrum",
+    "propose_refine",
+    "rank_correlation",
+    "refine_history",
+    "robustness_stats",
+    "run_robustness",
+    "run_section",
+    "section_points",
+    "sensitivity",
+    "stage_histograms",
+    "subsample",
+    "suggest_choice",
+    "uniform",
+]

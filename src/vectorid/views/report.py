@@ -1,0 +1,587 @@
+"""The self-contained HTML report of a study (``vectorid report STORE --out report.html``).
+
+One file that opens offline: Plotly's JavaScript is embedded once, every figure is a JSON
+document in the page, plotted when it scrolls near the viewport (WebGL figures far from it
+are released, since browsers keep only a few WebGL contexts alive). Point clouds are
+decimated to ``max_points`` per figure (Pareto and feasible trials first, see
+:func:`vectorid.views.figures.allocate`) and each decimated figure says so; histograms,
+heatmaps and tables are aggregated, so their size does not grow with N.
+
+Contents: study definition, stages and refine history, N/ND/NP and the constraints in
+force, test tables (top rows), the Pareto set, the chosen vector(s) with the best trial per
+criterion (seed 001 Table 4 layout), criterion vs criterion pairs and matrix, criterion vs
+parameter, histograms (and by stage after double tuning), the double-tuning proposal,
+correlation and spread, sensitivity, and every stored section and robustness check.
+"""
+
+from __future__ import annotations
+
+import html
+import math
+import time
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .. import __version__
+from ..analysis.choice import best_per_criterion, suggest_choice
+from ..analysis.correlation import correlation_of, parameter_spread
+from ..analysis.histograms import histograms, stage_histograms
+from ..analysis.refine import propose_refine, refine_history
+from ..analysis.results import Analysis, Bound
+from ..analysis.robustness import chosen_table, load_robustness
+from ..analysis.sections import load_sections
+from ..analysis.sensitivity import sensitivity
+from ..errors import VectoridError
+from ..store.sqlite import Store
+from . import figures as fg
+
+__all__ = ["ReportResult", "build_report", "write_report"]
+
+_CSS = """
+body{font-family:system-ui,-apple-system,Segoe UI,Roboto,sans-serif;margin:0 auto;max-width:1240px;
+padding:0 18px 60px;color:#222}
+h1{margin-top:24px}h2{border-bottom:2px solid #ddd;padding-bottom:4px;margin-top:36px}
+table{border-collapse:collapse;font-size:13px;margin:8px 0}
+td,th{border:1px solid #ddd;padding:3px 7px;text-align:right}th{background:#f4f4f4}
+td.l,th.l{text-align:left}.muted{color:#777}.x{color:#d62728}.p{color:#2ca02c;font-weight:600}
+.fig{min-height:320px;margin:14px 0;border:1px solid #eee}
+.counts{font-size:18px}.counts b{font-size:22px}.note{color:#a33;font-size:13px}
+nav a{margin-right:10px}
+"""
+
+_LOADER = """
+(function(){
+  var gl = (function(){try{var c=document.createElement('canvas');
+    return !!(c.getContext('webgl')||c.getContext('experimental-webgl'));}
+    catch(e){return false;}})();
+  var live = [];            // WebGL figures currently plotted, oldest first
+  var MAX_GL = 6;
+  function isGL(fig){return fig.data.some(function(t){
+    return t.type==='scattergl'||t.type==='splom'||t.type==='scatter3d';});}
+  function plot(div){
+    if(div.dataset.state==='plotted') return;
+    var fig = JSON.parse(document.getElementById(div.id+'-json').textContent);
+    if(!gl){
+      if(fig.data.some(function(t){return t.type==='splom'||t.type==='scatter3d';})){
+        div.innerHTML='<p class="note">This figure needs WebGL, which this browser lacks.</p>';
+        div.dataset.state='plotted'; return;}
+      fig.data.forEach(function(t){if(t.type==='scattergl') t.type='scatter';});
+    }
+    Plotly.newPlot(div, fig.data, fig.layout, {responsive:true, displaylogo:false});
+    div.dataset.state='plotted';
+    if(gl && isGL(fig)){
+      div.dataset.gl='1'; live.push(div);
+      while(live.length>MAX_GL){var old=live.shift(); Plotly.purge(old); old.dataset.state='';}
+    }
+  }
+  var obs = new IntersectionObserver(function(entries){
+    entries.forEach(function(e){
+      if(e.isIntersecting){plot(e.target);}
+    });
+  }, {rootMargin:'600px 0px'});
+  document.querySelectorAll('div.fig').forEach(function(d){obs.observe(d);});
+  window.vectoridPlotAll = function(){
+    MAX_GL = 1e9; document.querySelectorAll('div.fig').forEach(plot);};
+})();
+"""
+
+
+@dataclass
+class ReportResult:
+    """What :func:`write_report` wrote.
+
+    Attributes
+    ----------
+    path : Path
+    size : int
+        Bytes.
+    figures : list of str
+        Titles of the embedded figures.
+    notes : list of str
+        Decimation and omission notes (also printed in the report).
+    seconds : float
+        Time to build and write.
+    """
+
+    path: Path
+    size: int
+    figures: list[str] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+    seconds: float = 0.0
+
+
+def _e(x: Any) -> str:
+    return html.escape(str(x))
+
+
+def _f(v: Any) -> str:
+    try:
+        v = float(v)
+    except (TypeError, ValueError):
+        return _e(v)
+    if math.isnan(v):
+        return "nan"
+    return f"{v:.6g}"
+
+
+def _table(head: Sequence[str], rows: Iterable[Sequence[Any]], left: int = 1) -> str:
+    out = ["<table><tr>"]
+    out += [f'<th class="{"l" if i < left else ""}">{_e(h)}</th>' for i, h in enumerate(head)]
+    out.append("</tr>")
+    for r in rows:
+        out.append("<tr>")
+        for i, c in enumerate(r):
+            cls = ' class="l"' if i < left else ""
+            out.append(f"<td{cls}>{c}</td>")
+        out.append("</tr>")
+    out.append("</table>")
+    return "".join(out)
+
+
+class _Page:
+    def __init__(self) -> None:
+        self.parts: list[str] = []
+        self.figures: list[str] = []
+        self.notes: list[str] = []
+        self.toc: list[tuple[str, str]] = []
+
+    def h2(self, title: str) -> None:
+        anchor = f"s{len(self.toc)}"
+        self.toc.append((anchor, title))
+        self.parts.append(f'<h2 id="{anchor}">{_e(title)}</h2>')
+
+    def add(self, text: str) -> None:
+        self.parts.append(text)
+
+    def fig(self, figure: Any, caption: str = "") -> None:
+        i = len(self.figures)
+        title = figure.layout.title.text or f"figure {i + 1}"
+        self.figures.append(title)
+        for ann in figure.layout.annotations or ():
+            if ann.text and ann.text.startswith("decimated"):
+                self.notes.append(f"{title}: {ann.text}")
+        payload = figure.to_json().replace("</", "<\\/")
+        height = int(figure.layout.height or 450)
+        self.parts.append(
+            f'<div class="fig" id="fig{i}" style="min-height:{height}px"></div>'
+            f'<script type="application/json" id="fig{i}-json">{payload}</script>'
+        )
+        if caption:
+            self.parts.append(f'<p class="muted">{_e(caption)}</p>')
+
+
+def _definition(page: _Page, a: Analysis, store: Store) -> None:
+    spec = a.spec
+    page.h2("Study definition")
+    d = spec.to_dict()["study"]
+    page.add(
+        _table(
+            ["key", "value"],
+            [[_e(k), _e(v)] for k, v in d.items()] + [["store", _e(store.path)]],
+            left=2,
+        )
+    )
+    page.add("<h3>Variables (box Π)</h3>")
+    page.add(
+        _table(
+            ["name", "kind", "low", "high", "nominal", "unit"],
+            [
+                [
+                    _e(v.name),
+                    v.kind,
+                    _f(v.low),
+                    _f(v.high),
+                    "" if v.nominal is None else _f(v.nominal),
+                    _e(v.unit),
+                ]
+                for v in spec.space
+            ],
+            left=2,
+        )
+    )
+    page.add("<h3>Criteria</h3>")
+    page.add(
+        _table(
+            ["name", "sense", "role", "limit in force"],
+            [
+                [
+                    _e(c.name),
+                    a.senses[j],
+                    a.roles[j],
+                    _f(a.bounds[c.name][1] if a.senses[j] == "min" else a.bounds[c.name][0]),
+                ]
+                for j, c in enumerate(spec.criteria)
+            ],
+            left=3,
+        )
+    )
+    if spec.constraints:
+        page.add("<h3>Functional constraints</h3>")
+        page.add(
+            _table(
+                ["name", "low", "high"],
+                [
+                    [_e(c.name), _f(a.bounds[c.name][0]), _f(a.bounds[c.name][1])]
+                    for c in spec.constraints
+                ],
+            )
+        )
+
+
+def _counts(page: _Page, a: Analysis) -> None:
+    page.h2("Trials, feasible set and Pareto set")
+    page.add(
+        f'<p class="counts">N = <b>{a.n}</b> &nbsp; ND = <b>{a.n_feasible}</b> &nbsp; '
+        f"NP = <b>{a.n_pareto}</b> &nbsp; <span class=muted>(failed {a.n_failed}, meeting the "
+        f"functional constraints {a.n_functional})</span></p>"
+    )
+    bounds = [str(b) for b in a.active_bounds()]
+    page.add("<p>Constraints in force: " + (_e(", ".join(bounds)) or "none") + "</p>")
+    pure = [a.crit_names[i] for i in a.pure]
+    page.add(f"<p>Pareto set over the pure criteria: {_e(', '.join(pure) or '(none)')}</p>")
+    if a.n_feasible == 0:
+        page.add("<pre>" + _e(a.diagnose_empty().describe()) + "</pre>")
+
+
+def _test_tables(page: _Page, a: Analysis, top: int) -> None:
+    page.h2(f"Test tables (top {top} rows per criterion)")
+    tables = a.test_tables()
+    head = []
+    for t in tables:
+        head += [f"{t.name} ({t.sense}) id", "value"]
+    page.add(
+        "<p class=muted>Each criterion's trials meeting the functional constraints, best first "
+        "(seed 000 Fig. 6); <span class=x>red</span>: outside D.</p>"
+    )
+    rows: list[list[str]] = [[], [], []]
+    for t in tables:
+        rows[0] += [f"min {_f(t.min)}", ""]
+        rows[1] += [f"max {_f(t.max)}", ""]
+        rows[2] += [f"limit {'-' if t.limit is None else _f(t.limit)}", ""]
+    for i in range(top):
+        r = []
+        for t in tables:
+            if i < len(t.ids):
+                cls = "" if t.feasible[i] else ' class="x"'
+                r += [f"<span{cls}>{t.ids[i]}</span>", f"<span{cls}>{_f(t.values[i])}</span>"]
+            else:
+                r += ["", ""]
+        rows.append(r)
+    page.add(_table(head, rows, left=0))
+
+
+def _pareto_table(page: _Page, a: Analysis, limit: int = 100) -> None:
+    page.h2("Edgeworth–Pareto set")
+    rows = np.flatnonzero(a.pareto)
+    if len(rows) == 0:
+        page.add("<p>The Pareto set is empty under these constraints.</p>")
+        return
+    if a.pure:
+        j = a.pure[0]
+        key = a.trials.F[rows, j] * (-1 if a.senses[j] == "max" else 1)
+        rows = rows[np.argsort(key, kind="stable")]
+    shown = rows[:limit]
+    if len(rows) > limit:
+        page.add(
+            f"<p class=note>showing {limit} of {len(rows)} Pareto trials, best first by "
+            f"{_e(a.crit_names[a.pure[0]])}; `vectorid pareto --json` lists all</p>"
+        )
+    names = a.spec.space.names
+    page.add(
+        _table(
+            ["id", *a.crit_names, *names],
+            [
+                [str(a.trials.id[i])]
+                + [_f(v) for v in a.trials.F[i]]
+                + [_f(v) for v in a.trials.X[i]]
+                for i in shown
+            ],
+        )
+    )
+
+
+def _chosen(page: _Page, a: Analysis, chosen: Sequence[int]) -> list[int]:
+    page.h2("Chosen vector")
+    best = best_per_criterion(a)
+    ids: list[int] = []
+    labels: list[str] = []
+    if chosen:
+        for i in chosen:
+            ids.append(int(i))
+            labels.append(f"chosen {i}")
+    else:
+        s = suggest_choice(a)
+        if s is not None:
+            ids.append(s)
+            labels.append(f"suggested {s}")
+            page.add(
+                f"<p>No vector was named (<code>--chosen ID</code>); trial <b>{s}</b> is "
+                "suggested: the Pareto trial closest to the ideal point of the pure criteria, "
+                "each normalised over the Pareto set.</p>"
+            )
+    for name, i in best.items():
+        if i not in ids:
+            ids.append(i)
+            labels.append(f"best {name}")
+    if not ids:
+        page.add("<p>No feasible trial to choose from.</p>")
+        return []
+    tab = chosen_table(a, ids)
+    page.add(
+        "<p class=muted>Criteria of the chosen vector and of the best trial per criterion, with "
+        "the minimum and maximum over them (seed 001 Table 4).</p>"
+    )
+    rows = [["MIN", "", *[_f(v) for v in tab.min]], ["MAX", "", *[_f(v) for v in tab.max]]]
+    rows += [[f"№{i}", _e(lab), *[_f(v) for v in f]] for i, lab, f in zip(tab.ids, labels, tab.F)]
+    page.add(_table(["trial", "why", *tab.crit_names], rows, left=2))
+    page.add("<h3>Parameters</h3>")
+    names = a.spec.space.names
+    page.add(
+        _table(
+            ["parameter", *[f"№{i}" for i in tab.ids]],
+            [[_e(n), *[_f(x) for x in tab.X[:, j]]] for j, n in enumerate(names)],
+        )
+    )
+    space = a.spec.space
+    spread = parameter_spread(
+        tab.X,
+        names,
+        space.nominal,
+        space.lows,
+        space.highs,
+        labels=[f"№{i} {lab}" for i, lab in zip(tab.ids, labels)],
+    )
+    page.fig(fg.spread_figure(spread), "seed 000 Fig. 13")
+    return ids
+
+
+def _history(page: _Page, store: Store) -> None:
+    page.h2("Stages and refine history")
+    hist = refine_history(store)
+    rows = []
+    for h in hist:
+        changed = ", ".join(
+            f"{c['name']}: [{_f(c['old'][0])}, {_f(c['old'][1])}] → [{_f(c['new'][0])}, "
+            f"{_f(c['new'][1])}]"
+            for c in h["changed"]
+        )
+        rows.append(
+            [str(h["stage"]), str(h["start_seq"]), str(h["n"]), _e(h["note"]), _e(changed or "-")]
+        )
+    page.add(_table(["sample stage", "from seq", "trials", "note", "box changes"], rows, left=0))
+    aux = [s for s in store.stages() if s.kind != "sample"]
+    if aux:
+        page.add("<h3>Auxiliary stages (not in the sample statistics)</h3>")
+        page.add(
+            _table(
+                ["stage", "kind", "trials", "note"],
+                [[str(s.stage), s.kind, str(store.count(s.stage)), _e(s.note)] for s in aux],
+                left=0,
+            )
+        )
+
+
+def build_report(
+    store: Store,
+    *,
+    limits: Iterable[Bound] | Mapping[str, Any] | None = None,
+    roles: Mapping[str, str] | None = None,
+    chosen: Sequence[int] = (),
+    max_points: int = 30_000,
+    top: int = 10,
+    seed: int = 0,
+) -> tuple[str, _Page]:
+    """The report as an HTML string (see :func:`write_report`)."""
+    import plotly.offline
+
+    spec = store.spec
+    a = Analysis(spec, store.load(), limits, roles)
+    stages = store.stages()
+    page = _Page()
+    _definition(page, a, store)
+    _counts(page, a)
+    _history(page, store)
+    _test_tables(page, a, top)
+    _pareto_table(page, a)
+    _chosen(page, a, chosen)
+
+    drawable = a.ok.any()
+    names = list(a.crit_names)
+    pure = [a.crit_names[i] for i in a.pure] or names
+    if drawable and len(names) >= 2:
+        page.h2("Criterion vs criterion")
+        order = pure + [n for n in names if n not in pure]
+        pairs = [(order[i], order[j]) for i in range(len(order)) for j in range(i + 1, len(order))]
+        for x, y in pairs[:3]:
+            page.fig(
+                fg.scatter_figure(a, x, y, max_points=max_points, seed=seed),
+                "seed 001 Figs. 6, 11; seed 000 Fig. 8",
+            )
+        if len(names) >= 3:
+            page.fig(
+                fg.scatter_matrix_figure(a, max_points=max_points, seed=seed),
+                "every pair of criteria",
+            )
+    if drawable:
+        page.h2("Criterion vs parameter")
+        p = len(spec.space)
+        per_panel = max(1000, max_points // max(p, 1))
+        for name in names:
+            page.fig(
+                fg.criterion_vs_parameter_figure(a, name, max_points=per_panel, seed=seed),
+                "seed 000 Fig. 9",
+            )
+    page.h2("Histograms")
+    page.fig(fg.histograms_figure(histograms(a)), "seed 000 Fig. 7, seed 001 Figs. 5, 10")
+    sample = [s for s in stages if s.kind == "sample"]
+    if len(sample) >= 2:
+        hist = refine_history(store)
+        changed = []
+        for h in hist:
+            changed += [c["name"] for c in h["changed"] if c["name"] not in changed]
+        for name in changed:
+            page.fig(
+                fg.stage_histograms_figure(stage_histograms(a, sample, name)), "seed 001 Fig. 5"
+            )
+    page.h2("Double tuning proposal")
+    try:
+        prop = propose_refine(a, stages)
+        page.add(
+            "<p>Proposed (not applied) with the default rule; apply with "
+            f"<code>vectorid refine {_e(store.path)} --apply</code> and continue with "
+            "<code>vectorid run STORE --trials N</code>.</p>"
+        )
+        page.fig(fg.refine_figure(prop, a))
+    except VectoridError as exc:
+        page.add(f"<p class=note>{_e(exc)}</p>")
+    page.h2("Correlation among near-optimal vectors")
+    for subset in ("pareto", "feasible"):
+        try:
+            corr = correlation_of(a, subset)
+        except VectoridError as exc:
+            page.add(f"<p class=note>{_e(exc)}</p>")
+            continue
+        page.add(f"<h3>over the {subset} set ({corr.n} trials)</h3>")
+        if corr.pairs:
+            page.add(
+                _table(
+                    ["a", "b", "r", "fit b ≈ intercept + slope·a", "R²"],
+                    [
+                        [
+                            _e(d["a"]),
+                            _e(d["b"]),
+                            _f(d["r"]),
+                            f"{_f(d['intercept'])} + {_f(d['slope'])}·{_e(d['a'])}",
+                            _f(d["r2"]),
+                        ]
+                        for d in corr.pairs[:30]
+                    ],
+                    left=2,
+                )
+            )
+        merge = "; ".join("{" + ", ".join(g) + "}" for g in corr.groups) or "none"
+        fixed = ", ".join(f"{d['name']} (≈{_f(d['median'])})" for d in corr.fixed) or "none"
+        page.add(
+            f"<p>Could be merged: {_e(merge)}. Could be fixed (spread ≤ 10% of the box): "
+            f"{_e(fixed)}.</p>"
+        )
+        page.fig(fg.correlation_figure(corr), "seed 000 Fig. 14")
+        break
+    if drawable:
+        page.h2("Sensitivity")
+        page.fig(fg.sensitivity_figure(sensitivity(a)))
+    secs = load_sections(store)
+    if secs:
+        page.h2("Sections (type II)")
+        for s in secs:
+            page.fig(fg.section_figure(s, a.bounds), "seed 000 Fig. 10, seed 001 Fig. 12")
+    checks = load_robustness(store, a)
+    if checks:
+        page.h2("Robustness of chosen vectors")
+        page.add(
+            _table(
+                ["trial", "radius", "points", "verdict", "feasible share"]
+                + [f"{n} min..max" for n in checks[0].crit_names],
+                [
+                    [
+                        str(c.trial),
+                        _f(c.radius),
+                        str(len(c.X)),
+                        _e(c.verdict),
+                        _f(c.feasible_fraction),
+                    ]
+                    + [f"{_f(lo)} .. {_f(hi)}" for lo, hi in zip(c.min, c.max)]
+                    for c in checks
+                ],
+                left=0,
+            )
+        )
+        page.fig(fg.robustness_figure(checks), "seed 001 Table 4")
+    if page.notes:
+        page.add(
+            "<h2>Decimation</h2><ul>" + "".join(f"<li>{_e(n)}</li>" for n in page.notes) + "</ul>"
+        )
+    toc = " ".join(f'<a href="#{a_}">{_e(t)}</a>' for a_, t in page.toc)
+    title = f"vectorid report: {spec.name}"
+    doc = (
+        "<!DOCTYPE html><html lang=en><head><meta charset=utf-8>"
+        f"<title>{_e(title)}</title><style>{_CSS}</style>"
+        f"<script>{plotly.offline.get_plotlyjs()}</script></head><body>"
+        f"<h1>{_e(title)}</h1><p class=muted>written {time.strftime('%Y-%m-%d %H:%M')} by "
+        f"vectorid {__version__} from {_e(store.path)}</p><nav>{toc}</nav>"
+        + "".join(page.parts)
+        + f"<script>{_LOADER}</script></body></html>"
+    )
+    return doc, page
+
+
+def write_report(
+    store: Store,
+    out: str | Path,
+    *,
+    limits: Iterable[Bound] | Mapping[str, Any] | None = None,
+    roles: Mapping[str, str] | None = None,
+    chosen: Sequence[int] = (),
+    max_points: int = 30_000,
+    top: int = 10,
+    seed: int = 0,
+) -> ReportResult:
+    """Write the self-contained HTML report of the study held in ``store``.
+
+    Parameters
+    ----------
+    store : Store
+        Read-only is enough.
+    out : path
+        The ``.html`` file to write.
+    limits, roles
+        Constraints and roles for this analysis (as :class:`~vectorid.analysis.Analysis`).
+    chosen : sequence of int
+        Trial ids of the chosen vector(s); default: the suggestion of
+        :func:`~vectorid.analysis.choice.suggest_choice`.
+    max_points : int
+        Points per point-cloud figure (criterion vs criterion, matrix); the criterion vs
+        parameter grids get ``max(1000, max_points / p)`` per panel.
+    top : int
+        Rows of the test tables.
+    seed : int
+        Seed of the decimation subsets.
+    """
+    t0 = time.perf_counter()
+    doc, page = build_report(
+        store, limits=limits, roles=roles, chosen=chosen, max_points=max_points, top=top, seed=seed
+    )
+    out = Path(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(doc, encoding="utf-8")
+    return ReportResult(
+        path=out,
+        size=out.stat().st_size,
+        figures=page.figures,
+        notes=page.notes,
+        seconds=time.perf_counter() - t0,
+    )

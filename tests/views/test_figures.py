@@ -1,0 +1,186 @@
+"""The numbers behind each figure: class counts, decimation, limit lines, histogram totals,
+section values, and the identification views on synthetic arrays."""
+
+import numpy as np
+import pytest
+
+pytest.importorskip("plotly", reason="figures need the plot extra (plotly)")
+
+from tests.analysis_helpers import make_store
+from vectorid import Study
+from vectorid.analysis.correlation import correlation, parameter_spread
+from vectorid.analysis.histograms import histograms
+from vectorid.analysis.refine import propose_refine
+from vectorid.analysis.robustness import run_robustness
+from vectorid.analysis.sections import run_section
+from vectorid.analysis.sensitivity import sensitivity
+from vectorid.errors import StudyDefinitionError
+from vectorid.views import figures as fg
+
+
+@pytest.fixture(scope="module")
+def user(tmp_path_factory, request):
+    """The user-model study of tests/conftest.py (has failed trials)."""
+    from tests.conftest import write_user_study
+    from vectorid.spec import load_study
+
+    folder = tmp_path_factory.mktemp("fig")
+    toml = write_user_study(folder, trials=256)
+    path = folder / "u.db"
+    with Study.create(load_study(toml), path) as st:
+        st.run(executor="serial")
+    with Study.open(path) as st:
+        yield st.analysis({"f1": 0.8}), path
+
+
+def _by_class(fig):
+    return {tr.meta["class"]: tr for tr in fig.data if tr.meta and "class" in tr.meta}
+
+
+def test_scatter_counts_per_colour_class(user):
+    a, _ = user
+    assert a.n_failed > 0 and 0 < a.n_pareto < a.n_feasible < a.n
+    fig = fg.scatter_figure(a, "f1", "f2")
+    tr = _by_class(fig)
+    assert tr["infeasible"].meta["count"] + a.n_failed == a.n - a.n_feasible
+    assert len(tr["infeasible"].x) == a.n - a.n_feasible - a.n_failed
+    assert len(tr["feasible"].x) == a.n_feasible - a.n_pareto
+    assert len(tr["pareto"].x) == a.n_pareto
+    assert tr["pareto"].marker.color == "#2ca02c" and tr["infeasible"].marker.color == "#d62728"
+    assert tr["feasible"].marker.color == "#1f77b4" and tr["pareto"].type == "scattergl"
+    # the Pareto trace holds exactly the Pareto trials' criteria and ids
+    ids = set(np.asarray(tr["pareto"].customdata).tolist())
+    assert ids == set(a.trials.id[a.pareto].tolist())
+    # criteria constraints drawn as lines: f1 <= 0.8 (vertical), f2 <= 1.0 (horizontal)
+    lines = [s for s in fig.layout.shapes if s.type == "line"]
+    assert any(s.x0 == 0.8 == s.x1 for s in lines) and any(s.y0 == 1.0 == s.y1 for s in lines)
+    assert not fig.layout.annotations or not any(
+        (x.text or "").startswith("decimated") for x in fig.layout.annotations
+    )
+
+
+def test_decimation_is_labelled_and_keeps_pareto(user):
+    a, _ = user
+    fig = fg.scatter_figure(a, "f1", "f2", max_points=60)
+    tr = _by_class(fig)
+    shown = sum(t.meta["shown"] for t in tr.values())
+    assert shown == 60 and sum(len(t.x) for t in tr.values()) == 60
+    assert tr["pareto"].meta["shown"] == min(a.n_pareto, 20)
+    notes = [x.text for x in fig.layout.annotations if (x.text or "").startswith("decimated")]
+    assert len(notes) == 1 and "random subset" in notes[0]
+    assert fg.allocate({"a": 5, "b": 100, "c": 100}, 65) == {"a": 5, "b": 30, "c": 30}
+
+
+def test_matrix_and_vs_params(user):
+    a, _ = user
+    m = fg.scatter_matrix_figure(a)
+    tr = _by_class(m)
+    assert [t.type for t in tr.values()] == ["splom"] * 3
+    assert len(tr["pareto"].dimensions) == 2
+    assert len(tr["pareto"].dimensions[0].values) == a.n_pareto
+    assert any(s.x0 == 0.8 for s in m.layout.shapes)
+    v = fg.criterion_vs_parameter_figure(a, "f1", max_points=30)
+    assert len(v.data) == 3 * 3  # three classes in each of three panels
+    assert sum(t.meta["shown"] for t in v.data[:3]) == 30
+    with pytest.raises(StudyDefinitionError, match="unknown"):
+        fg.scatter_figure(a, "f1", "nope")
+
+
+def test_matrix_for_eight_criteria(tmp_path):
+    path = make_store(tmp_path, problem="dtlz2-5", trials=256)
+    with Study.open(path) as st:
+        a = st.analysis()
+    if len(a.crit_names) < 5:
+        pytest.skip("dtlz2-5 has fewer criteria than expected")
+    m = fg.scatter_matrix_figure(a, names=a.crit_names + a.spec.space.names[:3])
+    assert len(m.data[0].dimensions) == len(a.crit_names) + 3 >= 8
+
+
+def test_histogram_figure_totals(user):
+    a, _ = user
+    hs = histograms(a, bins=7)
+    fig = fg.histograms_figure(hs)
+    feas = [t for t in fig.data if t.meta["class"] == "feasible"]
+    par = [t for t in fig.data if t.meta["class"] == "pareto"]
+    assert len(feas) == len(par) == 3
+    assert all(sum(t.y) == a.n_feasible for t in feas)
+    assert all(sum(t.y) == a.n_pareto for t in par)
+    s = fg.stage_histograms_figure(hs[:1])
+    assert sum(s.data[0].y) == a.n
+
+
+def test_section_refine_robustness_figures(user, tmp_path):
+    import shutil
+
+    a, path = user
+    copy = tmp_path / "u.db"
+    shutil.copy(path, copy)
+    with Study.open(copy, write=True) as st:
+        tid = int(a.trials.id[a.pareto][0])
+        sec = run_section(st.store, tid, "x1", points=9, value_range=(0.0, 0.85))
+        chk = run_robustness(st.store, tid, radius=0.01, points=8, analysis=a)
+    fig = fg.section_figure(sec, a.bounds)
+    lines = [t for t in fig.data if t.mode == "lines+markers"]
+    assert len(lines) == 2
+    np.testing.assert_allclose(np.asarray(lines[0].y, float), sec.F[:, 0])
+    np.testing.assert_allclose(np.asarray(lines[0].x, float), sec.values)
+    marker = next(t for t in fig.data if t.mode == "markers")
+    assert marker.y[0] == pytest.approx(sec.f0[0])
+    r = fg.refine_figure(propose_refine(a), a)
+    assert [t.name for t in r.data[:2]] == ["current box", "proposed box"]
+    rb = fg.robustness_figure([chk])
+    assert len(rb.data) == 4 and chk.verdict in rb.layout.title.text
+
+
+def test_correlation_spread_sensitivity_figures(user):
+    a, _ = user
+    rng = np.random.default_rng(0)
+    x = rng.standard_normal(500)
+    corr = correlation(np.column_stack([x, x, rng.standard_normal(500)]), ["a", "b", "c"])
+    fig = fg.correlation_figure(corr)
+    np.testing.assert_allclose(np.asarray(fig.data[0].z, float), corr.matrix)
+    assert fig.data[0].text[0][1] == "1.00" and fig.data[0].text[0][2] == ""
+    sp = parameter_spread(
+        np.array([[1.0, 2.0]]), ["p", "q"], np.array([2.0, np.nan]), np.zeros(2), np.full(2, 4.0)
+    )
+    s = fg.spread_figure(sp)
+    np.testing.assert_allclose(np.asarray(s.data[0].y, float), [0.5, 0.5])
+    assert list(s.data[0].x) == ["p", "q [box]"]
+    sens = sensitivity(a)
+    f = fg.sensitivity_figure(sens)
+    np.testing.assert_allclose(np.asarray(f.data[1].x, float), sens.ks)
+
+
+def _synthetic_flight(seed=0, n=600):
+    t = np.linspace(0, 120, n)
+    rng = np.random.default_rng(seed)
+    pos = np.column_stack([20 * np.sin(t / 15), 3 * t, 1500 - 5 * t])
+    euler = {
+        "roll": 0.1 * np.sin(2 * np.pi * 0.4 * t),
+        "pitch": 0.05 * np.sin(2 * np.pi * 0.7 * t),
+        "yaw": 0.01 * t + 0.02 * rng.standard_normal(n),
+    }
+    return t, pos, euler
+
+
+def test_identification_views_on_synthetic_data():
+    t, pos, euler = _synthetic_flight()
+    runs = {"best f1": pos + 10.0, "nominal": pos * 1.05}
+    tr = fg.trajectory_figure(pos, runs)
+    assert len(tr.data) == 6
+    np.testing.assert_allclose(np.asarray(tr.data[0].x, float), pos[:, 1])
+    t3 = fg.trajectory3d_figure(pos, runs)
+    assert [d.type for d in t3.data] == ["scatter3d"] * 3
+    np.testing.assert_allclose(np.asarray(t3.data[1].z, float), pos[:, 2] + 10)
+    sims = [(t, {k: v * s for k, v in euler.items()}) for s in (0.8, 1.0, 1.3)]
+    ch = fg.channels_figure(t, euler, sims, labels=["a", "b", "c"], units={"roll": "rad"})
+    band_lo = next(d for d in ch.data if d.name == "model envelope (min–max)")
+    np.testing.assert_allclose(
+        np.asarray(band_lo.y, float), euler["roll"] * np.where(euler["roll"] >= 0, 0.8, 1.3)
+    )
+    sp = fg.spectra_figure(t, euler, {"model": sims[0]}, nperseg=256)
+    roll = sp.data[0]
+    f = np.asarray(roll.x, float)
+    assert abs(f[np.argmax(np.asarray(roll.y, float))] - 0.4) < 0.05
+    with pytest.raises(ValueError, match="north, east, up"):
+        fg.trajectory_figure(pos[:, :2])

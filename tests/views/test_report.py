@@ -1,0 +1,159 @@
+"""The HTML report: self-contained, every applicable figure, and it renders in headless
+Chromium with no console error (screenshot kept under test-artifacts/, not in git)."""
+
+import json
+import re
+import shutil
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("plotly", reason="the report needs the plot extra (plotly)")
+
+from tests.analysis_helpers import make_store
+from vectorid import Study
+from vectorid.analysis import parse_limits
+from vectorid.analysis.refine import apply_refine, propose_refine
+from vectorid.analysis.robustness import run_robustness
+from vectorid.analysis.sections import run_section
+from vectorid.views.report import write_report
+
+ARTIFACTS = Path(__file__).resolve().parents[2] / "test-artifacts"
+CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+CHROMEDRIVER = shutil.which("chromedriver")
+
+
+@pytest.fixture(scope="module")
+def report(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("rep")
+    path = make_store(folder, problem="binh-korn", trials=1024)
+    with Study.open(path, write=True) as st:
+        a = st.analysis({"f1": 60.0})
+        apply_refine(st.store, propose_refine(a, st.store.stages()))
+        st.run(trials=1536, executor="serial")
+        a = st.analysis({"f1": 60.0})
+        tid = int(a.trials.id[a.pareto][0])
+        run_section(st.store, tid, "x1", points=15)
+        run_robustness(st.store, tid, radius=0.01, points=16, analysis=a)
+        res = write_report(
+            st.store, folder / "report.html", limits=parse_limits(["f1<=60"]), max_points=500
+        )
+    return res, a, tid
+
+
+def test_report_contents(report):
+    res, a, tid = report
+    text = res.path.read_text(encoding="utf-8")
+    assert res.size == len(text.encode())
+    # plotly.js embedded exactly once, nothing fetched from the network
+    assert text.count("Plotly.newPlot") == 1 and text.count('<script src="http') == 0
+    import plotly.offline
+
+    assert text.count(plotly.offline.get_plotlyjs()[:2000]) == 1
+    assert not re.search(r"<script[^>]+src=", text)
+    assert f"N = <b>{a.n}</b>" in text and f"ND = <b>{a.n_feasible}</b>" in text
+    assert f"NP = <b>{a.n_pareto}</b>" in text and "f1 &lt;= 60" in text
+    for heading in (
+        "Study definition",
+        "Test tables",
+        "Chosen vector",
+        "Criterion vs criterion",
+        "Criterion vs parameter",
+        "Histograms",
+        "Double tuning proposal",
+        "Correlation among near-optimal vectors",
+        "Sensitivity",
+        "Sections (type II)",
+        "Robustness of chosen vectors",
+        "Stages and refine history",
+    ):
+        assert f">{heading}" in text, heading
+    payloads = re.findall(r'<script type="application/json" id="fig\d+-json">(.*?)</script>', text)
+    assert len(payloads) == len(res.figures) >= 10
+    figs = [json.loads(p) for p in payloads]
+    titles = [f["layout"]["title"]["text"] for f in figs]
+    assert any(t.startswith("Double tuning: x") for t in titles)  # stage comparison
+    assert any(t.startswith("Section through trial") for t in titles)
+    # decimated point clouds say so, in the figure and in the report's notes
+    assert res.notes and all("decimated for display" in n for n in res.notes)
+    assert "Decimation</h2>" in text
+
+
+def _driver(tmpdir):
+    from selenium import webdriver
+    from selenium.webdriver.chrome.service import Service
+
+    opts = webdriver.ChromeOptions()
+    opts.binary_location = CHROMIUM
+    for arg in (
+        "--headless=new",
+        "--no-sandbox",
+        "--disable-gpu",
+        "--disable-background-networking",
+        "--disable-component-update",
+        "--disable-sync",
+        "--no-first-run",
+        "--enable-unsafe-swiftshader",
+        f"--user-data-dir={tmpdir}",
+        "--window-size=1300,1000",
+    ):
+        opts.add_argument(arg)
+    opts.set_capability("goog:loggingPrefs", {"browser": "ALL"})
+    return webdriver.Chrome(service=Service(CHROMEDRIVER), options=opts)
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(
+    CHROMIUM is None or CHROMEDRIVER is None,
+    reason="headless Chromium not installed (apt-get install chromium chromium-driver)",
+)
+def test_report_renders_in_headless_chromium(report):
+    pytest.importorskip("selenium", reason="pip install selenium to drive Chromium")
+    res, _, _ = report
+    ARTIFACTS.mkdir(exist_ok=True)
+    with tempfile.TemporaryDirectory() as tmp:
+        d = _driver(tmp)
+        try:
+            d.get(res.path.resolve().as_uri())
+            d.execute_script("window.vectoridPlotAll()")
+            deadline = time.time() + 60
+            n = len(res.figures)
+            while time.time() < deadline:
+                done = d.execute_script(
+                    "return document.querySelectorAll('div.fig[data-state=plotted]').length"
+                )
+                if done == n:
+                    break
+                time.sleep(0.2)
+            assert done == n
+            # every figure drew something: an SVG with plot content, and WebGL canvases
+            # with non-zero size for the point clouds
+            drawn = d.execute_script(
+                """return Array.from(document.querySelectorAll('div.fig')).map(function(div){
+                  var svg = div.querySelectorAll('.main-svg').length;
+                  var gl = Array.from(div.querySelectorAll('canvas')).filter(
+                      function(c){return c.width > 0 && c.height > 0;}).length;
+                  var marks = div.querySelectorAll('.point, .bars path, .heatmaplayer image,'
+                      + ' .scatterlayer path, .boxlayer path').length;
+                  return [svg, gl, marks, !!div._fullData && div._fullData.length];
+                });"""
+            )
+            for i, (svg, gl, marks, traces) in enumerate(drawn):
+                assert svg > 0 and traces, f"figure {i} ({res.figures[i]}) not drawn"
+                assert gl > 0 or marks > 0, f"figure {i} ({res.figures[i]}) has no marks"
+            errors = [e for e in d.get_log("browser") if e["level"] == "SEVERE"]
+            assert errors == []
+            height = d.execute_script("return document.body.scrollHeight")
+            d.set_window_size(1300, min(int(height), 16000))
+            time.sleep(1.0)
+            shot = ARTIFACTS / "report.png"
+            d.save_screenshot(str(shot))
+        finally:
+            d.quit()
+    png = shot.read_bytes()
+    assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 50_000
+    w, h = np.frombuffer(png[16:24], dtype=">u4")
+    assert w >= 1200 and h > 2000
