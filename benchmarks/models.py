@@ -103,22 +103,28 @@ def bench_model(name: str, args: argparse.Namespace, gflops_peak: float) -> dict
     t0 = time.perf_counter()
     res = model.simulate(X, t_final=args.t_final, dt=args.dt, output_dt=1.0)
     wall = time.perf_counter() - t0
-    per_trial = wall / args.n
+    # Trials that diverge stop early: count the batch in full-flight equivalents, and time the
+    # baseline on full-length (status 0) trials only, so early stops flatter neither side.
+    flown = np.where(np.isnan(res.t_fail), args.t_final, np.minimum(res.t_fail, args.t_final))
+    equivalent = float(flown.sum() / args.t_final)
+    per_trial = wall / equivalent
     row = {
         "model": name,
         "n": args.n,
         "wall_s": wall,
         "trials_per_s": args.n / wall,
         "ok": int(res.ok.sum()),
+        "full_flight_equivalents": equivalent,
     }
     n_steps = round(args.t_final / args.dt)
     flops = getattr(model, "flops_per_step", None)
     if flops:
-        row["gflops"] = args.n * n_steps * flops / wall / 1e9
+        row["gflops"] = equivalent * n_steps * flops / wall / 1e9
         row["gflops_frac"] = row["gflops"] / gflops_peak
     base = []
     nfev = []
-    for i in range(args.baseline_trials):
+    full = np.flatnonzero(res.status == 0)
+    for i in full[: args.baseline_trials]:
         try:
             f, x0 = model.reference_rhs(X[i], t_final=args.t_final)
         except NotImplementedError as exc:
@@ -128,7 +134,7 @@ def bench_model(name: str, args: argparse.Namespace, gflops_peak: float) -> dict
         sol = solve_ivp(f, (0.0, args.t_final), x0)
         base.append(time.perf_counter() - t0)
         nfev.append(sol.nfev)
-        if i == 0:  # the baseline solves the same problem: compare the end states
+        if i == full[0]:  # the baseline solves the same problem: compare the end states
             x_end = res.outputs[i, -1, 2]
             print(
                 f"  {name}: trial 0 final down position compiled {x_end:.2f} m; "
@@ -184,7 +190,8 @@ def main(argv: list[str] | None = None) -> None:
             else "skipped"
         )
         print(
-            f"| {r['model']} | {r['n']} ({r['ok']} ok) | {r['wall_s']:.2f} | "
+            f"| {r['model']} | {r['n']} ({r['ok']} ok, {r['full_flight_equivalents']:.0f} full) | "
+            f"{r['wall_s']:.2f} | "
             f"{r['trials_per_s']:.0f} | {base} | {sp} | {gf} | {r['first_trial_s']:.2f} | "
             f"{mem} |"
         )
