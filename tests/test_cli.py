@@ -161,7 +161,9 @@ def test_init_writes_runnable_study(tmp_path, capsys, monkeypatch):
 
 
 def test_demo_end_to_end_reduced(tmp_path, capsys):
-    code, out, _ = run_cli(capsys, "demo", "--out", tmp_path / "d", "--trials", 512, "--quiet")
+    code, out, _ = run_cli(
+        capsys, "demo", "--analytic", "--out", tmp_path / "d", "--trials", 512, "--quiet"
+    )
     assert code == 0
     assert "N = 512" in out and "Edgeworth–Pareto set" in out and "Known answer check" in out
     assert (tmp_path / "d" / "binh-korn.db").exists()

@@ -50,6 +50,7 @@ _REGISTRY: dict[str, str] = {
     "parachute6dof": "vectorid.models.parachute6dof:Parachute6DoF",
     "parafoil8dof": "vectorid.models.parafoil8dof:Parafoil8DoF",
     "parafoil6dof": "vectorid.models.parafoil6dof:Parafoil6DoF",
+    "rocket-descent": "vectorid.identify.descent:RocketDescent",
 }
 
 

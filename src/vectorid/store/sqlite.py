@@ -312,8 +312,14 @@ class Store:
             lock = _WriterLock(path)
             lock.acquire()
         try:
+            # Check what the file is through a read-only connection first, so a foreign or
+            # damaged file is refused without a single byte of it changed.
+            probe = cls._connect(path, readonly=True)
+            try:
+                cls._check_file(probe, path)
+            finally:
+                probe.close()
             con = cls._connect(path, readonly=not write)
-            cls._check_file(con, path)
         except BaseException:
             if lock:
                 lock.release()
@@ -325,6 +331,14 @@ class Store:
         try:
             if readonly:
                 con = sqlite3.connect(f"file:{path}?mode=ro", uri=True, timeout=30)
+                try:
+                    con.execute("PRAGMA schema_version").fetchone()
+                except sqlite3.OperationalError:
+                    # A WAL store on a read-only filesystem: SQLite cannot create the -shm
+                    # file, but the file cannot change under us either, so read it as
+                    # immutable.
+                    con.close()
+                    con = sqlite3.connect(f"file:{path}?immutable=1", uri=True, timeout=30)
             else:
                 con = sqlite3.connect(path, timeout=30)
                 con.execute("PRAGMA journal_mode=WAL")

@@ -1,0 +1,1002 @@
+"""Identification → Problem: a model, one or several drops and adequacy criteria become a PSI
+:class:`~vectorid.problem.Problem`, so run, store, tables and Pareto work unchanged.
+
+For each trial α of a batch and each drop, the model is simulated from the drop's measured
+state at the window start, with the drop's wind profile and control history, on the output
+grid ``t0, t0 + output_dt, ...`` of the window; every adequacy criterion Φ_l(α) of the
+library (:data:`vectorid.identify.criteria.CRITERIA`) compares the simulated channel with the
+measurement interpolated onto that grid. A criterion over several drops is the weighted mean
+of its per-drop values. With ``wind_realisations = M > 1`` every drop is simulated under M
+seeded realisations of its wind profile (:class:`vectorid.identify.WindUncertainty`) and the
+criteria are the expectation (mean) over them (seed 000 §V). "Drop-out" constraints (seed 001
+Fig. 2) are functionals: the mean over realisations and the worst drop.
+
+The ``[identification]`` table of a study file
+----------------------------------------------
+::
+
+    [study]
+    name = "g12-uncontrolled"
+    model = "parachute6dof"          # the model (registry name); identification.model overrides
+    trials = 2048
+
+    [[variables]]                    # design variables: model parameters by name
+    name = "x6"
+    low = 0.0
+    high = 0.6
+
+    [[criteria]]                     # study columns: a library name, or a name defined below
+    name = "pos_h_abs"
+    [[criteria]]
+    name = "yaw_sq"
+    role = "pseudo"
+
+    [[constraints]]                  # drop-out constraint: 0 when the channel stays in its band
+    name = "out_vz"
+    high = 0.0
+
+    [identification]
+    dt = 0.05                        # integration step, s
+    output_dt = 0.5                  # output (comparison) grid, s
+    wind_realisations = 4            # M >= 1: expectation over M seeded wind realisations
+    seed = 7                         # seed of the wind realisations
+    init_span = 1.0                  # s of data fitted (linear) for the initial state
+    parameters = { x13 = 0.6 }       # fixed values of model parameters (others stay nominal)
+    model_options = { payload_mass = 700.0 }
+    atmosphere = { temperature_offset = 0.0 }        # ISA + ΔT (K)
+    wind_uncertainty = { sigma_speed = 1.0, sigma_direction_deg = 10.0,
+                         correlation_length_m = 300.0 }   # (one line in TOML)
+
+    [[identification.drops]]
+    name = "drop1"
+    file = "drop1.csv"               # relative to the study file's folder
+    format = "csv"                   # optional: csv | parquet | telemega | ulog (by extension)
+    mapping = { ... }                # column/unit mapping for csv/parquet (see the loaders)
+    wind = "wind1.csv"               # optional wind profile (sounding .txt or dropsonde .csv)
+    window = ["canopy", "landing-5"] # times in s or event names, with optional +/- offset in s
+    weight = 1.0
+    inputs = { main = 1.0 }          # optional: constant inputs, or {event="main", before=0,
+                                     #   after=1, ramp=1.0}; a "controls" channel whose
+                                     #   components are model inputs is used as the schedule
+    origin_altitude = 1394.0         # optional: altitude of the NED origin, m (default: data)
+
+    [identification.criteria.alt_drogue]   # optional: a study criterion defined from the library
+    use = "alt_abs"
+    drops = ["drogue"]               # only these drops (default: all, weighted mean)
+
+    [identification.dropout.out_vz]  # a drop-out functional for [[constraints]] out_vz
+    channel = "velocity"
+    components = ["down"]            # optional subset of the channel's components
+    band = 3.0                       # half-width of the envelope around the measurement
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from vectorid import models
+from vectorid.errors import StudyDefinitionError, suggest
+from vectorid.models.atmosphere import ISA
+from vectorid.models.base import InitialState, Model, SimulationResult
+from vectorid.models.controls import ControlSchedule
+from vectorid.models.wind import WindProfile
+from vectorid.problem import Criterion, FunctionalConstraint, Problem
+
+__all__ = [
+    "Drop",
+    "DropoutDef",
+    "IdentCriterion",
+    "Identification",
+    "problem_from_spec",
+]
+
+if "rocket-descent" not in models.available():
+    models.register("rocket-descent", "vectorid.identify.descent:RocketDescent")
+
+_TABLE_KEYS = {
+    "model": "model registry name (default: study.model)",
+    "drops": "array of tables [[identification.drops]]",
+    "criteria": "table of criterion definitions by study criterion name",
+    "dropout": "table of drop-out functionals by constraint name",
+    "parameters": "fixed values of model parameters",
+    "model_options": "options passed to the model constructor",
+    "atmosphere": "{ temperature_offset = K } (ISA + ΔT)",
+    "dt": "integration step, s",
+    "output_dt": "comparison grid step, s",
+    "wind_realisations": "number M of wind realisations (>= 1)",
+    "wind_uncertainty": "{ sigma_speed, sigma_direction_deg, correlation_length_m }",
+    "seed": "seed of the wind realisations",
+    "init_span": "seconds of data fitted for the initial state",
+}
+_DROP_KEYS = {
+    "name": "drop name",
+    "file": "flight data file, relative to the study file",
+    "files": "several files of one drop (one per sensor): [{file, format, mapping}, ...]",
+    "events": "extra events, name -> time in s (merged with the loader's)",
+    "format": "csv | parquet | telemega | ulog",
+    "mapping": "column/unit mapping (csv, parquet)",
+    "wind": "wind profile file (Wyoming sounding .txt or dropsonde .csv)",
+    "wind_format": "wyoming | dropsonde",
+    "wind_options": "options of the dropsonde reader",
+    "window": "[start, end]: times in s or event names (optional +/- offset)",
+    "weight": "weight in the mean over drops",
+    "inputs": "constant or event-step model inputs",
+    "origin_altitude": "altitude of the NED origin, m",
+    "interpolation": "control interpolation: previous | linear",
+}
+_CRIT_KEYS = {"use", "drops", "operator"}
+_DROPOUT_KEYS = {"channel", "components", "band", "drops"}
+_OFFSET = re.compile(r"^\s*(.+?)\s*([+-])\s*(\d+(?:\.\d*)?|\.\d+)\s*$")
+
+
+def _err(field_: str, problem: str, fix: str = "") -> StudyDefinitionError:
+    return StudyDefinitionError(f"identification.{field_}", problem, fix)
+
+
+def _check_keys(where: str, got: Mapping[str, Any], valid) -> None:
+    if not isinstance(got, Mapping):
+        raise _err(where, f"expected a table, got {got!r}", "write it as a TOML table")
+    for key in got:
+        if key not in valid:
+            raise _err(f"{where}.{key}", f"unknown key {key!r}", suggest(key, list(valid)))
+
+
+def _positive(where: str, value: Any) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        v = math.nan
+    if isinstance(value, bool) or not (v > 0 and math.isfinite(v)):
+        raise _err(where, f"expected a number > 0, got {value!r}", "e.g. 0.05")
+    return v
+
+
+# -- drops --------------------------------------------------------------------------------------
+
+
+def resolve_time(flight, key: float | str) -> float:
+    """A window bound: a time in s, an event name, or ``"event+offset"`` / ``"event-offset"``.
+
+    Raises
+    ------
+    FlightDataError
+        Unknown event (the message lists the known ones).
+    """
+    if isinstance(key, str) and key not in flight.events:
+        m = _OFFSET.match(key)
+        if m and m.group(1) in flight.events:
+            sign = 1.0 if m.group(2) == "+" else -1.0
+            return flight.events[m.group(1)] + sign * float(m.group(3))
+    return flight.event_time(key)
+
+
+def _linear_at_start(t: NDArray, v: NDArray, t0: float, span: float) -> NDArray:
+    """Value at ``t0`` of a least-squares line through the samples in ``[t0, t0 + span]``."""
+    sel = (t >= t0) & (t <= t0 + span)
+    if sel.sum() < 3:
+        return v[int(np.argmin(np.abs(t - t0)))]
+    tt = t[sel] - t0
+    A = np.stack([np.ones_like(tt), tt], axis=1)
+    coef, *_ = np.linalg.lstsq(A, v[sel], rcond=None)
+    return coef[0]
+
+
+def _slope_at_start(t: NDArray, v: NDArray, t0: float, span: float) -> NDArray:
+    sel = (t >= t0) & (t <= t0 + max(span, 1.0))
+    if sel.sum() < 2:
+        raise ValueError("not enough samples to estimate a rate")
+    tt = t[sel] - t0
+    A = np.stack([np.ones_like(tt), tt], axis=1)
+    coef, *_ = np.linalg.lstsq(A, v[sel], rcond=None)
+    return coef[1]
+
+
+@dataclass
+class Drop:
+    """One drop prepared for simulation.
+
+    Attributes
+    ----------
+    name : str
+    flight : FlightData
+        The windowed flight data (absolute times).
+    t0, t1 : float
+        Window start and end, s; the simulated span is ``duration`` from ``t0``.
+    duration : float
+        Simulated time, s: the window length floored to a multiple of ``output_dt``.
+    wind : WindProfile or None
+    weight : float
+    inputs : ControlSchedule or None
+        Control schedule in simulation time (0 at ``t0``).
+    initial : InitialState
+        State at ``t0`` from the data (altitude above mean sea level).
+    origin_altitude : float
+        Altitude of the NED origin of the data, m.
+    """
+
+    name: str
+    flight: Any
+    t0: float
+    t1: float
+    duration: float
+    wind: WindProfile | None
+    weight: float
+    inputs: ControlSchedule | None
+    initial: InitialState
+    origin_altitude: float
+    grid: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
+
+    def measured(self, channel: str, t: NDArray | None = None) -> NDArray[np.float64]:
+        """The measured channel on the absolute times ``t`` (default: the output grid), (T, m)."""
+        return self.flight[channel].at(self.grid if t is None else t)
+
+
+def _load_wind(path: Path, fmt: str | None, options: Mapping[str, Any]) -> WindProfile:
+    from vectorid.identify import load_dropsonde_csv, load_wyoming
+
+    fmt = fmt or ("wyoming" if path.suffix.lower() == ".txt" else "dropsonde")
+    if fmt == "wyoming":
+        return load_wyoming(path)
+    if fmt == "dropsonde":
+        return load_dropsonde_csv(path, **dict(options))
+    raise _err(
+        "drops.wind_format", f"unknown wind format {fmt!r}", suggest(fmt, ["wyoming", "dropsonde"])
+    )
+
+
+def _event_input(
+    name: str, spec: Mapping[str, Any], flight, t0: float, duration: float
+) -> tuple[NDArray, NDArray]:
+    if "event" not in spec:
+        raise _err(
+            f"drops.inputs.{name}",
+            f"expected a number or a table with event, got {dict(spec)!r}",
+            f'write {name} = 1.0 or {name} = {{ event = "main", before = 0, after = 1 }}',
+        )
+    te = resolve_time(flight, spec["event"]) - t0
+    before, after = float(spec.get("before", 0.0)), float(spec.get("after", 1.0))
+    ramp = float(spec.get("ramp", 0.0))
+    if te + ramp <= 0:
+        return np.array([0.0]), np.array([after])
+    if te >= duration:
+        return np.array([0.0]), np.array([before])
+    if ramp > 0:
+        ts = np.array([min(0.0, te - 1.0), te, te + ramp])
+        return ts, np.array([before, before, after])
+    ts = np.array([min(0.0, te - 1.0), te - 1e-9, te])
+    return ts, np.array([before, before, after])
+
+
+def build_drop(
+    table: Mapping[str, Any],
+    index: int,
+    base_dir: Path,
+    model: Model,
+    *,
+    output_dt: float,
+    init_span: float,
+    flight=None,
+) -> Drop:
+    """Load and window one drop of the ``[[identification.drops]]`` array.
+
+    ``flight`` (a :class:`FlightData`) replaces ``file`` for the Python API.
+    """
+    from vectorid.identify import load_flight
+
+    where = f"drops[{index}]"
+    _check_keys(where, table, _DROP_KEYS)
+    name = str(table.get("name", f"drop{index + 1}"))
+    if flight is None:
+        sources = table.get("files")
+        if sources is None:
+            if "file" not in table:
+                raise _err(f"{where}.file", "missing flight data file", 'add file = "drop1.csv"')
+            sources = [{k: table[k] for k in ("file", "format", "mapping") if k in table}]
+        elif "file" in table or not isinstance(sources, Sequence) or not sources:
+            raise _err(
+                f"{where}.files",
+                "expected either file = ... or a non-empty files = [{file = ...}, ...]",
+                "keep one of the two",
+            )
+        parts = []
+        for j, src in enumerate(sources):
+            _check_keys(f"{where}.files[{j}]", src, {"file", "format", "mapping"})
+            if "file" not in src:
+                raise _err(f"{where}.files[{j}]", "missing file", 'add file = "gps.csv"')
+            path = Path(src["file"])
+            path = path if path.is_absolute() else base_dir / path
+            if not path.exists():
+                raise _err(
+                    f"{where}.file",
+                    f"file {str(path)!r} not found",
+                    "paths are relative to the study file's folder",
+                )
+            parts.append(load_flight(path, mapping=src.get("mapping"), format=src.get("format")))
+        flight = merge_flights(name, parts)
+    extra_events = table.get("events")
+    if extra_events:
+        _check_keys(f"{where}.events", extra_events, set(extra_events))
+        events = dict(flight.events)
+        events.update({str(k): float(v) for k, v in extra_events.items()})
+        flight = type(flight)(flight.name, dict(flight.channels), events, flight.origin)
+    window = table.get("window")
+    if window is None:
+        t_lo, t_hi = flight.time_range()
+        window = [t_lo, t_hi]
+    if not isinstance(window, Sequence) or isinstance(window, str) or len(window) != 2:
+        raise _err(
+            f"{where}.window",
+            f"expected [start, end] (times in s or event names), got {window!r}",
+            'e.g. window = ["canopy", 90.0]',
+        )
+    t0, t1 = resolve_time(flight, window[0]), resolve_time(flight, window[1])
+    std = [c for c in ("position", "velocity", "euler", "rates", "altitude", "controls")]
+    chans = [c for c in flight.channels if c in std or c in model.output_names]
+    if not chans:
+        raise _err(
+            f"{where}",
+            f"flight {flight.name!r} has none of the channels a model can be compared with "
+            f"(has {sorted(flight.channels)})",
+            f"map at least one of {std} in the loader mapping",
+        )
+    chans = _unwrap_yaw(flight.select(chans))
+    windowed = chans.window(t0, t1)
+    n_out = math.floor((t1 - t0) / output_dt + 1e-9)
+    if n_out < 2:
+        raise _err(
+            f"{where}.window",
+            f"window [{t0:g}, {t1:g}] s is shorter than two output steps of {output_dt:g} s",
+            "widen the window or reduce output_dt",
+        )
+    duration = n_out * output_dt
+    grid = t0 + output_dt * np.arange(n_out + 1)
+    origin_alt = table.get("origin_altitude")
+    if origin_alt is None:
+        origin_alt = flight.origin[2] if flight.origin is not None else 0.0
+    origin_alt = float(origin_alt)
+    wind = None
+    if table.get("wind") is not None:
+        wpath = Path(table["wind"])
+        wpath = wpath if wpath.is_absolute() else base_dir / wpath
+        if not wpath.exists():
+            raise _err(f"{where}.wind", f"wind file {str(wpath)!r} not found", "check the path")
+        wind = _load_wind(wpath, table.get("wind_format"), table.get("wind_options", {}))
+    initial = _initial_state(windowed, t0, init_span, origin_alt, wind, where)
+    inputs = _inputs(table, windowed, flight, model, t0, duration, where)
+    weight = _positive(f"{where}.weight", table.get("weight", 1.0))
+    return Drop(name, windowed, t0, t1, duration, wind, weight, inputs, initial, origin_alt, grid)
+
+
+def merge_flights(name: str, parts: Sequence[Any]):
+    """One flight from several (one file per sensor): the union of channels and events.
+
+    Raises
+    ------
+    StudyDefinitionError
+        When two parts hold the same channel, or their NED origins differ.
+    """
+    if len(parts) == 1:
+        return parts[0]
+    from vectorid.identify.flight import FlightData
+
+    chans: dict[str, Any] = {}
+    events: dict[str, float] = {}
+    origin = None
+    for p in parts:
+        for k, c in p.channels.items():
+            if k in chans:
+                raise _err(
+                    "drops.files",
+                    f"channel {k!r} comes from two files of drop {name!r}",
+                    "map each channel in one file only",
+                )
+            chans[k] = c
+        events.update(p.events)
+        if p.origin is not None:
+            if origin is not None and not np.allclose(origin, p.origin):
+                raise _err(
+                    "drops.files",
+                    f"files of drop {name!r} have different origins {origin} and {p.origin}",
+                    "give them one origin in their mappings",
+                )
+            origin = p.origin
+    return FlightData(name, chans, events, origin)
+
+
+def _unwrap_yaw(flight):
+    if "euler" not in flight.channels:
+        return flight
+    from vectorid.identify.flight import Channel
+
+    ch = flight.channels["euler"]
+    v = np.array(ch.values)
+    v[:, -1] = np.unwrap(v[:, -1])
+    chans = dict(flight.channels)
+    chans["euler"] = Channel(ch.name, ch.t, v, ch.components, ch.unit)
+    return type(flight)(flight.name, chans, dict(flight.events), flight.origin)
+
+
+def _initial_state(flight, t0, span, origin_alt, wind, where) -> InitialState:
+    chans = flight.channels
+    north = east = 0.0
+    altitude = None
+    if "position" in chans:
+        c = chans["position"]
+        p = _linear_at_start(c.t, c.values, t0, span)
+        north, east = float(p[0]), float(p[1])
+        altitude = origin_alt - float(p[2])
+    if "altitude" in chans:
+        c = chans["altitude"]
+        altitude = origin_alt + float(_linear_at_start(c.t, c.values, t0, span)[0])
+    if altitude is None:
+        raise _err(
+            where,
+            "the drop has neither a position nor an altitude channel, so the initial state is "
+            "unknown",
+            "map a position (north, east, down) or an altitude column",
+        )
+    velocity = None
+    if "velocity" in chans:
+        c = chans["velocity"]
+        velocity = tuple(float(v) for v in _linear_at_start(c.t, c.values, t0, span))
+    else:
+        if "altitude" in chans:
+            c = chans["altitude"]
+            vd = -float(_slope_at_start(c.t, c.values, t0, span)[0])
+        else:
+            c = chans["position"]
+            vd = float(_slope_at_start(c.t, c.values, t0, span)[2])
+        vn, ve = (0.0, 0.0) if wind is None else tuple(float(w) for w in wind(altitude))
+        if "position" in chans:
+            c = chans["position"]
+            n_fit = int(((c.t >= t0) & (c.t <= t0 + max(span, 3.0))).sum())
+            if n_fit >= 3:
+                rate = _slope_at_start(c.t, c.values, t0, max(span, 3.0))
+                vn, ve = float(rate[0]), float(rate[1])
+        velocity = (vn, ve, vd)
+    euler = (0.0, 0.0, 0.0)
+    if "euler" in chans:
+        c = chans["euler"]
+        euler = tuple(float(v) for v in _linear_at_start(c.t, c.values, t0, span))
+    rates = (0.0, 0.0, 0.0)
+    if "rates" in chans:
+        c = chans["rates"]
+        rates = tuple(float(v) for v in _linear_at_start(c.t, c.values, t0, span))
+    return InitialState(
+        altitude=altitude, north=north, east=east, velocity=velocity, euler=euler, rates=rates
+    )
+
+
+def _inputs(table, windowed, flight, model, t0, duration, where) -> ControlSchedule | None:
+    names = model.input_names
+    if not names:
+        return None
+    cols: dict[str, tuple[NDArray, NDArray]] = {}
+    interp = table.get("interpolation", "previous")
+    if "controls" in windowed.channels:
+        c = windowed.channels["controls"]
+        for j, comp in enumerate(c.components):
+            if comp in names:
+                cols[comp] = (c.t - t0, c.values[:, j])
+    for key, spec in dict(table.get("inputs", {})).items():
+        if key not in names:
+            raise _err(
+                f"{where}.inputs.{key}",
+                f"{key!r} is not an input of model {model.name!r}",
+                suggest(key, names),
+            )
+        if isinstance(spec, int | float) and not isinstance(spec, bool):
+            cols[key] = (np.array([0.0]), np.array([float(spec)]))
+        elif isinstance(spec, Mapping):
+            cols[key] = _event_input(key, spec, flight, t0, duration)
+            interp = "linear"
+        else:
+            raise _err(
+                f"{where}.inputs.{key}",
+                f"expected a number or a table, got {spec!r}",
+                f"write {key} = 1.0",
+            )
+    if not cols:
+        return None
+    times = np.unique(np.concatenate([t for t, _ in cols.values()]))
+    values = np.empty((times.size, len(cols)))
+    for j, (t, v) in enumerate(cols.values()):
+        if t.size == 1:
+            values[:, j] = v[0]
+        elif interp == "previous":
+            idx = np.clip(np.searchsorted(t, times, side="right") - 1, 0, t.size - 1)
+            values[:, j] = v[idx]
+        else:
+            values[:, j] = np.interp(times, t, v)
+    return ControlSchedule(times, values, tuple(cols), interp)
+
+
+# -- criteria -----------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class IdentCriterion:
+    """A study criterion computed from the library.
+
+    Attributes
+    ----------
+    name : str
+        Study column name.
+    use : str
+        Library name (``CRITERIA`` key).
+    drops : tuple of str or None
+        Drops it is computed on (None: all, weighted mean).
+    operator : str or None
+        Comparison operator ℜ passed to the library (None: the criterion's own).
+    """
+
+    name: str
+    use: str
+    drops: tuple[str, ...] | None = None
+    operator: str | None = None
+
+
+@dataclass(frozen=True)
+class DropoutDef:
+    """A drop-out functional: how far outside ``band`` around the measurement ``channel`` goes
+    (0 when it stays inside; see :func:`vectorid.identify.dropout`)."""
+
+    name: str
+    channel: str
+    band: float | tuple[float, ...]
+    components: tuple[str, ...] | None = None
+    drops: tuple[str, ...] | None = None
+
+
+def _library():
+    from vectorid.identify import criteria as lib
+
+    return lib
+
+
+def _sim_channel(res: SimulationResult, channel: str, origin_alt: float) -> NDArray[np.float64]:
+    """Simulated channel (n, T, m) in the data's conventions (NED relative to the origin)."""
+    if channel == "position":
+        pos = np.array(res.position)
+        pos[..., 2] += origin_alt
+        return pos
+    if channel == "velocity":
+        return res.velocity
+    if channel == "euler":
+        return res.euler
+    if channel == "rates":
+        return res.rates
+    if channel == "altitude":
+        return (-res.position[..., 2] - origin_alt)[..., None]
+    if channel in res.channels:
+        return res[channel][..., None]
+    raise KeyError(channel)
+
+
+class Identification:
+    """Model + drops + adequacy criteria, evaluated as a batch model ``X -> (F, G)``.
+
+    Parameters
+    ----------
+    model : str or Model
+        Registry name (``vectorid.models.available()``) or a model instance.
+    drops : sequence of Drop
+    variables : sequence of str
+        Model parameter names, in the column order of ``X``.
+    criteria : sequence of IdentCriterion
+    dropouts : sequence of DropoutDef
+    fixed : mapping, optional
+        Values of model parameters that are not design variables (others stay nominal).
+    dt, output_dt : float
+        Integration step and comparison grid step, s.
+    wind_realisations : int
+        M >= 1; with M > 1 the criteria are the mean over M seeded wind realisations.
+    wind_uncertainty : mapping, optional
+        Arguments of :class:`vectorid.identify.WindUncertainty` (without ``seed``).
+    seed : int
+    atmosphere : ISA or None
+    """
+
+    def __init__(
+        self,
+        model: str | Model,
+        drops: Sequence[Drop],
+        variables: Sequence[str],
+        criteria: Sequence[IdentCriterion],
+        dropouts: Sequence[DropoutDef] = (),
+        *,
+        fixed: Mapping[str, float] | None = None,
+        dt: float = 0.05,
+        output_dt: float = 0.5,
+        wind_realisations: int = 1,
+        wind_uncertainty: Mapping[str, Any] | None = None,
+        seed: int = 0,
+        atmosphere: ISA | None = None,
+    ) -> None:
+        self.model = models.get(model) if isinstance(model, str) else model
+        self.drops = list(drops)
+        if not self.drops:
+            raise _err(
+                "drops",
+                "an identification needs at least one drop, got none",
+                "add a [[identification.drops]] table",
+            )
+        names = [d.name for d in self.drops]
+        for n in names:
+            if names.count(n) > 1:
+                raise _err("drops", f"drop name {n!r} is used twice", "give each drop a name")
+        pnames = list(self.model.parameter_names)
+        for v in variables:
+            if v not in pnames:
+                raise _err(
+                    "variables",
+                    f"variable {v!r} is not a parameter of model {self.model.name!r}",
+                    suggest(v, pnames) + " (design variables map to model parameters by name)",
+                )
+        self.variables = list(variables)
+        self.columns = [pnames.index(v) for v in variables]
+        self.base = self.model.nominal.copy()
+        for k, v in dict(fixed or {}).items():
+            if k not in pnames:
+                raise _err("parameters", f"unknown model parameter {k!r}", suggest(k, pnames))
+            if k in self.variables:
+                raise _err(
+                    f"parameters.{k}",
+                    f"{k!r} is both a design variable and a fixed parameter",
+                    "remove it from one of them",
+                )
+            self.base[pnames.index(k)] = float(v)
+        lib = _library()
+        self.criteria = list(criteria)
+        if not self.criteria:
+            raise _err("criteria", "no criteria", "add [[criteria]] with library names")
+        self.defs = []
+        for c in self.criteria:
+            key = c.use if c.operator is None else f"{c.use}:{c.operator}"
+            try:
+                self.defs.append(lib.get_criterion(key))
+            except lib.CriterionError as exc:
+                raise _err(
+                    f"criteria.{c.name}",
+                    f"{key!r} is not a criterion of the library ({exc})",
+                    "use a name of vectorid.identify.CRITERIA, or define the study criterion "
+                    "under [identification.criteria.NAME] with use = ... (and operator = ... "
+                    "for an index)",
+                ) from None
+            self._check_drops(f"criteria.{c.name}.drops", c.drops)
+        self.dropouts = list(dropouts)
+        for d in self.dropouts:
+            self._check_drops(f"dropout.{d.name}.drops", d.drops)
+        self.dt = _positive("dt", dt)
+        self.output_dt = _positive("output_dt", output_dt)
+        m = int(wind_realisations)
+        if m < 1:
+            raise _err(
+                "wind_realisations",
+                f"expected an integer >= 1, got {wind_realisations!r}",
+                "use 1 for the measured profile only",
+            )
+        self.wind_realisations = m
+        self.seed = int(seed)
+        self.atmosphere = atmosphere
+        self.winds: dict[str, list[WindProfile | None]] = {}
+        for i, d in enumerate(self.drops):
+            if m == 1 or d.wind is None:
+                self.winds[d.name] = [d.wind]
+                continue
+            from vectorid.identify import WindUncertainty
+
+            wu = WindUncertainty(**dict(wind_uncertainty or {}), seed=self.seed + 1009 * i)
+            self.winds[d.name] = list(wu.realisations(d.wind, m))
+        for d in self.drops:
+            for c in self._channels_for(d.name):
+                if c not in d.flight.channels:
+                    raise _err(
+                        "criteria",
+                        f"drop {d.name!r} has no {c!r} channel for the criteria that use it",
+                        f"map a {c!r} column in its loader mapping, or restrict those criteria "
+                        "to other drops with drops = [...]",
+                    )
+
+    def _check_drops(self, where: str, drops: tuple[str, ...] | None) -> None:
+        names = [d.name for d in self.drops]
+        for n in drops or ():
+            if n not in names:
+                raise _err(where, f"unknown drop {n!r}", suggest(n, names))
+
+    def _channels_for(self, drop: str) -> set[str]:
+        out = set()
+        for c, cdef in zip(self.criteria, self.defs):
+            if c.drops is None or drop in c.drops:
+                out.add(cdef.channel)
+        for d in self.dropouts:
+            if d.drops is None or drop in d.drops:
+                out.add(d.channel)
+        return out
+
+    # -- simulation ----------------------------------------------------------------------------
+
+    def parameters(self, X: NDArray) -> NDArray[np.float64]:
+        """Full model parameter vectors (n, p_model) from design vectors X (n, p)."""
+        X = np.atleast_2d(np.asarray(X, dtype=float))
+        P = np.tile(self.base, (X.shape[0], 1))
+        P[:, self.columns] = X
+        return P
+
+    def simulate(
+        self, X: NDArray, drop: str | Drop, wind: WindProfile | str | None = "measured"
+    ) -> SimulationResult:
+        """Simulate design vectors X (n, p) over one drop's window.
+
+        ``wind``: ``"measured"`` (the drop's profile), a profile, or None (calm).
+        """
+        d = self.drop(drop) if isinstance(drop, str) else drop
+        w = d.wind if isinstance(wind, str) and wind == "measured" else wind
+        return self.model.simulate(
+            self.parameters(X),
+            t_final=d.duration,
+            dt=self.dt,
+            inputs=d.inputs,
+            wind=w,
+            output_dt=self.output_dt,
+            initial=d.initial,
+            atmosphere=self.atmosphere,
+        )
+
+    def drop(self, name: str) -> Drop:
+        for d in self.drops:
+            if d.name == name:
+                return d
+        raise _err("drops", f"unknown drop {name!r}", suggest(name, [d.name for d in self.drops]))
+
+    def evaluate(self, X: NDArray) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Criteria (n, k) and drop-out functionals (n, q) of the batch X (n, p).
+
+        A trial whose simulation fails gets NaN (stored as a failed trial)."""
+        lib = _library()
+        X = np.atleast_2d(np.asarray(X, dtype=float))
+        n = X.shape[0]
+        if not n:
+            return np.empty((0, len(self.criteria))), np.empty((0, len(self.dropouts)))
+        k, q = len(self.criteria), len(self.dropouts)
+        F_sum = np.zeros((n, k))
+        F_w = np.zeros(k)
+        G = np.full((n, q), -np.inf)
+        G_seen = np.zeros(q, dtype=bool)
+        for d in self.drops:
+            crit = [j for j, c in enumerate(self.criteria) if c.drops is None or d.name in c.drops]
+            outs = [j for j, o in enumerate(self.dropouts) if o.drops is None or d.name in o.drops]
+            if not crit and not outs:
+                continue
+            t = d.grid
+            meas_cache: dict[str, NDArray] = {}
+            Fd = np.zeros((n, len(crit)))
+            Gd = np.zeros((n, len(outs)))
+            winds = self.winds[d.name]
+            for w in winds:
+                res = self.simulate(X, d, wind=w)
+                bad = res.status != 0
+                sims: dict[str, NDArray] = {}
+                ok = ~bad
+                for jj, j in enumerate(crit):
+                    cdef = self.defs[j]
+                    ch = cdef.channel
+                    if ch not in sims:
+                        sims[ch] = _sim_channel(res, ch, d.origin_altitude)
+                        meas_cache.setdefault(ch, d.measured(ch))
+                    v = np.full(n, np.nan)
+                    if ok.any():
+                        v[ok] = cdef.fn(sims[ch][ok], meas_cache[ch], t)
+                    Fd[:, jj] += v
+                for jj, j in enumerate(outs):
+                    o = self.dropouts[j]
+                    ch = o.channel
+                    if ch not in sims:
+                        sims[ch] = _sim_channel(res, ch, d.origin_altitude)
+                        meas_cache.setdefault(ch, d.measured(ch))
+                    s, m_ = sims[ch], meas_cache[ch]
+                    if o.components:
+                        comps = d.flight[ch].components
+                        idx = [comps.index(c) for c in o.components]
+                        s, m_ = s[..., idx], m_[:, idx]
+                    v = np.full(n, np.nan)
+                    if ok.any():
+                        v[ok] = lib.dropout(s[ok], m_, o.band, angular=ch == "euler")
+                    Gd[:, jj] += v
+            Fd /= len(winds)
+            Gd /= len(winds)
+            F_sum[:, crit] += d.weight * Fd
+            F_w[crit] += d.weight
+            for jj, j in enumerate(outs):
+                G[:, j] = np.fmax(G[:, j], Gd[:, jj]) if G_seen[j] else Gd[:, jj]
+                G_seen[j] = True
+        F = F_sum / np.where(F_w > 0, F_w, 1.0)
+        for j in np.flatnonzero(F_w == 0):
+            F[:, j] = np.nan
+        return F, G
+
+    __call__ = evaluate
+
+    def problem(
+        self,
+        criteria: Sequence[Criterion] | None = None,
+        constraints: Sequence[FunctionalConstraint] | None = None,
+    ) -> Problem:
+        """The PSI Problem: this identification as its batch model.
+
+        ``criteria`` default to pure ``min`` criteria named like the identification's; every
+        drop-out gets the constraint ``<= 0`` unless ``constraints`` says otherwise.
+        """
+        if criteria is None:
+            criteria = [Criterion(c.name) for c in self.criteria]
+        if constraints is None:
+            constraints = [FunctionalConstraint(d.name, high=0.0) for d in self.dropouts]
+        names = [c.name for c in criteria]
+        if names != [c.name for c in self.criteria]:
+            raise _err(
+                "criteria",
+                f"study criteria {names} differ from the identification's",
+                "keep them in the same order",
+            )
+        return Problem(self.evaluate, criteria, constraints)
+
+    # -- construction from a study file --------------------------------------------------------
+
+    @classmethod
+    def from_table(
+        cls,
+        table: Mapping[str, Any],
+        *,
+        variables: Sequence[str],
+        criteria: Sequence[str],
+        constraints: Sequence[str] = (),
+        base_dir: str | Path | None = None,
+        default_model: str | None = None,
+        flights: Mapping[str, Any] | None = None,
+    ) -> Identification:
+        """Build from the ``[identification]`` table (see the module docstring).
+
+        ``criteria`` and ``constraints`` are the study's column names, in order; a criterion
+        not defined under ``[identification.criteria]`` is the library criterion of that name.
+        ``flights`` (drop name -> FlightData) replaces drop files in the Python API.
+        """
+        _check_keys("(table)", table, _TABLE_KEYS)
+        base = Path(base_dir) if base_dir is not None else Path.cwd()
+        model_name = table.get("model", default_model)
+        if not isinstance(model_name, str):
+            raise _err(
+                "model",
+                f"expected a model name, got {model_name!r}",
+                f"write model = one of {', '.join(models.available())}",
+            )
+        try:
+            model = models.get(model_name, **dict(table.get("model_options", {})))
+        except KeyError as exc:
+            raise _err("model", str(exc).strip("'\""), "use a registered model name") from None
+        except TypeError as exc:
+            raise _err("model_options", str(exc), "see the model's constructor options") from None
+        output_dt = _positive("output_dt", table.get("output_dt", 0.5))
+        dt = _positive("dt", table.get("dt", 0.05))
+        init_span = _positive("init_span", table.get("init_span", 1.0))
+        drops_t = table.get("drops")
+        if not isinstance(drops_t, Sequence) or isinstance(drops_t, str) or not drops_t:
+            raise _err(
+                "drops",
+                f"expected at least one [[identification.drops]], got {drops_t!r}",
+                'add [[identification.drops]] with file = "..." and window = [..]',
+            )
+        flights = dict(flights or {})
+        drops = []
+        for i, dt_ in enumerate(drops_t):
+            name = dt_.get("name", f"drop{i + 1}") if isinstance(dt_, Mapping) else None
+            drops.append(
+                build_drop(
+                    dt_,
+                    i,
+                    base,
+                    model,
+                    output_dt=output_dt,
+                    init_span=init_span,
+                    flight=flights.get(name),
+                )
+            )
+        ctab = table.get("criteria", {})
+        _check_keys("criteria", ctab, set(criteria))
+        icrit = []
+        for name in criteria:
+            spec = ctab.get(name, {})
+            _check_keys(f"criteria.{name}", spec, _CRIT_KEYS)
+            drops_sel = spec.get("drops")
+            icrit.append(
+                IdentCriterion(
+                    name,
+                    str(spec.get("use", name)),
+                    None if drops_sel is None else tuple(str(s) for s in drops_sel),
+                    spec.get("operator"),
+                )
+            )
+        otab = table.get("dropout", {})
+        _check_keys("dropout", otab, set(constraints))
+        outs = []
+        for name in constraints:
+            if name not in otab:
+                raise _err(
+                    f"dropout.{name}",
+                    f"constraint {name!r} has no drop-out definition",
+                    f'add [identification.dropout.{name}] with channel = "velocity", band = 3.0',
+                )
+            spec = otab[name]
+            _check_keys(f"dropout.{name}", spec, _DROPOUT_KEYS)
+            if "channel" not in spec or "band" not in spec:
+                raise _err(
+                    f"dropout.{name}",
+                    "needs channel and band",
+                    'e.g. channel = "velocity", band = 3.0',
+                )
+            band = spec["band"]
+            band = tuple(float(b) for b in band) if isinstance(band, Sequence) else float(band)
+            comps = spec.get("components")
+            drops_sel = spec.get("drops")
+            outs.append(
+                DropoutDef(
+                    name,
+                    str(spec["channel"]),
+                    band,
+                    None if comps is None else tuple(str(c) for c in comps),
+                    None if drops_sel is None else tuple(str(s) for s in drops_sel),
+                )
+            )
+        atm = table.get("atmosphere")
+        atmosphere = None
+        if atm is not None:
+            _check_keys("atmosphere", atm, {"temperature_offset"})
+            atmosphere = ISA(float(atm.get("temperature_offset", 0.0)))
+        return cls(
+            model,
+            drops,
+            variables,
+            icrit,
+            outs,
+            fixed=table.get("parameters"),
+            dt=dt,
+            output_dt=output_dt,
+            wind_realisations=table.get("wind_realisations", 1),
+            wind_uncertainty=table.get("wind_uncertainty"),
+            seed=table.get("seed", 0),
+            atmosphere=atmosphere,
+        )
+
+    @classmethod
+    def from_spec(cls, spec) -> Identification:
+        """Build from a :class:`~vectorid.spec.StudySpec` with an ``[identification]`` table."""
+        table = spec.extra.get("identification")
+        if table is None:
+            raise StudyDefinitionError(
+                "identification",
+                "the study has no [identification] table",
+                "add one (see vectorid.identify.identification)",
+            )
+        model = spec.model if isinstance(spec.model, str) else None
+        return cls.from_table(
+            table,
+            variables=spec.space.names,
+            criteria=spec.criterion_names,
+            constraints=spec.constraint_names,
+            base_dir=spec.base_dir,
+            default_model=model,
+        )
+
+
+def problem_from_spec(spec) -> Problem:
+    """The Problem of a study with an ``[identification]`` table (used by
+    :meth:`vectorid.spec.StudySpec.problem`)."""
+    ident = Identification.from_spec(spec)
+    return Problem(ident.evaluate, spec.criteria, spec.constraints)

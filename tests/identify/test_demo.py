@@ -1,0 +1,57 @@
+"""`vectorid demo`: the two-step identification demo end to end, in a reduced size."""
+
+from __future__ import annotations
+
+import json
+
+from vectorid.cli import main
+from vectorid.demo import DEMO_DATA, identification_toml
+from vectorid.spec import StudySpec
+
+
+def test_demo_end_to_end_reduced(tmp_path, capsys):
+    out = tmp_path / "demo"
+    code = main(["demo", "--out", str(out), "--trials", "128", "--quiet"])
+    text = capsys.readouterr().out
+    assert code == 0
+    for needle in (
+        "step 1 (uncontrolled drop)",
+        "step 2 (controlled drop)",
+        "N = 160",
+        "chosen vector",
+        "truth",
+        "trajectory error",
+        "Control contribution",
+    ):
+        assert needle in text, needle  # fmt: skip
+    db1, db2 = out / "g12-step1-uncontrolled.db", out / "g12-step2-controlled.db"
+    assert db1.exists() and db2.exists() and (out / "data" / "truth.json").exists()
+    # the stores work with the analysis commands afterwards
+    assert main(["pareto", str(db2), "--json", "--limit", "pos_v_abs<=1e9"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["n"] == 160 and doc["n_pareto"] >= 1
+    assert {c["name"] for c in doc["criteria"]} >= {"pos_h_abs", "vel_v_abs", "roll_abs"}
+    # the chosen x6 of step 1 is the identifiable one: within 20 % of the generator's truth
+    rows = [ln.split() for ln in text.splitlines() if ln.strip().startswith("x6")]
+    line = " ".join(next(r for r in rows if not r[1].startswith("[")))
+    chosen, truth = (float(v) for v in line.split()[1:3])
+    assert abs(chosen - truth) < 0.2 * truth
+
+
+def test_demo_study_files_are_valid_and_data_are_embedded():
+    truth = json.loads((DEMO_DATA / "truth.json").read_text(encoding="utf-8"))
+    import tomllib
+
+    for step in (1, 2):
+        data = tomllib.loads(identification_toml(step, trials=64, truth=truth))
+        spec = StudySpec.from_dict(data)
+        assert "identification" in spec.extra
+        assert ("x15" in spec.space.names) == (step == 2)
+    for name in ("uncontrolled_gps.csv", "controlled_imu.csv", "controlled_controls.csv"):
+        assert (DEMO_DATA / name).stat().st_size > 0
+
+
+def test_analytic_demo_still_reachable(tmp_path, capsys):
+    code = main(["demo", "--analytic", "--out", str(tmp_path / "a"), "--trials", "256",
+                 "--quiet"])  # fmt: skip
+    assert code == 0 and "Known answer check" in capsys.readouterr().out
