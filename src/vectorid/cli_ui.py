@@ -1,0 +1,93 @@
+"""The ``vectorid ui`` verb (loaded by :mod:`vectorid.cli`)::
+
+    vectorid ui STORE [--host 127.0.0.1] [--port 8050] [--executor serial|processes]
+                      [--workers N] [--max-points N]
+
+Serves the browser UI of a study store; needs the ``ui`` extra (dash).
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+__all__ = ["COMMANDS", "add_parsers"]
+
+
+def _port(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a port number, got {text!r}") from None
+    if not 1 <= value <= 65535:
+        raise argparse.ArgumentTypeError(f"expected a port in 1..65535, got {value}")
+    return value
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a number >= 1, got {value}")
+    return value
+
+
+def add_parsers(sub: Any) -> None:
+    """Add ``ui`` to the ``vectorid`` sub-parsers."""
+    u = sub.add_parser("ui", help="serve the interactive browser UI of a study store")
+    u.add_argument("store", help="the study store (.db)")
+    u.add_argument(
+        "--host",
+        default="127.0.0.1",
+        help="interface to bind (default 127.0.0.1; anything else is reachable by others)",
+    )
+    u.add_argument("--port", type=_port, default=8050, help="port (default 8050)")
+    u.add_argument(
+        "--executor",
+        choices=["serial", "processes"],
+        help="for new stages started from the UI (default: the study's, else processes)",
+    )
+    u.add_argument("--workers", type=_positive_int, help="worker processes for new stages")
+    u.add_argument(
+        "--max-points",
+        type=_positive_int,
+        default=20_000,
+        help="points drawn in the criterion plot (default 20000; more are decimated)",
+    )
+
+
+def _cmd_ui(args: argparse.Namespace) -> int:
+    from .errors import StoreError
+
+    path = Path(args.store)
+    if not path.is_file():
+        raise StoreError(
+            f"no store at {path}; run a study first (`vectorid demo`, `vectorid run STUDY.toml`)"
+        )
+    from .errors import StudyDefinitionError
+    from .views.ui import serve
+
+    try:
+        serve(
+            str(path),
+            host=args.host,
+            port=args.port,
+            executor=args.executor,
+            workers=args.workers,
+            max_points=args.max_points,
+        )
+    except ImportError as exc:  # pragma: no cover - without dash or plotly only
+        raise StudyDefinitionError("ui", str(exc), "pip install 'vectorid[ui]'") from None
+    except KeyboardInterrupt:
+        return 130
+    except OSError as exc:  # port in use, cannot bind
+        raise StudyDefinitionError(
+            "--port", f"cannot serve on {args.host}:{args.port}: {exc}", "choose another --port"
+        ) from None
+    return 0
+
+
+COMMANDS = {"ui": _cmd_ui}

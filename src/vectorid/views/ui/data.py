@@ -1,0 +1,359 @@
+"""Server-side state of the browser UI: the trials of one store, cached, and the parsing of
+everything the browser sends.
+
+The UI process only ever *reads* the store (read-only SQLite connections, one per request,
+since a connection may not cross threads); background jobs write it from another process
+(:mod:`vectorid.views.ui.jobs`). The loaded trials are cached and reloaded when the store's
+trial or stage count changes, so a constraint change never touches the disk beyond three
+``count`` queries, and a running stage shows up as it grows.
+
+Nothing the browser sends is a path or code: constraints and parameters are parsed here as
+numbers (non-finite, over-long or non-numeric text is rejected with a message that says what
+was expected), trial ids as integers, names are checked against the study.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+from collections import OrderedDict
+from collections.abc import Iterator, Mapping, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ...analysis.results import Analysis, TestTable
+from ...errors import StudyDefinitionError, suggest
+from ...spec import StudySpec
+from ...store.sqlite import Stage, Store, Trials
+
+__all__ = [
+    "Constraints",
+    "StoreCache",
+    "parse_constraints",
+    "parse_number",
+    "parse_trial_id",
+]
+
+_MAX_TEXT = 64  # longest text accepted in a numeric field
+
+
+def parse_number(
+    text: Any,
+    field: str,
+    *,
+    allow_empty: bool = True,
+    example: str = "40.5",
+    empty_means: str = "no limit",
+) -> float | None:
+    """A finite number from a browser field (``None`` for an empty field).
+
+    Parameters
+    ----------
+    text : str, number or None
+        What the browser sent.
+    field : str
+        Name of the field, for the message.
+    allow_empty : bool
+        Whether an empty field is accepted (returned as None).
+
+    Raises
+    ------
+    StudyDefinitionError
+        When the text is not a finite number (or is empty and ``allow_empty`` is False).
+    """
+    if text is None or (isinstance(text, str) and not text.strip()):
+        if allow_empty:
+            return None
+        raise StudyDefinitionError(field, "the field is empty", f"type a number, e.g. {example}")
+    if isinstance(text, bool):
+        raise StudyDefinitionError(field, f"expected a number, got {text!r}", f"e.g. {example}")
+    if isinstance(text, int | float):
+        value = float(text)
+    else:
+        s = str(text).strip()
+        if len(s) > _MAX_TEXT:
+            raise StudyDefinitionError(
+                field, f"expected a number, got {len(s)} characters of text", f"e.g. {example}"
+            )
+        try:
+            value = float(s)
+        except ValueError:
+            hint = f"type a number such as {example}"
+            if allow_empty:
+                hint += f", or clear the field for {empty_means}"
+            raise StudyDefinitionError(field, f"expected a number, got {s!r}", hint) from None
+    if math.isnan(value):
+        raise StudyDefinitionError(field, "NaN is not a bound", f"type a number, e.g. {example}")
+    if math.isinf(value):
+        if allow_empty:
+            return None  # 'inf' removes the bound, as with --limit 'f1<=inf'
+        raise StudyDefinitionError(field, f"expected a finite number, got {value}", example)
+    return value
+
+
+def parse_trial_id(text: Any, field: str = "trial id") -> int:
+    """A trial id (positive whole number) from a browser field.
+
+    Raises
+    ------
+    StudyDefinitionError
+        When the text is not a whole number >= 1.
+    """
+    if text is None or (isinstance(text, str) and not text.strip()):
+        raise StudyDefinitionError(
+            field, "no trial chosen", "type a trial id, or click a point or a table row"
+        )
+    if isinstance(text, bool):
+        raise StudyDefinitionError(field, f"expected a whole number, got {text!r}", "e.g. 110")
+    s = str(text).strip()
+    if len(s) > 20:
+        raise StudyDefinitionError(
+            field, f"expected a trial id, got {len(s)} characters", "e.g. 110"
+        )
+    try:
+        value = float(s) if not s.isdigit() else int(s)
+    except ValueError:
+        raise StudyDefinitionError(
+            field, f"expected a whole number, got {s!r}", "type an id such as 110"
+        ) from None
+    if isinstance(value, float):
+        if not (math.isfinite(value) and value.is_integer()):
+            raise StudyDefinitionError(field, f"expected a whole number, got {s!r}", "e.g. 110")
+        value = int(value)
+    if value < 1:
+        raise StudyDefinitionError(field, f"trial ids start at 1, got {value}", "e.g. 110")
+    return value
+
+
+@dataclass(frozen=True)
+class Constraints:
+    """Criteria constraints and roles as chosen in the browser, validated.
+
+    Attributes
+    ----------
+    limits : dict
+        Criterion name -> bound on its worse side (upper for ``min``, lower for ``max``),
+        or None for no bound; only criteria whose field parsed are present (the others keep
+        the study's limit).
+    roles : dict
+        Criterion name -> ``"pure"`` or ``"pseudo"``.
+    errors : dict
+        Criterion name -> message, for fields that did not parse.
+    """
+
+    limits: dict[str, float | None]
+    roles: dict[str, str]
+    errors: dict[str, str]
+
+    def key(self) -> tuple:
+        """Hashable form (memo key)."""
+        return (tuple(sorted(self.limits.items())), tuple(sorted(self.roles.items())))
+
+    @property
+    def messages(self) -> list[str]:
+        return [f"{msg} (ignored: the study's limit is used)" for msg in self.errors.values()]
+
+
+def parse_constraints(
+    spec: StudySpec, limit_texts: Sequence[Any] | None, roles: Sequence[Any] | None
+) -> Constraints:
+    """Validate the constraint fields and role toggles of the test tables.
+
+    Parameters
+    ----------
+    spec : StudySpec
+    limit_texts : sequence
+        One field per criterion, in the study's order (text, number or None).
+    roles : sequence
+        One ``"pure"``/``"pseudo"`` per criterion, in the study's order.
+    """
+    names = spec.criterion_names
+    limits: dict[str, float | None] = {}
+    errors: dict[str, str] = {}
+    texts = list(limit_texts or [])
+    if texts and len(texts) != len(names):
+        raise StudyDefinitionError(
+            "constraints", f"expected {len(names)} fields, got {len(texts)}", "reload the page"
+        )
+    for name, text in zip(names, texts):
+        sense = spec.criteria[names.index(name)].sense
+        try:
+            limits[name] = parse_number(
+                text, f"constraint on {name} ({'<=' if sense == 'min' else '>='})"
+            )
+        except StudyDefinitionError as exc:
+            errors[name] = str(exc)
+    out_roles: dict[str, str] = {}
+    for name, role in zip(names, list(roles or [])):
+        if role not in ("pure", "pseudo"):
+            raise StudyDefinitionError(
+                f"role of {name}", f"expected 'pure' or 'pseudo', got {role!r}", "reload the page"
+            )
+        out_roles[name] = str(role)
+    return Constraints(limits, out_roles, errors)
+
+
+class StoreCache:
+    """The trials of one study store, loaded once and reloaded when the store grows.
+
+    Parameters
+    ----------
+    path : path
+        The store (``.db``). It is only opened read-only here.
+    memo : int
+        How many :class:`~vectorid.analysis.Analysis` objects (one per constraint set) to keep.
+    """
+
+    def __init__(self, path: str | Path, memo: int = 8) -> None:
+        self.path = Path(path).resolve()
+        self._lock = threading.RLock()
+        self._memo_size = int(memo)
+        self._memo: OrderedDict[tuple, Analysis] = OrderedDict()
+        self._key: tuple | None = None
+        self._trials: Trials | None = None
+        self._spec: StudySpec | None = None
+        self._stages: list[Stage] = []
+        self._tables: list[TestTable] | None = None
+        self.loads = 0  # how many times the trials were read from disk
+        with self.open() as st:
+            self._spec = st.spec
+
+    @contextmanager
+    def open(self) -> Iterator[Store]:
+        """A read-only connection to the store (closed on exit)."""
+        st = Store.open(self.path)
+        try:
+            yield st
+        finally:
+            st.close()
+
+    @staticmethod
+    def _key_of(st: Store) -> tuple[int, int, int]:
+        return (st.count_sample(), st.count(), len(st.stages()))
+
+    def version(self) -> tuple[int, int, int]:
+        """``(sample trials, all trials, stages)`` now in the store (three cheap queries)."""
+        with self.open() as st:
+            return self._key_of(st)
+
+    def _refresh(self) -> None:
+        with self.open() as st:
+            key = self._key_of(st)
+            if key == self._key and self._trials is not None:
+                return
+            self._spec = st.spec
+            self._stages = st.stages()
+            self._trials = st.load()
+            self._key = key
+            self._memo.clear()
+            self._tables = None
+            self.loads += 1
+
+    @property
+    def spec(self) -> StudySpec:
+        assert self._spec is not None
+        return self._spec
+
+    def state(self) -> tuple[tuple, Trials, list[Stage]]:
+        """The current ``(version key, sample trials, stages)``, reloaded if the store changed."""
+        with self._lock:
+            self._refresh()
+            assert self._trials is not None and self._key is not None
+            return self._key, self._trials, list(self._stages)
+
+    def trials(self) -> Trials:
+        return self.state()[1]
+
+    def analysis(self, c: Constraints | None = None) -> Analysis:
+        """The :class:`~vectorid.analysis.Analysis` of the current trials under ``c``
+        (memoised per constraint set and store version)."""
+        c = c or Constraints({}, {}, {})
+        with self._lock:
+            key, trials, _ = self.state()
+            full = (key, c.key())
+            hit = self._memo.get(full)
+            if hit is not None:
+                self._memo.move_to_end(full)
+                return hit
+            a = Analysis(self.spec, trials, c.limits, c.roles)
+            self._memo[full] = a
+            while len(self._memo) > self._memo_size:
+                self._memo.popitem(last=False)
+            return a
+
+    def test_tables(self) -> list[TestTable]:
+        """The test tables (every criterion's trials meeting the functional constraints, best
+        first) of the current trials. Their order depends only on the trials and the
+        functional constraints, which the UI does not change, so they are computed once per
+        store version; a criteria constraint change only re-reads ``Analysis.feasible`` for
+        the rows shown (:meth:`rows_of`)."""
+        with self._lock:
+            self.state()
+            if self._tables is None:
+                self._tables = self.analysis().test_tables()
+            return self._tables
+
+    def rows_of(self, ids: np.ndarray) -> np.ndarray:
+        """Rows of the cached sample trials with these ids (all must exist)."""
+        t = self.trials()
+        ids = np.asarray(ids, dtype=np.int64)
+        if len(t) and np.all(t.id[1:] > t.id[:-1]):  # ids ascend: binary search
+            return np.searchsorted(t.id, ids)
+        where = {int(v): i for i, v in enumerate(t.id)}
+        return np.array([where[int(v)] for v in ids], dtype=np.int64)
+
+    def row_of(self, trial_id: int) -> int:
+        """Row of a sample trial in the cached arrays.
+
+        Raises
+        ------
+        StudyDefinitionError
+            With the range of valid ids when no sample trial has that id.
+        """
+        t = self.trials()
+        hit = np.flatnonzero(t.id == int(trial_id))
+        if len(hit) == 0:
+            hint = (
+                f"sample trial ids run from {int(t.id.min())} to {int(t.id.max())}"
+                if len(t)
+                else "the store holds no trial yet"
+            )
+            raise StudyDefinitionError(
+                "trial id", f"no sample trial has id {trial_id}", hint + "; click a point instead"
+            )
+        return int(hit[0])
+
+    def check_name(self, name: Any, kind: str) -> str:
+        """``name`` if it is a criterion/parameter/functional of the study (``kind``:
+        ``"criterion"``, ``"parameter"`` or ``"any"``)."""
+        spec = self.spec
+        valid = {
+            "criterion": spec.criterion_names,
+            "parameter": spec.space.names,
+            "any": spec.criterion_names + spec.constraint_names + spec.space.names,
+        }[kind]
+        if not isinstance(name, str) or name not in valid:
+            raise StudyDefinitionError(kind, f"unknown {kind} {name!r}", suggest(str(name), valid))
+        return name
+
+
+def limits_text(spec: StudySpec) -> list[str]:
+    """The study's own limits as the initial text of the constraint fields."""
+    return ["" if c.limit is None else f"{c.limit:.10g}" for c in spec.criteria]
+
+
+def finite(v: Any) -> float | None:
+    """JSON-safe float (None for NaN/inf)."""
+    try:
+        f = float(v)
+    except (TypeError, ValueError):
+        return None
+    return f if math.isfinite(f) else None
+
+
+def as_mapping(d: Mapping[str, Any] | None) -> dict[str, Any]:
+    return dict(d or {})

@@ -1,0 +1,337 @@
+"""The browser UI in a real headless Chromium driven by Selenium: open a study, change a
+constraint and see ND change (and a malformed one get a message), select a trial and see its
+details, start a short refine stage and see the trial count grow. Screenshots are kept under
+test-artifacts/ (git-ignored).
+
+The server is the real ``vectorid ui`` command on 127.0.0.1 and a free port, stopped at the
+end; every wait is bounded.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+import urllib.error
+import urllib.request
+from pathlib import Path
+
+import pytest
+
+pytest.importorskip("dash", reason="the UI needs the ui extra (dash): pip install 'vectorid[ui]'")
+pytest.importorskip("selenium", reason="the browser tests need selenium")
+
+from tests.analysis_helpers import make_store
+from vectorid import Study
+
+ROOT = Path(__file__).resolve().parents[2]
+ARTIFACTS = ROOT / "test-artifacts"
+CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+CHROMEDRIVER = shutil.which("chromedriver")
+if not (CHROMIUM and CHROMEDRIVER):
+    pytest.skip(
+        "headless Chromium is needed (Debian: apt-get install chromium chromium-driver)",
+        allow_module_level=True,
+    )
+
+from selenium import webdriver  # noqa: E402
+from selenium.common.exceptions import (  # noqa: E402
+    NoSuchElementException,
+    StaleElementReferenceException,
+)
+from selenium.webdriver.chrome.service import Service  # noqa: E402
+from selenium.webdriver.common.action_chains import ActionChains  # noqa: E402
+from selenium.webdriver.common.by import By  # noqa: E402
+from selenium.webdriver.common.keys import Keys  # noqa: E402
+from selenium.webdriver.support.ui import WebDriverWait  # noqa: E402
+
+WAIT = 40  # seconds, for any one thing to appear
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+@pytest.fixture(scope="module")
+def server(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("uibrowser")
+    store = make_store(folder, "binh-korn", trials=512)
+    port = _free_port()
+    env = dict(
+        os.environ, PYTHONPATH=str(ROOT / "src") + os.pathsep + os.environ.get("PYTHONPATH", "")
+    )
+    log = open(folder / "server.log", "w+b")
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "vectorid.cli",
+            "ui",
+            str(store),
+            "--port",
+            str(port),
+            "--executor",
+            "serial",
+        ],
+        stdout=log,
+        stderr=subprocess.STDOUT,
+        env=env,
+        cwd=folder,
+    )
+    url = f"http://127.0.0.1:{port}/"
+    deadline = time.monotonic() + 60
+    while True:
+        try:
+            with urllib.request.urlopen(url, timeout=2) as r:
+                if r.status == 200:
+                    break
+        except OSError:
+            pass
+        if proc.poll() is not None or time.monotonic() > deadline:
+            proc.kill()
+            log.seek(0)
+            pytest.fail("vectorid ui did not start:\n" + log.read().decode(errors="replace"))
+        time.sleep(0.3)
+    yield url, store
+    proc.send_signal(signal.SIGINT)
+    try:
+        proc.wait(15)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait(5)
+    log.seek(0)
+    text = log.read().decode(errors="replace")
+    log.close()
+    assert "Traceback" not in text, text
+
+
+@pytest.fixture(scope="module")
+def browser(server):
+    opts = webdriver.ChromeOptions()
+    for flag in (
+        "--headless=new",
+        "--no-sandbox",
+        "--disable-gpu",
+        "--disable-dev-shm-usage",
+        "--disable-background-networking",
+        "--disable-component-update",
+        "--disable-sync",
+        "--no-first-run",
+        "--window-size=1500,1400",
+    ):
+        opts.add_argument(flag)
+    profile = tempfile.mkdtemp(prefix="vectorid-ui-chrome-")
+    opts.add_argument(f"--user-data-dir={profile}")
+    opts.binary_location = CHROMIUM
+    drv = webdriver.Chrome(service=Service(CHROMEDRIVER), options=opts)
+    drv.set_page_load_timeout(WAIT)
+    drv.get(server[0])
+    ARTIFACTS.mkdir(exist_ok=True)
+    yield drv
+    drv.quit()
+    shutil.rmtree(profile, ignore_errors=True)
+
+
+def _text(drv, css: str) -> str:
+    els = drv.find_elements(By.CSS_SELECTOR, css)
+    return els[0].text if els else ""
+
+
+def _until(drv, fn, what: str):
+    return WebDriverWait(
+        drv,
+        WAIT,
+        poll_frequency=0.2,
+        ignored_exceptions=(StaleElementReferenceException, NoSuchElementException),
+    ).until(lambda d: fn(d), message=f"timed out waiting for {what}")
+
+
+def _limit_input(drv, name: str):
+    return drv.find_element(
+        By.CSS_SELECTOR, f'input[id*=\'"name":"{name}"\'][id*=\'"type":"limit"\']'
+    )
+
+
+def _type(drv, locate, text: str) -> None:
+    """Replace the text of the field ``locate(drv)`` finds and press Enter (re-finding it if
+    Dash re-rendered it meanwhile)."""
+    for attempt in range(3):
+        try:
+            el = locate(drv)
+            el.click()
+            el.send_keys(Keys.CONTROL, "a")
+            el.send_keys(Keys.DELETE)
+            el.send_keys(text, Keys.ENTER)
+            return
+        except StaleElementReferenceException:
+            if attempt == 2:
+                raise
+            time.sleep(0.3)
+
+
+def _by_id(id_: str):
+    return lambda d: d.find_element(By.ID, id_)
+
+
+def _limit(name: str):
+    return lambda d: _limit_input(d, name)
+
+
+def _tab(drv, label: str) -> None:
+    for el in drv.find_elements(By.CSS_SELECTOR, ".tab"):
+        if el.text.strip() == label:
+            el.click()
+            return
+    raise AssertionError(f"no tab {label!r}")
+
+
+def _analysis(store, limits=None):
+    with Study.open(store) as st:
+        return st.analysis(limits)
+
+
+def test_requests_cannot_reach_files_or_tracebacks(server):
+    url, store = server
+    # unknown paths get the app's page (Dash routes every path to it) or 404, never a file
+    secrets = {"etc/passwd": "root:", "README.md": "# vectorid", "pyproject.toml": "[project]"}
+    for path in (
+        "../../etc/passwd",
+        "%2e%2e/%2e%2e/etc/passwd",
+        "static/../../README.md",
+        "assets/pyproject.toml",
+        "_dash-component-suites/../../pyproject.toml",
+    ):
+        try:
+            with urllib.request.urlopen(url + path, timeout=10) as r:
+                body = r.read().decode(errors="replace")
+        except urllib.error.HTTPError as exc:
+            assert exc.code in (400, 404), path
+            continue
+        assert not any(s in body for s in secrets.values()), path
+    bad = urllib.request.Request(
+        url + "_dash-update-component",
+        data=b'{"output": "counts.children", "inputs": [{"id": "nope"}]}',
+        headers={"Content-Type": "application/json"},
+    )
+    with pytest.raises(urllib.error.HTTPError) as err:
+        urllib.request.urlopen(bad, timeout=10)
+    body = err.value.read().decode(errors="replace")
+    assert err.value.code >= 400 and "Traceback" not in body and 'File "' not in body
+
+
+def test_constraint_changes_nd(browser, server):
+    url, store = server
+    drv = browser
+    a0 = _analysis(store)
+    _until(drv, lambda d: _text(d, "#count-nd") == str(a0.n_feasible), "the initial ND")
+    assert _text(drv, "#count-n") == str(a0.n)
+    _until(
+        drv,
+        lambda d: d.find_elements(By.CSS_SELECTOR, "#scatter .scatterlayer, #scatter canvas"),
+        "the plot",
+    )
+    a1 = _analysis(store, {"f1": 20.0})
+    assert a1.n_feasible != a0.n_feasible
+    _type(drv, _limit("f1"), "20")
+    _until(drv, lambda d: _text(d, "#count-nd") == str(a1.n_feasible), "ND under f1 <= 20")
+    assert _text(drv, "#count-np") == str(a1.n_pareto)
+    # the test table's f1 column now marks trials above 20 in red; the first rows are best
+    _until(drv, lambda d: "f1 <= 20" in _text(d, "#in-force"), "the constraints in force")
+    drv.save_screenshot(str(ARTIFACTS / "ui_constraint.png"))
+    # malformed text: a visible message, the input marked, the counts keep the study's limit
+    _type(drv, _limit("f1"), "twenty")
+    _until(drv, lambda d: "expected a number" in _text(d, "#messages"), "the input message")
+    assert _limit_input(drv, "f1").find_elements(
+        By.XPATH, "ancestor-or-self::*[contains(concat(' ', @class, ' '), ' invalid ')]"
+    )
+    _until(drv, lambda d: _text(d, "#count-nd") == str(a0.n_feasible), "ND back at the study's")
+    drv.save_screenshot(str(ARTIFACTS / "ui_bad_input.png"))
+    _type(drv, _limit("f1"), "")
+    _until(drv, lambda d: _text(d, "#messages") == "", "the message to clear")
+
+
+def test_box_select_sets_two_constraints(browser, server):
+    url, store = server
+    drv = browser
+    drag = drv.find_element(By.CSS_SELECTOR, "#scatter .nsewdrag")
+    w, h = drag.size["width"], drag.size["height"]
+    ActionChains(drv).move_to_element_with_offset(
+        drag, -w // 5, -h // 5
+    ).click_and_hold().move_by_offset(w // 10, h // 10).move_by_offset(
+        w // 4, h // 4
+    ).release().perform()
+    _until(drv, lambda d: "box on f2 vs f1" in _text(d, "#sel-text"), "the box selection")
+    drv.find_element(By.ID, "box-limits").click()
+    _until(drv, lambda d: _limit_input(d, "f1").get_attribute("value"), "the f1 constraint")
+    _until(drv, lambda d: _limit_input(d, "f2").get_attribute("value"), "the f2 constraint")
+    f1 = float(_limit_input(drv, "f1").get_attribute("value"))
+    f2 = float(_limit_input(drv, "f2").get_attribute("value"))
+    a = _analysis(store, {"f1": f1, "f2": f2})
+    _until(drv, lambda d: _text(d, "#count-nd") == str(a.n_feasible), "ND under the box limits")
+    assert "set from the box" in _text(drv, "#box-msg")
+    drv.save_screenshot(str(ARTIFACTS / "ui_box.png"))
+    for name in ("f1", "f2"):
+        _type(drv, _limit(name), "")
+    drv.find_element(By.ID, "clear-sel").click()
+    a0 = _analysis(store)
+    _until(drv, lambda d: _text(d, "#count-nd") == str(a0.n_feasible), "the study's ND again")
+
+
+def test_select_trial_shows_details(browser, server):
+    url, store = server
+    drv = browser
+    a = _analysis(store)
+    tid = int(a.trials.id[a.pareto][3])
+    _type(drv, _by_id("trial-id"), str(tid))
+    _tab(drv, "Chosen trial")
+    _until(
+        drv, lambda d: _text(d, "#trial-summary").startswith(f"trial {tid}: Pareto"), "the trial"
+    )
+    row = int((a.trials.id == tid).nonzero()[0][0])
+    x1 = f"{a.trials.X[row, 0]:.6g}"
+    _until(drv, lambda d: x1 in _text(d, "#trial-params"), "the parameter table")
+    assert "Not an identification study" in _text(drv, "#trial-ident")
+    # a section through it runs in the background and appears when done
+    _type(drv, _by_id("sec-points"), "7")
+    drv.find_element(By.ID, "sec-run").click()
+    _until(drv, lambda d: "started: section" in _text(d, "#job-msg"), "the section job")
+    _until(
+        drv, lambda d: f"Section through trial {tid}" in _text(d, "#trial-results"), "the section"
+    )
+    assert _text(drv, "#job-text").startswith("done")
+    drv.save_screenshot(str(ARTIFACTS / "ui_trial.png"))
+    # an unknown id is a message, not an error page
+    _type(drv, _by_id("trial-id"), "987654")
+    _until(drv, lambda d: "no sample trial has id 987654" in _text(d, "#trial-msg"), "the message")
+    _type(drv, _by_id("trial-id"), str(tid))
+    _until(drv, lambda d: _text(d, "#trial-msg") == "", "the message to clear")
+
+
+def test_refine_stage_grows_the_study(browser, server):
+    url, store = server
+    drv = browser
+    n0 = _analysis(store).n
+    _tab(drv, "Refine & continue")
+    _until(drv, lambda d: "volume ratio" in _text(d, "#ref-summary"), "the proposal")
+    _type(drv, _by_id("ref-n"), "256")
+    drv.find_element(By.ID, "ref-apply").click()
+    _until(drv, lambda d: "started" in _text(d, "#job-msg"), "the job to start")
+    # a second job while one runs gets a visible message
+    drv.find_element(By.ID, "ref-continue").click()
+    _until(drv, lambda d: "already running" in _text(d, "#job-msg"), "the busy message")
+    _until(drv, lambda d: _text(d, "#count-n") == str(n0 + 256), "the trial count to grow")
+    _until(drv, lambda d: _text(d, "#job-text").startswith("done"), "the job to finish")
+    drv.save_screenshot(str(ARTIFACTS / "ui_refine.png"))
+    _tab(drv, "Study overview")
+    _until(drv, lambda d: "refine basis=feasible" in _text(d, "#ov-stages"), "the new stage")
+    drv.save_screenshot(str(ARTIFACTS / "ui_overview.png"))
+    with Study.open(store) as st:
+        stages = [s for s in st.store.stages() if s.kind == "sample"]
+        assert len(stages) == 2 and st.store.count(stages[1].stage) == 256
