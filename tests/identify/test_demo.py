@@ -31,6 +31,19 @@ def test_demo_end_to_end_reduced(tmp_path, capsys):
     doc = json.loads(capsys.readouterr().out)
     assert doc["n"] == 160 and doc["n_pareto"] >= 1
     assert {c["name"] for c in doc["criteria"]} >= {"pos_h_abs", "vel_v_abs", "roll_abs"}
+    # trajectories of a stored trial against the flight (used by the UI's trial panel)
+    import numpy as np
+
+    from vectorid import Study
+    from vectorid.identify import trial_trajectories
+
+    with Study.open(db1) as st:
+        spec, X = st.spec, st.trials().X
+    flight, model = trial_trajectories(spec, X[0])
+    assert flight.shape == model.shape and flight.shape[1] == 3 and len(flight) > 100
+    # the simulation starts from the measured state and descends as the flight does
+    assert np.abs(flight[0] - model[0]).max() < 5.0
+    assert flight[-1, 2] < flight[0, 2] - 100 and model[-1, 2] < model[0, 2] - 100
     # the chosen x6 of step 1 is the identifiable one: within 20 % of the generator's truth
     rows = [ln.split() for ln in text.splitlines() if ln.strip().startswith("x6")]
     line = " ".join(next(r for r in rows if not r[1].startswith("[")))

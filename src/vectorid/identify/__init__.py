@@ -66,6 +66,7 @@ __all__ = [
 from vectorid.identify.identification import (
     Identification,
     problem_from_spec,
+    trial_trajectories,
 )
 from vectorid.identify.twostep import (
     TwoStepResult,
@@ -79,4 +80,5 @@ __all__ += [
     "control_contribution",
     "problem_from_spec",
     "run_two_step",
+    "trial_trajectories",
 ]

@@ -1000,3 +1000,39 @@ def problem_from_spec(spec) -> Problem:
     :meth:`vectorid.spec.StudySpec.problem`)."""
     ident = Identification.from_spec(spec)
     return Problem(ident.evaluate, spec.criteria, spec.constraints)
+
+
+def trial_trajectories(
+    spec, x: NDArray, drop: str | None = None
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Measured and simulated trajectories of one design vector over one drop's window.
+
+    Parameters
+    ----------
+    spec : StudySpec
+        An identification study (with an ``[identification]`` table).
+    x : (p,) float
+        Design vector, columns as the study's variables.
+    drop : str, optional
+        Drop name (default: the first drop).
+
+    Returns
+    -------
+    flight, model : (T, 3) float
+        North, east, up positions in metres relative to the data's origin, on the
+        identification's output grid: the measurement and the simulation of ``x``.
+        A drop with altitude only (no position channel) gives zeros for north and east.
+    """
+    ident = Identification.from_spec(spec)
+    d = ident.drop(drop) if drop is not None else ident.drops[0]
+    res = ident.simulate(np.atleast_2d(np.asarray(x, dtype=float)), d)
+    n = min(len(d.grid), res.position.shape[1])
+    if "position" in d.flight.channels:
+        meas = d.measured("position")[:n]
+        sim = _sim_channel(res, "position", d.origin_altitude)[0, :n]
+        flip = np.array([1.0, 1.0, -1.0])
+        return meas * flip, sim * flip
+    meas_h = d.measured("altitude")[:n, 0]
+    sim_h = _sim_channel(res, "altitude", d.origin_altitude)[0, :n, 0]
+    zeros = np.zeros(n)
+    return np.column_stack([zeros, zeros, meas_h]), np.column_stack([zeros, zeros, sim_h])
