@@ -22,6 +22,8 @@ def test_demo_end_to_end_reduced(tmp_path, capsys):
         "truth",
         "trajectory error",
         "Control contribution",
+        "control step (x15 on the control contribution)",
+        "x15 box from the Pareto set",
     ):
         assert needle in text, needle  # fmt: skip
     db1, db2 = out / "g12-step1-uncontrolled.db", out / "g12-step2-controlled.db"

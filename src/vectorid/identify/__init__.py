@@ -69,16 +69,20 @@ from vectorid.identify.identification import (
     trial_trajectories,
 )
 from vectorid.identify.twostep import (
+    ControlStepResult,
     TwoStepResult,
     control_contribution,
+    run_control_step,
     run_two_step,
 )
 
 __all__ += [
     "Identification",
+    "ControlStepResult",
     "TwoStepResult",
     "control_contribution",
     "problem_from_spec",
+    "run_control_step",
     "run_two_step",
     "trial_trajectories",
 ]

@@ -25,6 +25,11 @@ The ``[identification]`` table of a study file
     low = 0.0
     high = 0.6
 
+    [[variables]]                    # reserved: offset (s) of the window start t0 from the
+    name = "window_start"            # drop's window (window_end: of tf; window_start.<drop>:
+    low = -1.0                       # one drop). Trials are grouped by t0 rounded to
+    high = 5.0                       # window_step; integral criteria become time-means.
+
     [[criteria]]                     # study columns: a library name, or a name defined below
     name = "pos_h_abs"
     [[criteria]]
@@ -74,7 +79,7 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -91,12 +96,54 @@ from vectorid.models.wind import WindProfile
 from vectorid.problem import Criterion, FunctionalConstraint, Problem
 
 __all__ = [
+    "INTEGRAL_CRITERIA",
+    "WINDOW_VARIABLES",
     "Drop",
     "DropoutDef",
     "IdentCriterion",
     "Identification",
     "problem_from_spec",
+    "window_variable",
 ]
+
+#: Reserved design-variable names: offsets (s) of the comparison window's start t0 and end tf
+#: from the drop's ``window``; ``window_start.<drop>`` / ``window_end.<drop>`` move one drop's.
+WINDOW_VARIABLES = ("window_start", "window_end")
+
+#: Library criteria that are integrals ∫ ... dt over the window. With window variables they
+#: are divided by the trial's window length (time-means), so that windows of different
+#: lengths compare; indices (maxima, averages, frequencies, final miss) are left as they are.
+INTEGRAL_CRITERIA = frozenset(
+    {
+        "pos_h_abs",
+        "pos_h_sq",
+        "pos_v_abs",
+        "pos_v_sq",
+        "vel_h_abs",
+        "vel_v_abs",
+        "roll_abs",
+        "pitch_abs",
+        "yaw_abs",
+        "yaw_sq",
+        "speed_profile",
+        "heading_profile",
+        "control_response",
+        "alt_abs",
+        "alt_sq",
+        "vz_abs",
+    }
+)
+
+
+def window_variable(name: str) -> tuple[str, str | None] | None:
+    """``(kind, drop)`` of a window variable name (drop None: every drop), else None."""
+    for base in WINDOW_VARIABLES:
+        if name == base:
+            return base, None
+        if name.startswith(base + ".") and len(name) > len(base) + 1:
+            return base, name[len(base) + 1 :]
+    return None
+
 
 if "rocket-descent" not in models.available():
     models.register("rocket-descent", "vectorid.identify.descent:RocketDescent")
@@ -115,6 +162,7 @@ _TABLE_KEYS = {
     "wind_uncertainty": "{ sigma_speed, sigma_direction_deg, correlation_length_m }",
     "seed": "seed of the wind realisations",
     "init_span": "seconds of data fitted for the initial state",
+    "window_step": "rounding step of window_start offsets, s (default output_dt)",
 }
 _DROP_KEYS = {
     "name": "drop name",
@@ -233,6 +281,27 @@ class Drop:
     initial: InitialState
     origin_altitude: float
     grid: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
+    span: tuple[float, float] | None = None
+    starter: Callable[[float, float], tuple[InitialState, ControlSchedule | None]] | None = field(
+        default=None, repr=False
+    )
+
+    def data_span(self) -> tuple[float, float]:
+        """Times (s) the windowed data cover: where a trial's window may lie."""
+        return (self.t0, self.t1) if self.span is None else self.span
+
+    def start(self, t0: float, duration: float) -> tuple[InitialState, ControlSchedule | None]:
+        """Initial state and control schedule of a simulation that starts at ``t0`` (s, absolute)
+        and lasts ``duration`` s (for window variables; the nominal window's are ``initial``
+        and ``inputs``)."""
+        if self.starter is None:
+            raise _err(
+                "variables",
+                f"drop {self.name!r} was built without the data around its window, so its "
+                "window cannot move",
+                "build it with build_drop(..., extend=(min start offset, max end offset))",
+            )
+        return self.starter(t0, duration)
 
     def measured(self, channel: str, t: NDArray | None = None) -> NDArray[np.float64]:
         """The measured channel on the absolute times ``t`` (default: the output grid), (T, m)."""
@@ -284,10 +353,14 @@ def build_drop(
     output_dt: float,
     init_span: float,
     flight=None,
+    extend: tuple[float, float] = (0.0, 0.0),
 ) -> Drop:
     """Load and window one drop of the ``[[identification.drops]]`` array.
 
-    ``flight`` (a :class:`FlightData`) replaces ``file`` for the Python API.
+    ``flight`` (a :class:`FlightData`) replaces ``file`` for the Python API. ``extend`` =
+    (smallest start offset, largest end offset), s: the data are kept over
+    ``[t0 + min(extend[0], 0), t1 + max(extend[1], 0)]`` so that window variables
+    (``window_start``, ``window_end``) can move the window inside it.
     """
     from vectorid.identify import load_flight
 
@@ -348,7 +421,21 @@ def build_drop(
             f"map at least one of {std} in the loader mapping",
         )
     chans = _unwrap_yaw(flight.select(chans))
-    windowed = chans.window(t0, t1)
+    ext_lo, ext_hi = min(0.0, float(extend[0])), max(0.0, float(extend[1]))
+    if ext_lo == 0.0 and ext_hi == 0.0:
+        windowed = chans.window(t0, t1)
+    else:
+        from vectorid.identify.flight import FlightDataError
+
+        try:
+            windowed = chans.window(t0 + ext_lo, t1 + ext_hi)
+        except FlightDataError as exc:
+            raise _err(
+                f"{where}.window",
+                f"the window variables move the window of drop {name!r} over "
+                f"[{t0 + ext_lo:g}, {t1 + ext_hi:g}] s, which the data do not cover ({exc})",
+                "narrow the low/high of window_start / window_end, or the window",
+            ) from None
     n_out = math.floor((t1 - t0) / output_dt + 1e-9)
     if n_out < 2:
         raise _err(
@@ -372,7 +459,28 @@ def build_drop(
     initial = _initial_state(windowed, t0, init_span, origin_alt, wind, where)
     inputs = _inputs(table, windowed, flight, model, t0, duration, where)
     weight = _positive(f"{where}.weight", table.get("weight", 1.0))
-    return Drop(name, windowed, t0, t1, duration, wind, weight, inputs, initial, origin_alt, grid)
+
+    def starter(t_start: float, length: float) -> tuple[InitialState, ControlSchedule | None]:
+        return (
+            _initial_state(windowed, t_start, init_span, origin_alt, wind, where),
+            _inputs(table, windowed, flight, model, t_start, length, where),
+        )
+
+    return Drop(
+        name,
+        windowed,
+        t0,
+        t1,
+        duration,
+        wind,
+        weight,
+        inputs,
+        initial,
+        origin_alt,
+        grid,
+        span=(t0 + ext_lo, t1 + ext_hi),
+        starter=starter,
+    )
 
 
 def merge_flights(name: str, parts: Sequence[Any]):
@@ -620,6 +728,7 @@ class Identification:
         wind_uncertainty: Mapping[str, Any] | None = None,
         seed: int = 0,
         atmosphere: ISA | None = None,
+        window_step: float | None = None,
     ) -> None:
         self.model = models.get(model) if isinstance(model, str) else model
         self.drops = list(drops)
@@ -634,15 +743,34 @@ class Identification:
             if names.count(n) > 1:
                 raise _err("drops", f"drop name {n!r} is used twice", "give each drop a name")
         pnames = list(self.model.parameter_names)
-        for v in variables:
+        #: (column of X, "window_start" | "window_end", drop name or None for all drops)
+        self.window_vars: list[tuple[int, str, str | None]] = []
+        model_cols = []
+        for j, v in enumerate(variables):
+            w = window_variable(v)
+            if w is not None:
+                self._check_drops(f"variables.{v}", None if w[1] is None else (w[1],))
+                for _, kind, dn in self.window_vars:
+                    if kind == w[0] and (dn is None or w[1] is None or dn == w[1]):
+                        raise _err(
+                            "variables",
+                            f"{v!r} moves a window end that another variable already moves",
+                            f"keep one {w[0]} variable per drop",
+                        )
+                self.window_vars.append((j, w[0], w[1]))
+                continue
             if v not in pnames:
                 raise _err(
                     "variables",
                     f"variable {v!r} is not a parameter of model {self.model.name!r}",
-                    suggest(v, pnames) + " (design variables map to model parameters by name)",
+                    suggest(v, [*pnames, *WINDOW_VARIABLES])
+                    + " (design variables map to model parameters by name; window_start and "
+                    "window_end move the comparison window)",
                 )
+            model_cols.append(j)
         self.variables = list(variables)
-        self.columns = [pnames.index(v) for v in variables]
+        self.model_columns = model_cols
+        self.columns = [pnames.index(variables[j]) for j in model_cols]
         self.base = self.model.nominal.copy()
         for k, v in dict(fixed or {}).items():
             if k not in pnames:
@@ -677,6 +805,9 @@ class Identification:
             self._check_drops(f"dropout.{d.name}.drops", d.drops)
         self.dt = _positive("dt", dt)
         self.output_dt = _positive("output_dt", output_dt)
+        self.window_step = (
+            self.output_dt if window_step is None else _positive("window_step", window_step)
+        )
         m = int(wind_realisations)
         if m < 1:
             raise _err(
@@ -728,8 +859,58 @@ class Identification:
         """Full model parameter vectors (n, p_model) from design vectors X (n, p)."""
         X = np.atleast_2d(np.asarray(X, dtype=float))
         P = np.tile(self.base, (X.shape[0], 1))
-        P[:, self.columns] = X
+        P[:, self.columns] = X[:, self.model_columns]
         return P
+
+    def window_offsets(
+        self, X: NDArray, drop: str | Drop
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Start and end offsets (s) of each trial's window on one drop, (n,) each (0 where
+        no window variable applies)."""
+        d = self.drop(drop) if isinstance(drop, str) else drop
+        X = np.atleast_2d(np.asarray(X, dtype=float))
+        s, e = np.zeros(X.shape[0]), np.zeros(X.shape[0])
+        for j, kind, dn in self.window_vars:
+            if dn is None or dn == d.name:
+                (s if kind == "window_start" else e)[:] = X[:, j]
+        return s, e
+
+    def trial_windows(
+        self, X: NDArray, drop: str | Drop
+    ) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.int64], NDArray[np.bool_]]:
+        """Each trial's comparison window on one drop.
+
+        The start offset is rounded to a multiple of ``window_step`` (default ``output_dt``),
+        so trials with equal rounded starts share one simulation; the end is floored to the
+        trial's output grid ``t0, t0 + output_dt, ...``.
+
+        Returns
+        -------
+        k : (n,) int
+            Start index: ``t0 = drop.t0 + k * window_step``.
+        t0 : (n,) float
+            Window start, s (absolute).
+        steps : (n,) int
+            Number of output steps in the window: ``tf = t0 + steps * output_dt``.
+        valid : (n,) bool
+            False where the window leaves the data, holds fewer than two steps, or the
+            offsets are not finite (those trials get NaN criteria).
+        """
+        d = self.drop(drop) if isinstance(drop, str) else drop
+        s, e = self.window_offsets(X, d)
+        finite = np.isfinite(s) & np.isfinite(e)
+        k = np.where(finite, np.rint(np.where(finite, s, 0.0) / self.window_step), 0).astype(
+            np.int64
+        )
+        t0 = d.t0 + k * self.window_step
+        t1 = d.t1 + np.where(finite, e, 0.0)
+        steps = np.floor((t1 - t0) / self.output_dt + 1e-9)
+        steps = np.where(finite, steps, 0).astype(np.int64)
+        lo, hi = d.data_span()
+        tol = 1e-9 * max(1.0, abs(hi))
+        valid = finite & (steps >= 2) & (t0 >= lo - tol)
+        valid &= t0 + steps * self.output_dt <= hi + tol
+        return k, t0, steps, valid
 
     def simulate(
         self, X: NDArray, drop: str | Drop, wind: WindProfile | str | None = "measured"
@@ -760,8 +941,10 @@ class Identification:
     def evaluate(self, X: NDArray) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Criteria (n, k) and drop-out functionals (n, q) of the batch X (n, p).
 
-        A trial whose simulation fails gets NaN (stored as a failed trial)."""
-        lib = _library()
+        A trial whose simulation fails gets NaN (stored as a failed trial). With window
+        variables every trial is compared over its own window (criteria that are integrals
+        become time-means over it, see :data:`INTEGRAL_CRITERIA`); trials whose rounded
+        window starts are equal are simulated together, one batch per start and wind."""
         X = np.atleast_2d(np.asarray(X, dtype=float))
         n = X.shape[0]
         if not n:
@@ -771,46 +954,50 @@ class Identification:
         F_w = np.zeros(k)
         G = np.full((n, q), -np.inf)
         G_seen = np.zeros(q, dtype=bool)
+        P = self.parameters(X)
         for d in self.drops:
             crit = [j for j, c in enumerate(self.criteria) if c.drops is None or d.name in c.drops]
             outs = [j for j, o in enumerate(self.dropouts) if o.drops is None or d.name in o.drops]
             if not crit and not outs:
                 continue
-            t = d.grid
-            meas_cache: dict[str, NDArray] = {}
-            Fd = np.zeros((n, len(crit)))
-            Gd = np.zeros((n, len(outs)))
             winds = self.winds[d.name]
-            for w in winds:
-                res = self.simulate(X, d, wind=w)
-                bad = res.status != 0
-                sims: dict[str, NDArray] = {}
-                ok = ~bad
-                for jj, j in enumerate(crit):
-                    cdef = self.defs[j]
-                    ch = cdef.channel
-                    if ch not in sims:
-                        sims[ch] = _sim_channel(res, ch, d.origin_altitude)
-                        meas_cache.setdefault(ch, d.measured(ch))
-                    v = np.full(n, np.nan)
-                    if ok.any():
-                        v[ok] = cdef.fn(sims[ch][ok], meas_cache[ch], t)
-                    Fd[:, jj] += v
-                for jj, j in enumerate(outs):
-                    o = self.dropouts[j]
-                    ch = o.channel
-                    if ch not in sims:
-                        sims[ch] = _sim_channel(res, ch, d.origin_altitude)
-                        meas_cache.setdefault(ch, d.measured(ch))
-                    s, m_ = sims[ch], meas_cache[ch]
-                    if o.components:
-                        comps = d.flight[ch].components
-                        idx = [comps.index(c) for c in o.components]
-                        s, m_ = s[..., idx], m_[:, idx]
-                    v = np.full(n, np.nan)
-                    if ok.any():
-                        v[ok] = lib.dropout(s[ok], m_, o.band, angular=ch == "euler")
-                    Gd[:, jj] += v
+            if not self.window_vars:
+                Fd, Gd = np.zeros((n, len(crit))), np.zeros((n, len(outs)))
+                steps = np.full(n, len(d.grid) - 1)
+                for w in winds:
+                    res = self.simulate(X, d, wind=w)
+                    f, g = self._compare(d, res, d.grid, steps, crit, outs, mean=False)
+                    Fd += f
+                    Gd += g
+            else:
+                Fd, Gd = np.full((n, len(crit)), np.nan), np.full((n, len(outs)), np.nan)
+                kk, t0s, steps, valid = self.trial_windows(X, d)
+                for ks in np.unique(kk[valid]):
+                    rows = np.flatnonzero(valid & (kk == ks))
+                    t0 = float(t0s[rows[0]])
+                    n_out = int(steps[rows].max())
+                    grid = t0 + self.output_dt * np.arange(n_out + 1)
+                    try:
+                        initial, inputs = d.start(t0, n_out * self.output_dt)
+                    except ValueError:  # too few samples for the initial state: failed trials
+                        continue
+                    f_sum = np.zeros((rows.size, len(crit)))
+                    g_sum = np.zeros((rows.size, len(outs)))
+                    for w in winds:
+                        res = self.model.simulate(
+                            P[rows],
+                            t_final=n_out * self.output_dt,
+                            dt=self.dt,
+                            inputs=inputs,
+                            wind=w,
+                            output_dt=self.output_dt,
+                            initial=initial,
+                            atmosphere=self.atmosphere,
+                        )
+                        f, g = self._compare(d, res, grid, steps[rows], crit, outs, mean=True)
+                        f_sum += f
+                        g_sum += g
+                    Fd[rows], Gd[rows] = f_sum, g_sum
             Fd /= len(winds)
             Gd /= len(winds)
             F_sum[:, crit] += d.weight * Fd
@@ -822,6 +1009,59 @@ class Identification:
         for j in np.flatnonzero(F_w == 0):
             F[:, j] = np.nan
         return F, G
+
+    def _compare(
+        self,
+        d: Drop,
+        res: SimulationResult,
+        grid: NDArray[np.float64],
+        steps: NDArray[np.int64],
+        crit: Sequence[int],
+        outs: Sequence[int],
+        *,
+        mean: bool,
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Criteria (n, len(crit)) and drop-outs (n, len(outs)) of one simulated batch on
+        ``grid``; row i is compared over ``grid[: steps[i] + 1]``. ``mean``: integral criteria
+        divided by the window length (time-means)."""
+        lib = _library()
+        n = res.status.shape[0]
+        ok = res.status == 0
+        F = np.full((n, len(crit)), np.nan)
+        Gd = np.full((n, len(outs)), np.nan)
+        sims: dict[str, NDArray] = {}
+        meas: dict[str, NDArray] = {}
+
+        def channel(ch: str) -> tuple[NDArray, NDArray]:
+            if ch not in sims:
+                sims[ch] = _sim_channel(res, ch, d.origin_altitude)
+                meas[ch] = d.flight[ch].at(grid)
+            return sims[ch], meas[ch]
+
+        for L in np.unique(steps[ok]):
+            rows = np.flatnonzero(ok & (steps == L))
+            t = grid[: L + 1]
+            for jj, j in enumerate(crit):
+                cdef = self.defs[j]
+                s, m_ = channel(cdef.channel)
+                v = cdef.fn(s[rows, : L + 1], m_[: L + 1], t)
+                if (
+                    mean
+                    and self.criteria[j].operator is None
+                    and (self.criteria[j].use in INTEGRAL_CRITERIA)
+                ):
+                    v = v / (t[-1] - t[0])
+                F[rows, jj] = v
+            for jj, j in enumerate(outs):
+                o = self.dropouts[j]
+                s, m_ = channel(o.channel)
+                s, m_ = s[rows, : L + 1], m_[: L + 1]
+                if o.components:
+                    comps = d.flight[o.channel].components
+                    idx = [comps.index(c) for c in o.components]
+                    s, m_ = s[..., idx], m_[:, idx]
+                Gd[rows, jj] = lib.dropout(s, m_, o.band, angular=o.channel == "euler")
+        return F, Gd
 
     __call__ = evaluate
 
@@ -861,12 +1101,15 @@ class Identification:
         base_dir: str | Path | None = None,
         default_model: str | None = None,
         flights: Mapping[str, Any] | None = None,
+        window_bounds: Mapping[str, tuple[float, float]] | None = None,
     ) -> Identification:
         """Build from the ``[identification]`` table (see the module docstring).
 
         ``criteria`` and ``constraints`` are the study's column names, in order; a criterion
         not defined under ``[identification.criteria]`` is the library criterion of that name.
         ``flights`` (drop name -> FlightData) replaces drop files in the Python API.
+        ``window_bounds`` (window variable name -> (low, high), s) says how far window
+        variables may move each drop's window, so that enough data is kept around it.
         """
         _check_keys("(table)", table, _TABLE_KEYS)
         base = Path(base_dir) if base_dir is not None else Path.cwd()
@@ -894,9 +1137,26 @@ class Identification:
                 'add [[identification.drops]] with file = "..." and window = [..]',
             )
         flights = dict(flights or {})
+        bounds = dict(window_bounds or {})
+        for v in variables:
+            if window_variable(v) is not None and v not in bounds:
+                raise _err(
+                    "variables",
+                    f"window variable {v!r} has no bounds",
+                    "pass window_bounds = {name: (low, high)} (from_spec does it)",
+                )
         drops = []
         for i, dt_ in enumerate(drops_t):
             name = dt_.get("name", f"drop{i + 1}") if isinstance(dt_, Mapping) else None
+            ext = [0.0, 0.0]
+            for v, (lo, hi) in bounds.items():
+                w = window_variable(v)
+                if w is None or (w[1] is not None and w[1] != name):
+                    continue
+                if w[0] == "window_start":
+                    ext[0] = min(ext[0], float(lo))
+                else:
+                    ext[1] = max(ext[1], float(hi))
             drops.append(
                 build_drop(
                     dt_,
@@ -906,6 +1166,7 @@ class Identification:
                     output_dt=output_dt,
                     init_span=init_span,
                     flight=flights.get(name),
+                    extend=(ext[0], ext[1]),
                 )
             )
         ctab = table.get("criteria", {})
@@ -972,6 +1233,7 @@ class Identification:
             wind_uncertainty=table.get("wind_uncertainty"),
             seed=table.get("seed", 0),
             atmosphere=atmosphere,
+            window_step=table.get("window_step"),
         )
 
     @classmethod
@@ -985,6 +1247,16 @@ class Identification:
                 "add one (see vectorid.identify.identification)",
             )
         model = spec.model if isinstance(spec.model, str) else None
+        bounds = {}
+        for v in spec.space:
+            if window_variable(v.name) is not None:
+                if getattr(v, "kind", "") == "choice":
+                    raise _err(
+                        f"variables.{v.name}",
+                        "a window variable must be continuous or integer (an offset in s)",
+                        f"give {v.name} low and high",
+                    )
+                bounds[v.name] = (float(v.low), float(v.high))
         return cls.from_table(
             table,
             variables=spec.space.names,
@@ -992,6 +1264,7 @@ class Identification:
             constraints=spec.constraint_names,
             base_dir=spec.base_dir,
             default_model=model,
+            window_bounds=bounds,
         )
 
 
@@ -1025,14 +1298,37 @@ def trial_trajectories(
     """
     ident = Identification.from_spec(spec)
     d = ident.drop(drop) if drop is not None else ident.drops[0]
-    res = ident.simulate(np.atleast_2d(np.asarray(x, dtype=float)), d)
-    n = min(len(d.grid), res.position.shape[1])
+    X = np.atleast_2d(np.asarray(x, dtype=float))
+    grid = d.grid
+    if ident.window_vars:  # the trial's own window
+        _, t0, steps, valid = ident.trial_windows(X, d)
+        if not valid[0]:
+            raise _err(
+                "variables",
+                f"the trial's window leaves the data of drop {d.name!r}",
+                "pick a trial whose window_start / window_end lie in the study's box",
+            )
+        grid = float(t0[0]) + ident.output_dt * np.arange(int(steps[0]) + 1)
+        initial, inputs = d.start(float(t0[0]), int(steps[0]) * ident.output_dt)
+        res = ident.model.simulate(
+            ident.parameters(X),
+            t_final=int(steps[0]) * ident.output_dt,
+            dt=ident.dt,
+            inputs=inputs,
+            wind=d.wind,
+            output_dt=ident.output_dt,
+            initial=initial,
+            atmosphere=ident.atmosphere,
+        )
+    else:
+        res = ident.simulate(X, d)
+    n = min(len(grid), res.position.shape[1])
     if "position" in d.flight.channels:
-        meas = d.measured("position")[:n]
+        meas = d.measured("position", grid)[:n]
         sim = _sim_channel(res, "position", d.origin_altitude)[0, :n]
         flip = np.array([1.0, 1.0, -1.0])
         return meas * flip, sim * flip
-    meas_h = d.measured("altitude")[:n, 0]
+    meas_h = d.measured("altitude", grid)[:n, 0]
     sim_h = _sim_channel(res, "altitude", d.origin_altitude)[0, :n, 0]
     zeros = np.zeros(n)
     return np.column_stack([zeros, zeros, meas_h]), np.column_stack([zeros, zeros, sim_h])

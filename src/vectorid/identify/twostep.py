@@ -17,6 +17,13 @@ The control contribution (seed 001 §VI.C, Fig. 8): simulate the model identifie
 uncontrolled drop, *without control*, in the controlled drop's wind ("No control + Wind"),
 and subtract it from the measured trajectory; what is left approximates the part of the
 motion due to the control.
+
+The control step (seed 001 §VI.C, Figs. 9–11, :func:`run_control_step`): the control
+contribution plus the same uncontrolled model flown in still air is the controlled drop as it
+would have been in still air; x15 alone is identified on it by PSI, with criteria 1 and 3
+(horizontal and vertical position errors), driving the model with no wind and the recorded
+control inputs. Its refined x15 box (from the Pareto set) initialises the full-scale step 2
+(``run_two_step(..., control_step=True)``).
 """
 
 from __future__ import annotations
@@ -40,10 +47,13 @@ from vectorid.study import Study
 
 __all__ = [
     "ControlContribution",
+    "ControlStepResult",
     "StepResult",
     "TwoStepResult",
     "auto_limits",
     "control_contribution",
+    "control_step_spec",
+    "run_control_step",
     "run_step",
     "run_two_step",
 ]
@@ -112,12 +122,13 @@ class StepResult:
 
 @dataclass
 class TwoStepResult:
-    """Both steps of :func:`run_two_step`."""
+    """Both steps of :func:`run_two_step` (and the control step between them, if run)."""
 
     step1: StepResult
     step2: StepResult
     step2_spec: StudySpec
     notes: list[str] = field(default_factory=list)
+    control: ControlStepResult | None = None
 
 
 def _run_to(study: Study, total: int, executor: str, progress) -> None:
@@ -200,14 +211,21 @@ def run_step(
     return out
 
 
-def step2_spec(step2: StudySpec, step1: StepResult) -> StudySpec:
-    """Step 2's study with the step-1 variables in step 1's refined box, nominal = chosen."""
-    box = {v.name: v for v in step1.final_box}
+def step2_spec(step2: StudySpec, step1: StepResult, control: StepResult | None = None) -> StudySpec:
+    """Step 2's study with the step-1 variables in step 1's refined box, nominal = chosen.
+
+    ``control`` (the control step): its variables (x15) take its refined box and chosen
+    value in the same way."""
+    boxes = {v.name: (v, step1.chosen) for v in step1.final_box}
+    if control is not None:
+        boxes.update({v.name: (v, control.chosen) for v in control.final_box})
     new_vars = []
     for v in step2.space:
-        if v.name in box and isinstance(v, Continuous):
-            b = box[v.name]
-            nominal = step1.chosen.get(v.name, v.nominal)
+        if v.name in boxes and isinstance(v, Continuous):
+            b, chosen = boxes[v.name]
+            nominal = chosen.get(v.name, v.nominal)
+            if nominal is not None and not b.low <= nominal <= b.high:
+                nominal = None
             new_vars.append(Continuous(v.name, b.low, b.high, nominal, v.unit))
         else:
             new_vars.append(v)
@@ -226,6 +244,10 @@ def run_two_step(
     min_feasible: int = 20,
     refine: Mapping[str, Any] | None = None,
     progress: bool | TextIO = False,
+    control_step: bool = False,
+    control_variables: tuple[str, ...] = ("x15",),
+    control_trials: int | None = None,
+    control_box: bool = True,
 ) -> TwoStepResult:
     """Seed 001 §VI: identify on the uncontrolled drop, then on the controlled drop.
 
@@ -238,6 +260,17 @@ def run_two_step(
         Folder of the two stores (``<step name>.db``).
     trials, coarse, executor, auto_quantile, min_feasible, refine
         As in :func:`run_step`, for each step.
+    control_step : bool
+        Run :func:`run_control_step` between the steps (seed 001 §VI.C): the
+        ``control_variables`` are identified alone on the control contribution, and their
+        refined box (and chosen value, as nominal) initialises step 2.
+    control_trials : int, optional
+        Trials of the control step in its refined box (default ``trials``; its coarse run
+        has ``coarse`` trials like the other steps).
+    control_box : bool
+        Whether the control step's refined box initialises step 2 (the seed's procedure;
+        default). False runs the control step for its own result only, and step 2 keeps its
+        own box for the control variables.
     """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -266,7 +299,27 @@ def run_two_step(
             "the Pareto set of step 1 is empty, so step 2 has no starting box",
             "loosen the criteria constraints or widen the box of step 1",
         )
-    s2 = step2_spec(step2, r1)
+    rc = None
+    if control_step:
+        rc = run_control_step(
+            r1,
+            step2,
+            out,
+            variables=control_variables,
+            trials=trials if control_trials is None else int(control_trials),
+            coarse=coarse,
+            executor=executor,
+            auto_quantile=auto_quantile,
+            min_feasible=min_feasible,
+            progress=progress,
+        )
+        if not rc.step.chosen:
+            raise StudyDefinitionError(
+                "control step",
+                "the Pareto set of the control step is empty, so x15 has no refined box",
+                "widen the x15 box of step 2 or run without control_step",
+            )
+    s2 = step2_spec(step2, r1, rc.step if rc is not None and control_box else None)
     r2 = run_step(
         s2,
         out / f"{step2.name}.db",
@@ -279,7 +332,7 @@ def run_two_step(
         progress=progress,
         name="step 2 (controlled drop)",
     )
-    return TwoStepResult(r1, r2, s2, notes)
+    return TwoStepResult(r1, r2, s2, notes, rc)
 
 
 @dataclass
@@ -357,3 +410,345 @@ def control_contribution(
 def chosen_params(result: StepResult) -> dict[str, float]:
     """The chosen vector of a step, by variable name."""
     return dict(result.chosen)
+
+
+# -- the control step (seed 001 §VI.C, Figs. 9-11) ------------------------------------------------
+
+
+#: Refine rule of the control step: the Pareto set's envelope (Figs. 10-11), widened by 25 %
+#: of its width on each side and at least 10 % of the initial box wide. With one variable and
+#: two criteria that agree (a twin experiment) the Pareto set is a few trials wide; the floor
+#: keeps the sensor-noise scatter of the optimum inside the box that initialises step 2.
+CONTROL_REFINE: dict[str, Any] = {"basis": "pareto", "margin": 0.25, "min_width": 0.1}
+
+
+@dataclass
+class ControlStepResult:
+    """The PSI identification of the control variables on the control contribution.
+
+    Attributes
+    ----------
+    step : StepResult
+        Its run (store, analysis, limits, refined box ``step.final_box``, chosen vector).
+    contribution : ControlContribution
+        Measured minus "No control + Wind" (seed 001 Fig. 8).
+    still_air : (T, 3) float
+        The data it is identified on: the controlled drop in still air, NED position
+        relative to the origin, m (``contribution`` + the uncontrolled model in still air).
+    study_file : Path
+        Its study file (TOML), next to the data files it reads.
+    variables : tuple of str
+    """
+
+    step: StepResult
+    contribution: ControlContribution
+    still_air: NDArray[np.float64]
+    study_file: Path
+    variables: tuple[str, ...]
+
+    def box(self) -> dict[str, tuple[float, float]]:
+        """Refined box of each control variable, by name."""
+        return {v.name: (v.low, v.high) for v in self.step.final_box}
+
+
+def _toml(v: Any) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int | float):
+        return repr(v)
+    if isinstance(v, str):
+        import json
+
+        return json.dumps(v)
+    if isinstance(v, list | tuple):
+        return "[" + ", ".join(_toml(x) for x in v) + "]"
+    if isinstance(v, Mapping):
+        return "{ " + ", ".join(f"{_key(k)} = {_toml(x)}" for k, x in v.items()) + " }"
+    raise TypeError(f"cannot write {v!r} as TOML")
+
+
+def _key(k: str) -> str:
+    import json
+
+    return k if k.replace("_", "").replace("-", "").isalnum() else json.dumps(k)
+
+
+def _write_toml(path: Path, data: Mapping[str, Any], header: str) -> None:
+    lines = [f"# {ln}" for ln in header.splitlines()]
+    lines.append("[study]")
+    lines += [f"{_key(k)} = {_toml(v)}" for k, v in data["study"].items()]
+    for key in ("variables", "criteria"):
+        for item in data[key]:
+            lines += ["", f"[[{key}]]"] + [f"{_key(k)} = {_toml(v)}" for k, v in item.items()]
+    ident = data["identification"]
+    lines += ["", "[identification]"]
+    lines += [f"{_key(k)} = {_toml(v)}" for k, v in ident.items() if k != "drops"]
+    for drop in ident["drops"]:
+        lines += ["", "[[identification.drops]]"]
+        lines += [f"{_key(k)} = {_toml(v)}" for k, v in drop.items()]
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+
+
+def control_step_spec(
+    step2: StudySpec,
+    params: Mapping[str, float],
+    out_dir: str | Path,
+    *,
+    variables: tuple[str, ...] = ("x15",),
+    criteria: tuple[str, ...] = ("pos_h_abs", "pos_v_abs"),
+    drop: str | None = None,
+    trials: int | None = None,
+) -> tuple[StudySpec, ControlContribution, NDArray[np.float64], Path]:
+    """The study of the control step: data files, study file and spec.
+
+    Writes ``out_dir/<name>.toml`` and its data ``out_dir/data/<name>*.csv``, where
+    ``<name>`` is ``<step 2 name>-control``.
+
+    Parameters
+    ----------
+    step2 : StudySpec
+        The controlled-drop study (its model, options, fixed parameters, drop, window, wind,
+        control history and the box of ``variables``).
+    params : mapping
+        Model parameter values of the uncontrolled model (step 1's chosen vector); they are
+        fixed in the control step.
+    variables : tuple of str
+        The control variables identified (default x15, the only one the risers act through).
+    criteria : tuple of str
+        Library criteria (default 1 and 3 of Table I: horizontal and vertical position).
+    drop : str, optional
+        The controlled drop (default: step 2's first).
+
+    Returns
+    -------
+    spec, contribution, still_air, study_file
+    """
+    from vectorid.identify.identification import Identification
+
+    ident = Identification.from_spec(step2)
+    d = ident.drops[0] if drop is None else ident.drop(drop)
+    for v in variables:
+        if v not in step2.space.names or v not in ident.model.parameter_names:
+            raise StudyDefinitionError(
+                "control_variables",
+                f"{v!r} is not both a variable of step 2 and a parameter of model "
+                f"{ident.model.name!r}",
+                f"use variables of step 2 such as {step2.space.names}",
+            )
+    if "position" not in d.flight.channels:
+        raise StudyDefinitionError(
+            "control step",
+            f"drop {d.name!r} has no position channel, so criteria 1 and 3 cannot be formed",
+            "map the position (north, east, down or lat/lon/alt) of the controlled drop",
+        )
+    pnames = list(ident.model.parameter_names)
+    fixed = {k: float(v) for k, v in params.items() if k not in variables and k in pnames}
+    cc = control_contribution(ident, fixed, d.name)
+    P = ident.base.copy()
+    for k, v in fixed.items():
+        P[pnames.index(k)] = float(v)
+    calm = ident.model.simulate(
+        P[None, :],
+        t_final=d.duration,
+        dt=ident.dt,
+        inputs=None,
+        wind=None,
+        output_dt=ident.output_dt,
+        initial=d.initial,
+        atmosphere=ident.atmosphere,
+    )
+    if calm.status[0] != 0:
+        raise StudyDefinitionError(
+            "params",
+            f"the uncontrolled still-air simulation failed: {calm.messages[0]}",
+            "check step 1's chosen vector",
+        )
+    calm_pos = np.array(calm.position[0])
+    calm_pos[:, 2] += d.origin_altitude
+    still = cc.contribution + calm_pos
+    t = cc.t
+    cols = {"time_s": t, "north_m": still[:, 0], "east_m": still[:, 1], "down_m": still[:, 2]}
+    mapping: dict[str, Any] = {
+        "time": "time_s",
+        "position": {"north": "north_m", "east": "east_m", "down": "down_m", "unit": "m"},
+    }
+    if "velocity" in d.flight.channels:  # for the initial state only (criteria 1, 3 only)
+        wind_sim = ident.model.simulate(
+            P[None, :],
+            t_final=d.duration,
+            dt=ident.dt,
+            inputs=None,
+            wind=d.wind,
+            output_dt=ident.output_dt,
+            initial=d.initial,
+            atmosphere=ident.atmosphere,
+        )
+        vel = d.measured("velocity") - wind_sim.velocity[0] + calm.velocity[0]
+        cols.update({"v_north_ms": vel[:, 0], "v_east_ms": vel[:, 1], "v_down_ms": vel[:, 2]})
+        mapping["velocity"] = {
+            "north": "v_north_ms",
+            "east": "v_east_ms",
+            "down": "v_down_ms",
+            "unit": "m/s",
+        }
+    for ch, names, unit in (
+        ("euler", ("roll_rad", "pitch_rad", "yaw_rad"), "rad"),
+        ("rates", ("p_rads", "q_rads", "r_rads"), "rad/s"),
+    ):
+        if ch in d.flight.channels:
+            vals = d.measured(ch)
+            cols.update({n: vals[:, j] for j, n in enumerate(names)})
+            mapping[ch] = {"columns": list(names), "unit": unit}
+    name = f"{step2.name}-control"
+    out = Path(out_dir)
+    data_dir = out / "data"
+    data_dir.mkdir(parents=True, exist_ok=True)
+    main_csv = data_dir / f"{name}.csv"
+    table = np.column_stack(list(cols.values()))
+    np.savetxt(main_csv, table, delimiter=",", header=",".join(cols), comments="", fmt="%.17g")
+    files: list[dict[str, Any]] = [{"file": f"data/{main_csv.name}", "mapping": mapping}]
+    if "controls" in d.flight.channels:
+        c = d.flight["controls"]
+        ctl_csv = data_dir / f"{name}_controls.csv"
+        comps = [str(x) for x in c.components]
+        hdr = ["time_s", *comps]
+        np.savetxt(ctl_csv, np.column_stack([c.t, c.values]), delimiter=",",
+                   header=",".join(hdr), comments="", fmt="%.17g")  # fmt: skip
+        files.append(
+            {
+                "file": f"data/{ctl_csv.name}",
+                "mapping": {
+                    "time": "time_s",
+                    "controls": {"columns": comps, "components": comps},
+                },
+            }
+        )
+    src = step2.extra["identification"]
+    src_drop = next(
+        (t for i, t in enumerate(src["drops"]) if t.get("name", f"drop{i + 1}") == d.name),
+        src["drops"][0],
+    )
+    drop_t: dict[str, Any] = {
+        "name": "still_air",
+        "files": files,
+        "window": [float(t[0]), float(t[-1])],
+        "origin_altitude": float(d.origin_altitude),
+    }
+    events = {k: float(v) for k, v in d.flight.events.items()}
+    if events:
+        drop_t["events"] = events
+    for key in ("inputs", "interpolation"):
+        if key in src_drop:
+            drop_t[key] = src_drop[key]
+    ident_t: dict[str, Any] = {
+        k: src[k]
+        for k in ("model", "model_options", "atmosphere", "dt", "output_dt", "init_span")
+        if k in src
+    }
+    base_fixed = {k: float(v) for k, v in dict(src.get("parameters", {})).items()}
+    base_fixed.update({k: float(v) for k, v in fixed.items() if k in pnames})
+    if base_fixed:
+        ident_t["parameters"] = base_fixed
+    ident_t["drops"] = [drop_t]
+    space = {v.name: v for v in step2.space}
+    var_t = []
+    for v in variables:
+        item: dict[str, Any] = {"name": v, "low": float(space[v].low), "high": float(space[v].high)}
+        var_t.append(item)
+    study_t: dict[str, Any] = {
+        "name": name,
+        "model": step2.model if isinstance(step2.model, str) else ident.model.name,
+        "trials": int(trials if trials is not None else step2.trials),
+        "seed": int(step2.seed),
+        "executor": "serial",
+    }
+    data = {
+        "study": study_t,
+        "variables": var_t,
+        "criteria": [{"name": c, "role": "pure"} for c in criteria],
+        "identification": ident_t,
+    }
+    study_file = out / f"{name}.toml"
+    fixed_txt = ", ".join(f"{k} = {v:.4g}" for k, v in fixed.items())
+    _write_toml(
+        study_file,
+        data,
+        "vectorid control step (seed 001 §VI.C): identification of "
+        f"{', '.join(variables)} on the control contribution of drop {d.name!r} of "
+        f"{step2.name!r}.\nData: measured position - uncontrolled model in the drop's wind + "
+        "the same model in still air (the controlled drop in still air).\n"
+        f"Uncontrolled model (step 1's chosen vector): {fixed_txt}.\n"
+        "The model is flown with no wind and the recorded control inputs.",
+    )
+    from vectorid.spec import load_study
+
+    return load_study(study_file), cc, still, study_file
+
+
+def run_control_step(
+    step1: StepResult | Mapping[str, float],
+    step2: StudySpec,
+    out_dir: str | Path,
+    *,
+    variables: tuple[str, ...] = ("x15",),
+    criteria: tuple[str, ...] = ("pos_h_abs", "pos_v_abs"),
+    trials: int = 2048,
+    coarse: int | None = None,
+    executor: str = "serial",
+    auto_quantile: float = 0.3,
+    min_feasible: int = 20,
+    refine: Mapping[str, Any] | None = None,
+    progress: bool | TextIO = False,
+    drop: str | None = None,
+) -> ControlStepResult:
+    """Seed 001 §VI.C: identify x15 alone by PSI on the control contribution.
+
+    The most reliable vector of step 1 (its chosen vector) is flown without control in the
+    controlled drop's wind ("No control + Wind") and subtracted from the flight data (the
+    control contribution, Fig. 8); adding the same uncontrolled model flown in still air gives
+    the controlled drop as it would have been in still air. ``variables`` (x15) are
+    identified on it with ``criteria`` (1 and 3 of Table I) by the model flown with no wind
+    and the recorded control inputs, everything else fixed at step 1's values, with double
+    tuning; the refined box comes from the Pareto set (``refine`` default
+    :data:`CONTROL_REFINE`, Figs. 10–11) and initialises step 2.
+
+    Parameters
+    ----------
+    step1 : StepResult or mapping
+        Step 1's result (its chosen vector is used) or parameter values by name.
+    step2 : StudySpec
+        The controlled-drop study (see :func:`control_step_spec`).
+    out_dir : path
+        Folder of the study file, its data (``data/``) and its store (``<name>.db``).
+    trials, coarse, executor, auto_quantile, min_feasible, progress
+        As in :func:`run_step`.
+
+    Returns
+    -------
+    ControlStepResult
+    """
+    params = dict(step1.chosen) if isinstance(step1, StepResult) else dict(step1)
+    if not params:
+        raise StudyDefinitionError(
+            "step 1",
+            "step 1 has no chosen vector, so the uncontrolled model is unknown",
+            "loosen step 1's criteria constraints so that its Pareto set is not empty",
+        )
+    spec, cc, still, study_file = control_step_spec(
+        step2, params, out_dir, variables=variables, criteria=criteria, drop=drop, trials=trials
+    )
+    r = run_step(
+        spec,
+        Path(out_dir) / f"{spec.name}.db",
+        trials=trials,
+        coarse=coarse,
+        executor=executor,
+        auto_quantile=auto_quantile,
+        min_feasible=min_feasible,
+        refine={**CONTROL_REFINE, **dict(refine or {})},
+        progress=progress,
+        name="control step (x15 on the control contribution)"
+        if tuple(variables) == ("x15",)
+        else f"control step ({', '.join(variables)} on the control contribution)",
+    )
+    return ControlStepResult(r, cc, still, study_file, tuple(variables))
