@@ -77,8 +77,8 @@ from vectorid.identify.twostep import (
 )
 
 __all__ += [
-    "Identification",
     "ControlStepResult",
+    "Identification",
     "TwoStepResult",
     "control_contribution",
     "problem_from_spec",
