@@ -184,3 +184,24 @@ def test_identification_views_on_synthetic_data():
     assert abs(f[np.argmax(np.asarray(roll.y, float))] - 0.4) < 0.05
     with pytest.raises(ValueError, match="north, east, up"):
         fg.trajectory_figure(pos[:, :2])
+
+
+def test_channels_figure_highlighted_runs_and_bands():
+    t, _, euler = _synthetic_flight()
+    sims = [(t, {k: v * s for k, v in euler.items()}) for s in (0.8, 1.0, 1.3)]
+    bands = {"pitch": (euler["pitch"] - 0.02, euler["pitch"] + 0.02)}
+    ch = fg.channels_figure(t, euler, sims, labels=["a", "b", "c"], show_runs=[1], bands=bands)
+    names = [d.name for d in ch.data]
+    # only the highlighted run is drawn (once per panel), bold; the envelope still uses all
+    assert names.count("b") == 3 and "a" not in names and "c" not in names
+    assert all(d.line.width == 2 for d in ch.data if d.name == "b")
+    lo = next(d for d in ch.data if d.name == "model envelope (min–max)")
+    np.testing.assert_allclose(
+        np.asarray(lo.y, float), euler["roll"] * np.where(euler["roll"] >= 0, 0.8, 1.3)
+    )
+    drop = [d for d in ch.data if d.name == "drop-out envelope"]
+    assert len(drop) == 2 and {d.yaxis for d in drop} == {"y2"}  # the pitch panel only
+    assert [d.showlegend for d in drop] == [True, False]
+    np.testing.assert_allclose(np.asarray(drop[1].y, float), euler["pitch"] + 0.02)
+    none = fg.channels_figure(t, euler, sims, show_runs=False)
+    assert not {"run 1", "run 2", "run 3"} & {d.name for d in none.data}

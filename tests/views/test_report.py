@@ -105,14 +105,9 @@ def _driver(tmpdir):
     return webdriver.Chrome(service=Service(CHROMEDRIVER), options=opts)
 
 
-@pytest.mark.slow
-@pytest.mark.skipif(
-    CHROMIUM is None or CHROMEDRIVER is None,
-    reason="headless Chromium not installed (apt-get install chromium chromium-driver)",
-)
-def test_report_renders_in_headless_chromium(report):
-    pytest.importorskip("selenium", reason="pip install selenium to drive Chromium")
-    res, _, _ = report
+def _render_and_check(res, name: str) -> Path:
+    """Open the report in headless Chromium, plot every figure, check each drew marks and
+    the console has no error; save a full-page screenshot as test-artifacts/NAME."""
     ARTIFACTS.mkdir(exist_ok=True)
     with tempfile.TemporaryDirectory() as tmp:
         d = _driver(tmp)
@@ -149,11 +144,110 @@ def test_report_renders_in_headless_chromium(report):
             height = d.execute_script("return document.body.scrollHeight")
             d.set_window_size(1300, min(int(height), 16000))
             time.sleep(1.0)
-            shot = ARTIFACTS / "report.png"
+            shot = ARTIFACTS / name
             d.save_screenshot(str(shot))
         finally:
             d.quit()
+    return shot
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(
+    CHROMIUM is None or CHROMEDRIVER is None,
+    reason="headless Chromium not installed (apt-get install chromium chromium-driver)",
+)
+def test_report_renders_in_headless_chromium(report):
+    pytest.importorskip("selenium", reason="pip install selenium to drive Chromium")
+    res, _, _ = report
+    shot = _render_and_check(res, "report.png")
     png = shot.read_bytes()
     assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 50_000
     w, h = np.frombuffer(png[16:24], dtype=">u4")
     assert w >= 1200 and h > 2000
+
+
+# -- the report of an identification study --------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def ident_report(tmp_path_factory):
+    from vectorid.cli import main
+
+    out = tmp_path_factory.mktemp("ident")
+    assert main(["demo", "--out", str(out), "--trials", "128", "--quiet"]) == 0
+    db = out / "g12-step2-controlled.db"
+    with Study.open(db) as st:
+        res = write_report(st.store, out / "ident.html", max_envelope=12)
+        a = st.analysis()
+    return res, a, out
+
+
+def _figures_of(res):
+    text = res.path.read_text(encoding="utf-8")
+    payloads = re.findall(r'<script type="application/json" id="fig\d+-json">(.*?)</script>', text)
+    return text, [json.loads(p) for p in payloads]
+
+
+def test_identification_section(ident_report):
+    from vectorid.analysis.choice import best_per_criterion, suggest_choice
+
+    res, a, _ = ident_report
+    text, figs = _figures_of(res)
+    assert ">Identification</h2>" in text
+    by_title = {f["layout"]["title"]["text"]: f for f in figs}
+    drop = "controlled"
+    traj = by_title[f"Trajectories on drop {drop}: flight, best per criterion"]
+    names = [t["name"] for t in traj["data"] if t.get("showlegend") is not False]
+    best = best_per_criterion(a)
+    pure = [a.crit_names[j] for j in a.pure]
+    for i in {best[c] for c in pure}:
+        assert sum(f"(№{i})" in n for n in names) == 1, i
+    assert names[0] == "flight" and names[-1] == "nominal"
+    assert not any(n.startswith("best roll_abs") for n in names)  # pseudo: not drawn
+    fig3 = by_title[f"3-D trajectories on drop {drop}: flight, worst, best"]
+    assert [t["type"] for t in fig3["data"]] == ["scatter3d"] * 3
+    assert fig3["data"][2]["name"] == f"best: suggested (№{suggest_choice(a)})"
+    for ch, comps in (("euler", ["roll", "pitch", "yaw"]), ("velocity", ["north", "east", "down"])):
+        f = by_title[f"{ch} on drop {drop}: flight, suggested vector, Pareto envelope"]
+        assert [ann["text"] for ann in f["layout"]["annotations"]] == comps
+        named = {t.get("name") for t in f["data"]}
+        assert {"flight", "model envelope (min–max)", f"suggested №{suggest_choice(a)}"} <= named
+        unit = "deg" if ch == "euler" else "m/s"
+        assert f["layout"]["yaxis"]["title"]["text"] == f"{comps[0]}, {unit}"
+    spectra = by_title[f"Power spectra of the Euler angles on drop {drop}"]
+    assert {t["name"] for t in spectra["data"]} == {
+        "flight",
+        f"suggested №{suggest_choice(a)}",
+        "nominal",
+    }
+    assert a.n_pareto >= 1 and f"envelope over {min(12, a.n_pareto)} trials of the Pareto" in text
+
+
+def test_identification_section_degrades_without_the_data(ident_report, tmp_path):
+    """When the study's data files are not reachable from the store's location the report
+    says so in the section instead of failing."""
+    _, _, out = ident_report
+    data, away = out / "data", out / "data-away"
+    data.rename(away)
+    try:
+        with Study.open(out / "g12-step2-controlled.db") as st:
+            res = write_report(st.store, tmp_path / "nodata.html")
+    finally:
+        away.rename(data)
+    text, figs = _figures_of(res)
+    assert ">Identification</h2>" in text
+    assert "flight data of this study could not be loaded" in text and "not found" in text
+    assert not any("Trajectories on drop" in f["layout"]["title"]["text"] for f in figs)
+    assert ">Histograms</h2>" in text  # the rest of the report is there
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(
+    CHROMIUM is None or CHROMEDRIVER is None,
+    reason="headless Chromium not installed (apt-get install chromium chromium-driver)",
+)
+def test_identification_report_renders_in_headless_chromium(ident_report):
+    pytest.importorskip("selenium", reason="pip install selenium to drive Chromium")
+    res, _, _ = ident_report
+    shot = _render_and_check(res, "report-identification.png")
+    assert shot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -260,8 +260,8 @@ def dropout_bands(ident: Identification, drop: str | Drop) -> dict[str, NDArray[
 
     A component constrained by several drop-out functionals gets the narrowest band; a
     component no functional constrains is NaN. The band of a
-    :class:`~vectorid.identify.identification.DropoutDef` is a scalar, one value per listed
-    component, or one per grid point (as :func:`vectorid.identify.dropout` takes it).
+    :class:`~vectorid.identify.identification.DropoutDef` is a scalar or one value per listed
+    component (broadcast over the grid as :func:`vectorid.identify.dropout` does).
     """
     d = ident.drop(drop) if isinstance(drop, str) else drop
     T = len(d.grid)

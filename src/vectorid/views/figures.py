@@ -933,7 +933,8 @@ def channels_figure(
     *,
     labels: Sequence[str] | None = None,
     units: Mapping[str, str] | None = None,
-    show_runs: bool = True,
+    show_runs: bool | Sequence[int] = True,
+    bands: Mapping[str, tuple[np.ndarray, np.ndarray]] | None = None,
     title: str = "Channels: flight and model runs",
 ) -> go.Figure:
     """Time histories of channels (e.g. Euler angles, velocities), the flight against the
@@ -949,6 +950,12 @@ def channels_figure(
     labels : sequence of str, optional
         One per run (legend when ``show_runs``).
     units : mapping channel -> unit, optional
+    show_runs : bool or sequence of int
+        Draw every run (True), none (False: envelope and median only), or the runs at these
+        indices (drawn bold, e.g. the chosen vector over the envelope of the Pareto set).
+    bands : mapping channel -> (low (n,), high (n,)), optional
+        A band on the flight's time base drawn as dashed red lines, e.g. the drop-out
+        envelope ``measurement ± band`` of seed 001 Fig. 2.
     """
     names = list(flight)
     t = np.asarray(t, float)
@@ -995,23 +1002,46 @@ def channels_figure(
                 row=row,
                 col=1,
             )
-            if show_runs:
-                for i, (tr, yr) in enumerate(chan_runs):
-                    lab = labels[i] if labels and i < len(labels) else f"run {i + 1}"
-                    fig.add_trace(
-                        go.Scatter(
-                            x=tr,
-                            y=yr,
-                            mode="lines",
-                            line={"width": 0.8, "color": _RUN_COLOURS[i % len(_RUN_COLOURS)]},
-                            opacity=0.6,
-                            name=lab,
-                            legendgroup=lab,
-                            showlegend=c == 0,
-                        ),
-                        row=row,
-                        col=1,
-                    )
+            if isinstance(show_runs, bool):
+                shown = list(range(len(chan_runs))) if show_runs else []
+                bold = False
+            else:
+                shown = [int(i) for i in show_runs if 0 <= int(i) < len(chan_runs)]
+                bold = True
+            for k, i in enumerate(shown):
+                tr, yr = chan_runs[i]
+                lab = labels[i] if labels and i < len(labels) else f"run {i + 1}"
+                colour = _RUN_COLOURS[(k + 1 if bold else i) % len(_RUN_COLOURS)]
+                fig.add_trace(
+                    go.Scatter(
+                        x=tr,
+                        y=yr,
+                        mode="lines",
+                        line={"width": 2 if bold else 0.8, "color": colour},
+                        opacity=1.0 if bold else 0.6,
+                        name=lab,
+                        legendgroup=lab,
+                        showlegend=c == 0,
+                    ),
+                    row=row,
+                    col=1,
+                )
+        if bands and ch in bands:
+            lo_b, hi_b = (np.asarray(b, float) for b in bands[ch])
+            for j, yb in enumerate((lo_b, hi_b)):
+                fig.add_trace(
+                    go.Scatter(
+                        x=t,
+                        y=yb,
+                        mode="lines",
+                        line={"color": CLASS_COLOURS["infeasible"], "width": 1.2, "dash": "dash"},
+                        name="drop-out envelope",
+                        legendgroup="dropout",
+                        showlegend=j == 0 and ch == next(n for n in names if n in bands),
+                    ),
+                    row=row,
+                    col=1,
+                )
         fig.add_trace(
             go.Scatter(
                 x=t,

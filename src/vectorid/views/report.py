@@ -11,7 +11,12 @@ Contents: study definition, stages and refine history, N/ND/NP and the constrain
 force, test tables (top rows), the Pareto set, the chosen vector(s) with the best trial per
 criterion (seed 001 Table 4 layout), criterion vs criterion pairs and matrix, criterion vs
 parameter, histograms (and by stage after double tuning), the double-tuning proposal,
-correlation and spread, sensitivity, and every stored section and robustness check.
+correlation and spread, sensitivity, and every stored section and robustness check. A study
+with an ``[identification]`` table also gets an "Identification" section: trajectories of the
+flight and of the best trial per criterion (seed 000 Fig. 11), the 3-D projection with the
+worst and best trial (seed 001 Fig. 7), channel time histories with envelopes and power
+spectra of the Euler angles (numbers from :mod:`vectorid.identify.views_data`); when the
+flight data cannot be loaded from the store's location the section says so instead.
 """
 
 from __future__ import annotations
@@ -359,6 +364,136 @@ def _chosen(page: _Page, a: Analysis, chosen: Sequence[int]) -> list[int]:
     return ids
 
 
+def _identification(page: _Page, a: Analysis, chosen: Sequence[int], max_envelope: int) -> None:
+    """The "Identification" section: trajectories, channels and spectra against the flight
+    (seed 000 Fig. 11, seed 001 Figs. 2, 7, 9); numbers from
+    :mod:`vectorid.identify.views_data`."""
+    spec = a.spec
+    if "identification" not in spec.extra:
+        return
+    page.h2("Identification")
+    try:
+        from ..identify import Identification
+        from ..identify import views_data as vd
+
+        ident = Identification.from_spec(spec)
+    except (VectoridError, OSError) as exc:
+        page.add(
+            "<p class=note>The flight data of this study could not be loaded, so the "
+            f"trajectories, channels and spectra are not shown: {_e(exc)}. Data paths are "
+            f"relative to the study folder ({_e(spec.base_dir or 'unknown')}; when that folder "
+            "is gone, the store's folder): keep the data files there, or write the report "
+            "where they are reachable.</p>"
+        )
+        return
+    picks = vd.pick_trials(a, chosen, max_envelope=max_envelope)
+    ids = picks.ids()
+    rows = vd.rows_of(a, ids)
+    X = np.vstack([a.trials.X[rows], vd.nominal_vector(spec, ident)[None, :]])
+    labels = [f"№{i}" for i in ids] + ["nominal"]
+    at = {i: k for k, i in enumerate(ids)}
+    nom = len(ids)
+    best_of: dict[int, list[str]] = {}
+    for name, i in picks.best.items():
+        best_of.setdefault(i, []).append(name)
+    chosen_word = "chosen" if chosen else "suggested"
+    page.add(
+        f"<p>Model <code>{_e(ident.model.name)}</code> simulated over each drop's window from "
+        "the measured initial state, in the drop's measured wind, on the comparison grid "
+        f"(step {_f(ident.output_dt)} s). Shown: the flight; the best trial per pure criterion "
+        f"and the nominal vector; the {chosen_word} vector"
+        + (f" №{picks.chosen}" if picks.chosen is not None else "")
+        + (f" and the worst trial №{picks.worst}" if picks.worst is not None else "")
+        + f"; the envelope over {len(picks.envelope)} trials of the {picks.envelope_set} set"
+        + " (nominal: the study's nominal values, else the model's).</p>"
+    )
+    if ident.wind_realisations > 1:
+        page.add(
+            f"<p class=note>The criteria are means over {ident.wind_realisations} wind "
+            "realisations; the curves here use the measured wind only.</p>"
+        )
+    for d in ident.drops:
+        runs = vd.simulate_trials(ident, X, d, labels=labels)
+        if len(ident.drops) > 1:
+            page.add(f"<h3>Drop {_e(d.name)}</h3>")
+        failed = [labels[k] for k in np.flatnonzero(~runs.ok)]
+        if failed:
+            page.add(
+                f"<p class=note>Simulation failed on drop {_e(d.name)} for "
+                f"{_e(', '.join(failed))}; those trials are left out.</p>"
+            )
+        flight, model = runs.trajectories()
+        traj = {}
+        for i, names in best_of.items():
+            if runs.ok[at[i]]:
+                traj[f"best {', '.join(names)} (№{i})"] = model[at[i]]
+        if runs.ok[nom]:
+            traj["nominal"] = model[nom]
+        page.fig(
+            fg.trajectory_figure(
+                flight, traj, title=f"Trajectories on drop {d.name}: flight, best per criterion"
+            ),
+            "seed 000 Fig. 11: the flight and the best trial per pure criterion, and the "
+            "nominal vector",
+        )
+        traj3 = {}
+        if picks.worst is not None and runs.ok[at[picks.worst]]:
+            traj3[f"worst (№{picks.worst})"] = model[at[picks.worst]]
+        if picks.chosen is not None and runs.ok[at[picks.chosen]]:
+            traj3[f"best: {chosen_word} (№{picks.chosen})"] = model[at[picks.chosen]]
+        page.fig(
+            fg.trajectory3d_figure(
+                flight, traj3, title=f"3-D trajectories on drop {d.name}: flight, worst, best"
+            ),
+            "seed 001 Fig. 7; worst: the largest sum of the pure criteria, each normalised "
+            "over the successful trials",
+        )
+        env_rows = [at[i] for i in picks.envelope]
+        if picks.chosen is not None and at[picks.chosen] not in env_rows:
+            env_rows.append(at[picks.chosen])
+        chans = [c for c in ("euler", "velocity") if c in runs.measured]
+        chans += [c for c in runs.bands if c not in chans]
+        for ch in chans:
+            h = runs.channel_histories(ch, env_rows)
+            hi = (
+                [h.labels.index(f"№{picks.chosen}")]
+                if picks.chosen is not None and f"№{picks.chosen}" in h.labels
+                else []
+            )
+            if hi:
+                h.labels[hi[0]] = f"{chosen_word} №{picks.chosen}"
+            page.fig(
+                fg.channels_figure(
+                    h.t,
+                    h.flight,
+                    h.runs,
+                    labels=h.labels,
+                    units={c: h.unit for c in h.flight},
+                    show_runs=hi,
+                    bands=h.bands or None,
+                    title=f"{ch} on drop {d.name}: flight, {chosen_word} vector, "
+                    f"{picks.envelope_set} envelope",
+                ),
+                f"time from the window start; shaded: min–max over {len(h.runs)} trials"
+                + (", dashed red: the drop-out envelope" if h.bands else "")
+                + " (seed 001 Figs. 2, 9)",
+            )
+        if "euler" in runs.measured:
+            sp_rows = [k for k in (at.get(picks.chosen), nom) if k is not None]
+            fl, sims = runs.euler_series(sp_rows)
+            sims = {
+                (f"{chosen_word} {lab}" if lab == f"№{picks.chosen}" else lab): v
+                for lab, v in sims.items()
+            }
+            page.fig(
+                fg.spectra_figure(
+                    runs.t, fl, sims, title=f"Power spectra of the Euler angles on drop {d.name}"
+                ),
+                "Welch, on the comparison grid (Nyquist "
+                f"{_f(0.5 / ident.output_dt)} Hz); seed 001 Table I, criteria 13–15",
+            )
+
+
 def _history(page: _Page, store: Store) -> None:
     page.h2("Stages and refine history")
     hist = refine_history(store)
@@ -394,6 +529,7 @@ def build_report(
     max_points: int = 30_000,
     top: int = 10,
     seed: int = 0,
+    max_envelope: int = 40,
 ) -> tuple[str, _Page]:
     """The report as an HTML string (see :func:`write_report`)."""
     import plotly.offline
@@ -521,6 +657,10 @@ def build_report(
             )
         )
         page.fig(fg.robustness_figure(checks), "seed 001 Table 4")
+    # last: its 3-D figure's WebGL context must not be the oldest when every figure is
+    # plotted at once (browsers drop the oldest beyond ~16 contexts, and a lost gl3d context
+    # throws, while a lost scattergl one only goes blank)
+    _identification(page, a, chosen, max_envelope)
     if page.notes:
         page.add(
             "<h2>Decimation</h2><ul>" + "".join(f"<li>{_e(n)}</li>" for n in page.notes) + "</ul>"
@@ -549,6 +689,7 @@ def write_report(
     max_points: int = 30_000,
     top: int = 10,
     seed: int = 0,
+    max_envelope: int = 40,
 ) -> ReportResult:
     """Write the self-contained HTML report of the study held in ``store``.
 
@@ -570,10 +711,19 @@ def write_report(
         Rows of the test tables.
     seed : int
         Seed of the decimation subsets.
+    max_envelope : int
+        Most trials simulated for the model envelope of the identification channels.
     """
     t0 = time.perf_counter()
     doc, page = build_report(
-        store, limits=limits, roles=roles, chosen=chosen, max_points=max_points, top=top, seed=seed
+        store,
+        limits=limits,
+        roles=roles,
+        chosen=chosen,
+        max_points=max_points,
+        top=top,
+        seed=seed,
+        max_envelope=max_envelope,
     )
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
