@@ -2,14 +2,15 @@
 
 Verbs (a contract; more may be added)::
 
-    vectorid run STUDY.toml|STORE [--trials N] [--store PATH] [--executor serial|processes]
-                                  [--workers N] [--batch-size N] [--quiet]
+    vectorid run STUDY.toml|STORE [--trials N] [--store PATH]
+                                  [--executor serial|processes|dask] [--scheduler tcp://H:P]
+                                  [--timeout SECONDS] [--workers N] [--batch-size N] [--quiet]
     vectorid info STORE [--json]
     vectorid table STORE [--limit 'NAME<=VALUE' ...] [--top K] [--feasible] [--json]
     vectorid pareto STORE [--limit 'NAME<=VALUE' | 'NAME>=VALUE' ...] [--role NAME=pseudo] [--json]
     vectorid export STORE [--format csv|json|parquet] [--out PATH]
     vectorid init PROBLEM [--out FILE] [--trials N]
-    vectorid demo [--out DIR] [--trials N]
+    vectorid demo [--out DIR] [--trials N] [--analytic]
 
 Errors in user input print one line saying what was expected, what came and how to fix it,
 and exit with status 2; an interrupted run exits with 130 after storing what it finished.
@@ -37,7 +38,7 @@ EXIT_LOCKED = 3
 EXIT_INTERRUPTED = 130
 
 
-def _positive_int(text: str) -> int:
+def positive_int(text: str) -> int:
     try:
         value = int(text)
     except ValueError:
@@ -45,6 +46,35 @@ def _positive_int(text: str) -> int:
     if value < 1:
         raise argparse.ArgumentTypeError(f"expected a number >= 1, got {value}")
     return value
+
+
+def positive_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number of seconds, got {text!r}") from None
+    if not (0 < value < math.inf):
+        raise argparse.ArgumentTypeError(f"expected a positive number of seconds, got {text}")
+    return value
+
+
+def add_limit_options(sp: argparse.ArgumentParser) -> None:
+    """Add ``--limit`` and ``--role`` (shared by every analysis verb)."""
+    sp.add_argument(
+        "--limit",
+        action="append",
+        default=[],
+        metavar="'NAME<=VALUE'",
+        help="criteria or functional constraint, e.g. 'f1<=40' or 'f2>=0.5' "
+        "(repeatable; 'f1<=inf' removes a limit)",
+    )
+    sp.add_argument(
+        "--role",
+        action="append",
+        default=[],
+        metavar="NAME=pure|pseudo",
+        help="override a criterion's role for this analysis",
+    )
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -59,44 +89,42 @@ def _parser() -> argparse.ArgumentParser:
 
     r = sub.add_parser("run", help="run, resume or extend a study")
     r.add_argument("study", help="study file (.toml) or an existing store (.db) to resume/extend")
-    r.add_argument("--trials", type=_positive_int, help="total number of trials the study holds")
+    r.add_argument("--trials", type=positive_int, help="total number of trials the study holds")
     r.add_argument("--store", help="store path (default: the study's, else STUDY.db)")
-    r.add_argument("--executor", choices=["serial", "processes"], help="default: processes")
-    r.add_argument("--workers", type=_positive_int, help="worker processes (default: all cores)")
-    r.add_argument("--batch-size", type=_positive_int, help="trials per batch (default: auto)")
+    r.add_argument(
+        "--executor",
+        choices=["serial", "processes", "dask"],
+        help="default: the study's, else processes (dask with --scheduler)",
+    )
+    r.add_argument("--workers", type=positive_int, help="worker processes (default: all cores)")
+    r.add_argument(
+        "--scheduler",
+        metavar="tcp://HOST:PORT",
+        help="Dask scheduler to run on (implies --executor dask; default: a local cluster)",
+    )
+    r.add_argument(
+        "--timeout",
+        type=positive_float,
+        metavar="SECONDS",
+        help="most seconds one trial may take (default: the study's, else no limit)",
+    )
+    r.add_argument("--batch-size", type=positive_int, help="trials per batch (default: auto)")
     r.add_argument("--quiet", action="store_true", help="no progress bar")
 
     i = sub.add_parser("info", help="study definition, stages, counts, failures, runs")
     i.add_argument("store")
     i.add_argument("--json", action="store_true")
 
-    def limits(sp: argparse.ArgumentParser) -> None:
-        sp.add_argument(
-            "--limit",
-            action="append",
-            default=[],
-            metavar="'NAME<=VALUE'",
-            help="criteria or functional constraint, e.g. 'f1<=40' or 'f2>=0.5' "
-            "(repeatable; 'f1<=inf' removes a limit)",
-        )
-        sp.add_argument(
-            "--role",
-            action="append",
-            default=[],
-            metavar="NAME=pure|pseudo",
-            help="override a criterion's role for this analysis",
-        )
-
     t = sub.add_parser("table", help="test tables: each criterion's trials, best first")
     t.add_argument("store")
-    limits(t)
-    t.add_argument("--top", type=_positive_int, default=10, help="rows per criterion (default 10)")
+    add_limit_options(t)
+    t.add_argument("--top", type=positive_int, default=10, help="rows per criterion (default 10)")
     t.add_argument("--feasible", action="store_true", help="only trials in the feasible set D")
     t.add_argument("--json", action="store_true")
 
     pa = sub.add_parser("pareto", help="feasible set D and Edgeworth–Pareto set")
     pa.add_argument("store")
-    limits(pa)
+    add_limit_options(pa)
     pa.add_argument("--json", action="store_true")
 
     e = sub.add_parser("export", help="every trial, one row each")
@@ -107,11 +135,19 @@ def _parser() -> argparse.ArgumentParser:
     n = sub.add_parser("init", help="write a study file for a built-in analytic problem")
     n.add_argument("problem", help="e.g. binh-korn, zdt1, dtlz2-3, tanaka, osyczka-kundu")
     n.add_argument("--out", help="file to write (default: PROBLEM.toml)")
-    n.add_argument("--trials", type=_positive_int, default=2048)
+    n.add_argument("--trials", type=positive_int, default=2048)
 
-    d = sub.add_parser("demo", help="run the demonstration study and print its results")
-    d.add_argument("--out", default="vectorid-demo", help="folder for the store and files")
-    d.add_argument("--trials", type=_positive_int, default=2048)
+    d = sub.add_parser(
+        "demo", help="run the two-step identification demo (or --analytic) and print its results"
+    )
+    d.add_argument("--out", default="vectorid-demo", help="folder for the stores and files")
+    d.add_argument(
+        "--trials",
+        type=positive_int,
+        default=2048,
+        help="trials per identification step in its refined box (default 2048)",
+    )
+    d.add_argument("--analytic", action="store_true", help="the analytic Binh–Korn demo instead")
     d.add_argument("--quiet", action="store_true", help="no progress bar")
     for module in _extensions():
         module.add_parsers(sub)
@@ -120,7 +156,7 @@ def _parser() -> argparse.ArgumentParser:
 
 #: Modules adding verbs: each has ``add_parsers(subparsers)`` and ``COMMANDS`` (verb -> function
 #: taking the parsed arguments and returning an exit code).
-_EXTENSION_MODULES = ("vectorid.cli_analysis",)
+_EXTENSION_MODULES = ("vectorid.cli_analysis", "vectorid.cli_ui")
 
 
 def _extensions() -> list[Any]:
@@ -225,6 +261,7 @@ def _print_json(obj: Any) -> None:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
+    from .run.executors import executor_options
     from .run.loop import RunInterrupted
     from .spec import load_study
     from .study import Study, default_store_path
@@ -238,16 +275,20 @@ def _cmd_run(args: argparse.Namespace) -> int:
         spec = load_study(src)
         store = Path(args.store) if args.store else default_store_path(spec, src)
         study = Study.create_or_open(spec, store)
+    executor = args.executor
+    if args.scheduler and executor is None:
+        executor = "dask"
     with study:
         print(f"study {study.spec.name!r} -> {study.store.path}", file=sys.stderr)
         try:
-            summary = study.run(
-                trials=args.trials,
-                executor=args.executor,
-                workers=args.workers,
-                batch_size=args.batch_size,
-                progress=not args.quiet,
-            )
+            with executor_options(scheduler=args.scheduler, timeout=args.timeout):
+                summary = study.run(
+                    trials=args.trials,
+                    executor=executor,
+                    workers=args.workers,
+                    batch_size=args.batch_size,
+                    progress=not args.quiet,
+                )
         except RunInterrupted as exc:
             print(f"\n{exc}", file=sys.stderr)
             print(exc.summary.describe(), file=sys.stderr)
@@ -440,7 +481,9 @@ def _cmd_init(args: argparse.Namespace) -> int:
 def _cmd_demo(args: argparse.Namespace) -> int:
     from .demo import run_demo
 
-    return run_demo(Path(args.out), trials=args.trials, progress=not args.quiet)
+    return run_demo(
+        Path(args.out), trials=args.trials, progress=not args.quiet, analytic=args.analytic
+    )
 
 
 _COMMANDS = {

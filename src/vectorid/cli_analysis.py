@@ -26,36 +26,16 @@ from typing import Any
 
 import numpy as np
 
+from .cli import add_limit_options, positive_int
 from .errors import StudyDefinitionError
 
 __all__ = ["COMMANDS", "add_parsers"]
 
 
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected a number >= 1, got {value}")
-    return value
+def _parse_limits(texts: list[str]) -> Any:
+    from .analysis import parse_limits
 
-
-def _limits(sp: argparse.ArgumentParser) -> None:
-    sp.add_argument(
-        "--limit",
-        action="append",
-        default=[],
-        metavar="'NAME<=VALUE'",
-        help="criteria or functional constraint, e.g. 'f1<=40' (repeatable; 'f1<=inf' removes)",
-    )
-    sp.add_argument(
-        "--role",
-        action="append",
-        default=[],
-        metavar="NAME=pure|pseudo",
-        help="override a criterion's role for this analysis",
-    )
+    return parse_limits(texts)
 
 
 def add_parsers(sub: Any) -> None:
@@ -64,15 +44,15 @@ def add_parsers(sub: Any) -> None:
     s.add_argument("store")
     s.add_argument("--trial", type=int, required=True, help="id of the trial to pass through")
     s.add_argument("--param", required=True, help="variable to vary")
-    s.add_argument("--points", type=_positive_int, default=21, help="grid points (default 21)")
+    s.add_argument("--points", type=positive_int, default=21, help="grid points (default 21)")
     s.add_argument("--range", nargs=2, type=float, metavar=("LO", "HI"), help="range of PARAM")
-    _limits(s)
+    add_limit_options(s)
     s.add_argument("--out", help="write the section figure to this .html file")
     s.add_argument("--json", action="store_true")
 
     r = sub.add_parser("refine", help="double tuning: propose (and --apply) a narrowed box")
     r.add_argument("store")
-    _limits(r)
+    add_limit_options(r)
     r.add_argument("--pareto", action="store_true", help="envelope of the Pareto set, not of D")
     r.add_argument("--quantile", type=float, default=0.05, help="envelope quantile (0.05)")
     r.add_argument("--margin", type=float, default=0.1, help="margin, share of width (0.1)")
@@ -91,23 +71,23 @@ def add_parsers(sub: Any) -> None:
     b.add_argument("store")
     b.add_argument("--trial", type=int, action="append", required=True, help="repeatable")
     b.add_argument("--radius", type=float, default=0.02, help="share of each box width (0.02)")
-    b.add_argument("--points", type=_positive_int, help="neighbours, multiple of 4 (default 32)")
+    b.add_argument("--points", type=positive_int, help="neighbours, multiple of 4 (default 32)")
     b.add_argument("--seed", type=int, default=0)
-    _limits(b)
+    add_limit_options(b)
     b.add_argument("--out", help="write the robustness figure to this .html file")
     b.add_argument("--json", action="store_true")
 
     p = sub.add_parser("report", help="self-contained HTML report of the study")
     p.add_argument("store")
-    _limits(p)
+    add_limit_options(p)
     p.add_argument("--out", required=True, help="the .html file to write")
     p.add_argument("--chosen", type=int, action="append", default=[], help="chosen trial id")
-    p.add_argument("--max-points", type=_positive_int, default=30_000, help="per point cloud")
-    p.add_argument("--top", type=_positive_int, default=10, help="test table rows (10)")
+    p.add_argument("--max-points", type=positive_int, default=30_000, help="per point cloud")
+    p.add_argument("--top", type=positive_int, default=10, help="test table rows (10)")
 
     c = sub.add_parser("correlation", help="parameter correlation among near-optimal vectors")
     c.add_argument("store")
-    _limits(c)
+    add_limit_options(c)
     c.add_argument("--set", choices=["pareto", "feasible"], default="pareto")
     c.add_argument("--method", choices=["pearson", "spearman"], default="pearson")
     c.add_argument("--threshold", type=float, default=0.8, help="strong |r| (0.8)")
@@ -116,28 +96,28 @@ def add_parsers(sub: Any) -> None:
 
     e = sub.add_parser("sensitivity", help="rank correlation and KS filtering per parameter")
     e.add_argument("store")
-    _limits(e)
+    add_limit_options(e)
     e.add_argument("--out", help="write the figure to this .html file")
     e.add_argument("--json", action="store_true")
 
     h = sub.add_parser("hist", help="histograms of feasible and Pareto trials per parameter")
     h.add_argument("store")
-    _limits(h)
+    add_limit_options(h)
     h.add_argument("--param", action="append", help="variable (repeatable; default all)")
-    h.add_argument("--bins", type=_positive_int)
+    h.add_argument("--bins", type=positive_int)
     h.add_argument("--by-stage", action="store_true", help="one histogram per sample stage")
     h.add_argument("--out", help="write the figure to this .html file")
     h.add_argument("--json", action="store_true")
 
     g = sub.add_parser("plot", help="write one figure: pair, matrix, vs-params or spread")
     g.add_argument("store")
-    _limits(g)
+    add_limit_options(g)
     g.add_argument("--x", help="criterion/parameter on x (with --y)")
     g.add_argument("--y", help="criterion/parameter on y (with --x)")
     g.add_argument("--matrix", action="store_true", help="all criterion pairs")
     g.add_argument("--vs-params", metavar="CRITERION", help="criterion vs every parameter")
     g.add_argument("--spread", type=int, nargs="+", metavar="ID", help="trials vs nominal")
-    g.add_argument("--max-points", type=_positive_int, help="decimate point clouds")
+    g.add_argument("--max-points", type=positive_int, help="decimate point clouds")
     g.add_argument("--out", required=True, help="the .html file to write")
 
 
@@ -163,6 +143,7 @@ def _open(path: str, write: bool = False):
 
 
 def _analysis(study: Any, args: argparse.Namespace):
+
     from .analysis import parse_limits
 
     return study.analysis(parse_limits(args.limit), _roles(args))
@@ -344,7 +325,6 @@ def _cmd_robustness(args: argparse.Namespace) -> int:
 
 
 def _cmd_report(args: argparse.Namespace) -> int:
-    from .analysis import parse_limits
 
     try:
         from .views.report import write_report
@@ -357,7 +337,7 @@ def _cmd_report(args: argparse.Namespace) -> int:
         res = write_report(
             study.store,
             args.out,
-            limits=parse_limits(args.limit),
+            limits=_parse_limits(args.limit),
             roles=_roles(args),
             chosen=args.chosen,
             max_points=args.max_points,

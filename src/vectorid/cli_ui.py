@@ -12,6 +12,8 @@ import argparse
 from pathlib import Path
 from typing import Any
 
+from .cli import positive_int
+
 __all__ = ["COMMANDS", "add_parsers"]
 
 
@@ -22,16 +24,6 @@ def _port(text: str) -> int:
         raise argparse.ArgumentTypeError(f"expected a port number, got {text!r}") from None
     if not 1 <= value <= 65535:
         raise argparse.ArgumentTypeError(f"expected a port in 1..65535, got {value}")
-    return value
-
-
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected a number >= 1, got {value}")
     return value
 
 
@@ -50,10 +42,10 @@ def add_parsers(sub: Any) -> None:
         choices=["serial", "processes"],
         help="for new stages started from the UI (default: the study's, else processes)",
     )
-    u.add_argument("--workers", type=_positive_int, help="worker processes for new stages")
+    u.add_argument("--workers", type=positive_int, help="worker processes for new stages")
     u.add_argument(
         "--max-points",
-        type=_positive_int,
+        type=positive_int,
         default=20_000,
         help="points drawn in the criterion plot (default 20000; more are decimated)",
     )

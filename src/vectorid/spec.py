@@ -56,15 +56,19 @@ _STUDY_KEYS = {
     "scramble": "Owen-scramble the Sobol sequence (default false)",
     "store": "path of the SQLite store, relative to the study file",
     "description": "free text",
-    "executor": "'serial' or 'processes'",
+    "executor": "'serial', 'processes' or 'dask'",
     "workers": "number of worker processes",
+    "scheduler": "Dask scheduler 'tcp://HOST:PORT' (executor 'dask'; default: local cluster)",
+    "timeout": "most seconds one trial may take (default: no limit)",
+    "command": "command-line model as a list, e.g. ['python', 'sim.py', '{input}', '{output}']",
+    "fmu": "table of FMU options: interface, start_time, stop_time, parameters, outputs, ...",
 }
 _TOP_KEYS = {"study", "variables", "criteria", "constraints", "limits"}
 _VARIABLE_KEYS = {"name", "type", "low", "high", "nominal", "unit", "values", "description"}
 _CRITERION_KEYS = {"name", "sense", "role", "limit", "unit", "description"}
 _CONSTRAINT_KEYS = {"name", "low", "high", "unit", "description"}
 _VARIABLE_TYPES = ("continuous", "integer", "choice")
-EXECUTORS = ("serial", "processes")
+EXECUTORS = ("serial", "processes", "dask")
 
 
 def _check_keys(where: str, got: Mapping[str, Any], valid: set[str] | Mapping[str, Any]) -> None:
@@ -118,6 +122,16 @@ class StudySpec:
         Store path (relative to ``base_dir``).
     base_dir : str, optional
         Folder of the study file, put on the import path for ``module:function`` models.
+    executor, workers : optional
+        Default executor (``"serial"``, ``"processes"``, ``"dask"``) and worker count.
+    scheduler : str, optional
+        Dask scheduler address ``"tcp://HOST:PORT"`` (executor ``"dask"``).
+    timeout : float, optional
+        Most seconds one trial may take, in s (see :mod:`vectorid.run.executors`).
+    command : tuple of str, optional
+        Command-line model template, with ``model = "cmd"`` (see :mod:`vectorid.external`).
+    fmu : dict, optional
+        FMU options, with ``model = "fmu:PATH"`` (see :mod:`vectorid.external`).
     """
 
     name: str
@@ -137,6 +151,10 @@ class StudySpec:
     executor: str | None = None
     workers: int | None = None
     extra: dict[str, Any] = field(default_factory=dict, compare=False)
+    scheduler: str | None = None
+    timeout: float | None = None
+    command: tuple[str, ...] | None = None
+    fmu: dict[str, Any] | None = field(default=None, hash=False)
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name:
@@ -181,6 +199,45 @@ class StudySpec:
             )
         if self.workers is not None:
             object.__setattr__(self, "workers", _int("study.workers", self.workers, 1))
+        if self.scheduler is not None and not isinstance(self.scheduler, str):
+            raise StudyDefinitionError(
+                "study.scheduler",
+                f"expected an address such as 'tcp://10.0.0.5:8786', got {self.scheduler!r}",
+                'write scheduler = "tcp://HOST:PORT", or leave it out for a local cluster',
+            )
+        if self.scheduler is not None:
+            if self.executor is None:  # a scheduler address means the dask executor
+                object.__setattr__(self, "executor", "dask")
+            elif self.executor != "dask":
+                raise StudyDefinitionError(
+                    "study.scheduler",
+                    f"a scheduler address applies to executor 'dask', got {self.executor!r}",
+                    'set executor = "dask", or remove scheduler',
+                )
+        if self.timeout is not None:
+            t = self.timeout
+            if isinstance(t, bool) or not isinstance(t, int | float) or not (0 < t < math.inf):
+                raise StudyDefinitionError(
+                    "study.timeout",
+                    f"expected a positive number of seconds per trial, got {t!r}",
+                    "write e.g. timeout = 60, or leave it out for no limit",
+                )
+            object.__setattr__(self, "timeout", float(t))
+        if self.command is not None:
+            cmd = self.command
+            if isinstance(cmd, str) or not all(isinstance(c, str) for c in cmd) or not cmd:
+                raise StudyDefinitionError(
+                    "study.command",
+                    f"expected a non-empty list of strings, got {cmd!r}",
+                    'write command = ["python", "sim.py", "{input}", "{output}"]',
+                )
+            object.__setattr__(self, "command", tuple(cmd))
+        if self.fmu is not None and not isinstance(self.fmu, Mapping):
+            raise StudyDefinitionError(
+                "study.fmu",
+                f"expected a table, got {self.fmu!r}",
+                "write [study.fmu] with stop_time = ..., [study.fmu.outputs] ...",
+            )
         for flag in ("batch", "scramble"):
             if not isinstance(getattr(self, flag), bool):
                 raise StudyDefinitionError(
@@ -204,7 +261,19 @@ class StudySpec:
         return Sampler(len(self.space), self.sampler, scramble=self.scramble, seed=self.seed)
 
     def problem(self) -> Problem:
-        """Resolve the model and build the :class:`~vectorid.problem.Problem`."""
+        """Resolve the model and build the :class:`~vectorid.problem.Problem`.
+
+        A study with an ``[identification]`` table is an identification (model + flight data +
+        adequacy criteria); :func:`vectorid.identify.problem_from_spec` builds its Problem.
+        """
+        if "identification" in self.extra:
+            from .identify import problem_from_spec
+
+            return problem_from_spec(self)
+        if isinstance(self.model, str) and self.model.partition(":")[0] in ("cmd", "fmu"):
+            from .external import external_model
+
+            return Problem(external_model(self), self.criteria, self.constraints)
         func = load_model(self.model, self.base_dir)
         if not self.batch:
             func = as_batch(func)
@@ -240,9 +309,13 @@ class StudySpec:
             "sampler": self.sampler,
             "scramble": self.scramble,
         }
-        for key in ("batch_size", "store", "executor", "workers"):
+        for key in ("batch_size", "store", "executor", "workers", "scheduler", "timeout"):
             if getattr(self, key) is not None:
                 study[key] = getattr(self, key)
+        if self.command is not None:
+            study["command"] = list(self.command)
+        if self.fmu is not None:
+            study["fmu"] = dict(self.fmu)
         if self.description:
             study["description"] = self.description
         out: dict[str, Any] = {
@@ -309,6 +382,10 @@ class StudySpec:
             executor=study.get("executor"),
             workers=study.get("workers"),
             extra=dict(extra),
+            scheduler=study.get("scheduler"),
+            timeout=study.get("timeout"),
+            command=study.get("command"),
+            fmu=study.get("fmu"),
         )
         if limits:
             spec = spec.with_limits(dict(limits))

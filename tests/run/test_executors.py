@@ -1,4 +1,6 @@
-"""The suite every executor must pass (serial, processes; Dask joins later)."""
+"""The suite every executor must pass (serial, processes, and dask when installed)."""
+
+import importlib.util
 
 import numpy as np
 import pytest
@@ -9,7 +11,17 @@ from vectorid.run import EXECUTORS, make_executor
 
 from ..conftest import write_user_study
 
-EXECUTOR_NAMES = sorted(EXECUTORS)
+EXECUTOR_NAMES = [
+    name
+    if name != "dask" or importlib.util.find_spec("distributed") is not None
+    else pytest.param(
+        name,
+        marks=pytest.mark.skip(
+            reason="dask.distributed not installed (pip install 'vectorid[dask]')"
+        ),
+    )
+    for name in sorted(EXECUTORS)
+]
 
 
 def reference(spec, n):

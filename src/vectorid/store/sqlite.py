@@ -343,7 +343,14 @@ class Store:
                 con = sqlite3.connect(path, timeout=30)
                 con.execute("PRAGMA journal_mode=WAL")
                 con.execute("PRAGMA synchronous=NORMAL")
+        except StoreError:
+            raise
         except sqlite3.Error as exc:
+            if "not a database" in str(exc) or "malformed" in str(exc):
+                raise StoreError(
+                    f"{path} is not a vectorid store (not a readable SQLite file: {exc}); "
+                    "was it truncated or is it another file?"
+                ) from exc
             raise StoreError(f"cannot open {path} as SQLite: {exc}") from exc
         con.execute("PRAGMA foreign_keys=ON")
         con.execute("PRAGMA mmap_size=17179869184")

@@ -1,0 +1,361 @@
+"""The Dask executor: batches of trials on a Dask cluster (``--executor dask``).
+
+Without an address it starts a :class:`distributed.LocalCluster` on this machine (worker
+processes with one thread each, default one per core); with ``--scheduler tcp://HOST:PORT``
+(or ``scheduler = "tcp://HOST:PORT"`` under ``[study]``) it connects to a running cluster,
+whose workers must be able to import the model (the same Python environment and the study's
+model module or files, at the same paths).
+
+How it keeps the executor contract (see :mod:`vectorid.run.executors`):
+
+* **Tasks.** One task is one batch from the run loop (the loop already sizes batches to
+  amortise the per-task overhead of a few milliseconds); at most ``2 × threads`` tasks are in
+  flight, so a study of millions of trials never floods the scheduler.
+* **The model is built once per worker process**: the study definition travels with every task
+  as a small pickled blob, and the worker keeps the built :class:`~vectorid.problem.Problem`
+  in a cache keyed by the blob's hash, so a worker builds it on its first task only.
+* **The client alone writes to the store** (the run loop does); workers only compute.
+* **Lost workers.** A task whose worker dies is re-run by Dask on another worker (the local
+  cluster allows one such loss per task, ``distributed.scheduler.allowed-failures = 1``; a
+  cluster you connect to keeps its own setting); a task that kept killing workers comes back
+  as ``KilledWorker`` and its batch is re-run one trial at a time, so only the guilty trial
+  fails. Dask blames a worker's death on every task the worker held, including one waiting
+  behind the guilty task, so a single trial that comes back ``KilledWorker`` gets one more
+  try as a fresh task before it is failed (a trial that really crashes its worker thus costs
+  four worker restarts on the local cluster). Tasks are submitted with ``retries=1`` for
+  exceptions outside the model. Whatever ran twice is stored once: the store refuses a batch
+  whose range is stored.
+* **Timeouts.** With ``timeout`` (seconds per trial) the worker runs the model in a helper
+  thread and stops waiting after ``n × timeout`` seconds: the batch comes back "timed out",
+  the client restarts that worker through its nanny (a Python thread cannot be killed, a
+  process can) and re-runs the batch one trial at a time; a single trial that overruns is
+  failed. A model stuck in compiled code that never releases the GIL also blocks the worker's
+  watchdog; Dask then notices the unresponsive worker only through its own heartbeat timeout.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import logging
+import os
+import threading
+import uuid
+from collections.abc import Hashable, Iterator
+from typing import Any
+
+import numpy as np
+
+from ..errors import StudyDefinitionError, VectoridError
+from ..problem import EvalResult, Problem
+from ..spec import StudySpec
+from .executors import (
+    CRASH_REASON,
+    Executor,
+    SuspectTracker,
+    Task,
+    batch_deadline,
+    describe_exception,
+    failed_result,
+    timeout_reason,
+)
+
+__all__ = ["DaskExecutor", "import_distributed"]
+
+INSTALL_HINT = "pip install 'vectorid[dask]'"
+
+
+def import_distributed() -> Any:
+    """Import :mod:`distributed`, or say how to install it."""
+    try:
+        import distributed
+    except ImportError as exc:
+        raise VectoridError(
+            f"the dask executor needs dask.distributed, which cannot be imported ({exc}); "
+            f"install it with {INSTALL_HINT}, or use --executor processes"
+        ) from None
+    return distributed
+
+
+# -- worker side ---------------------------------------------------------------------------
+
+_PROBLEMS: dict[str, Problem] = {}
+_BUILDS: dict[str, int] = {}
+
+
+def _problem(token: str, blob: bytes) -> Problem:
+    """The study's Problem, built once per worker process (cached by ``token``)."""
+    problem = _PROBLEMS.get(token)
+    if problem is None:
+        import cloudpickle
+
+        spec = cloudpickle.loads(blob)
+        os.environ.setdefault("OMP_NUM_THREADS", "1")
+        problem = _PROBLEMS[token] = spec.problem()
+        _BUILDS[token] = _BUILDS.get(token, 0) + 1
+    return problem
+
+
+def build_counts() -> dict[str, int]:
+    """How often this worker process built each study's model (for tests)."""
+    return dict(_BUILDS)
+
+
+def _evaluate_task(
+    token: str, blob: bytes, X: np.ndarray, timeout: float | None
+) -> tuple[str, Any]:
+    """A Dask task: evaluate one batch. Returns ``(kind, payload)``."""
+    try:
+        problem = _problem(token, blob)
+    except Exception as exc:
+        return "init-error", f"{exc} [on {_where()}]"
+    if timeout is None:
+        return "result", problem.evaluate(X)
+    box: dict[str, Any] = {}
+
+    def run() -> None:
+        try:
+            box["result"] = problem.evaluate(X)
+        except BaseException as exc:  # pragma: no cover - evaluate never raises for a trial
+            box["error"] = describe_exception(exc)
+
+    helper = threading.Thread(target=run, name="vectorid-model", daemon=True)
+    helper.start()
+    helper.join(batch_deadline(len(X), timeout))
+    if helper.is_alive():
+        # The helper thread cannot be stopped: forget this (busy) model and ask the client
+        # to restart the worker process.
+        _PROBLEMS.pop(token, None)
+        return "timeout", _where()
+    if "error" in box:  # pragma: no cover
+        return "error", box["error"]
+    return "result", box["result"]
+
+
+def _where() -> str:
+    try:
+        from distributed import get_worker
+
+        return get_worker().address
+    except Exception:  # not in a worker (tests calling the task directly)
+        return f"pid {os.getpid()}"
+
+
+# -- client side ---------------------------------------------------------------------------
+
+
+class DaskExecutor(Executor):
+    """Evaluates batches on a Dask cluster (a local one when no scheduler is given).
+
+    Parameters
+    ----------
+    spec : StudySpec
+    workers : int, optional
+        Worker processes of the local cluster (default: one per core); ignored when
+        connecting to a scheduler (the cluster's threads count instead).
+    timeout : float, optional
+        Most seconds one trial may take (default: the study's ``timeout``).
+    scheduler : str, optional
+        ``"tcp://HOST:PORT"`` of a running scheduler (default: the study's ``scheduler``,
+        else a new local cluster).
+    cluster_kwargs : dict, optional
+        Extra arguments of :class:`distributed.LocalCluster` (e.g. ``memory_limit``).
+    """
+
+    name = "dask"
+    #: Seconds to wait for the scheduler when connecting.
+    connect_timeout = 10.0
+
+    def __init__(
+        self,
+        spec: StudySpec,
+        workers: int | None = None,
+        timeout: float | None = None,
+        scheduler: str | None = None,
+        cluster_kwargs: dict[str, Any] | None = None,
+    ) -> None:
+        self._distributed = import_distributed()
+        self.scheduler = scheduler if scheduler is not None else getattr(spec, "scheduler", None)
+        self._cluster: Any = None
+        self._client: Any = None
+        self._cluster_kwargs = dict(cluster_kwargs or {})
+        super().__init__(spec, workers, timeout)
+        if self.scheduler is not None:
+            # Connect now: the run loop sizes batches from the cluster's thread count.
+            self._connect()
+            self.workers = max(1, sum(self._client.nthreads().values()))
+
+    def _default_workers(self) -> int:
+        return os.cpu_count() or 1
+
+    def _connect(self) -> Any:
+        if self._client is not None:
+            return self._client
+        dist = self._distributed
+        import dask
+
+        if self.scheduler is None:
+            kwargs = {
+                "n_workers": self.workers,
+                "threads_per_worker": 1,
+                "processes": True,
+                "dashboard_address": None,
+                "silence_logs": logging.ERROR,
+            }
+            kwargs.update(self._cluster_kwargs)
+            config = {
+                # Re-run a lost worker's task once; a task that kills two workers is a suspect.
+                "distributed.scheduler.allowed-failures": 1,
+                # A one-thread worker running a pure-Python model shares the GIL with its
+                # event loop: Dask's profiler (every 10 ms), tick (20 ms), memory (100 ms) and
+                # system (500 ms) monitors slowed such a model by 10-25 % here. Sample less.
+                "distributed.worker.profile.enabled": False,
+                "distributed.admin.tick.interval": "1s",
+                "distributed.admin.system-monitor.interval": "2s",
+                "distributed.worker.memory.monitor-interval": "500ms",
+            }
+            with dask.config.set(config):
+                self._cluster = dist.LocalCluster(**kwargs)
+            self._client = dist.Client(self._cluster)
+        else:
+            try:
+                self._client = dist.Client(self.scheduler, timeout=self.connect_timeout)
+            except (OSError, TimeoutError) as exc:
+                raise StudyDefinitionError(
+                    "--scheduler",
+                    f"cannot reach the Dask scheduler at {self.scheduler!r} ({exc})",
+                    "start it (`dask scheduler` and `dask worker ADDRESS`), check the address, "
+                    "or leave --scheduler out to use a local cluster",
+                ) from None
+            try:
+                self._client.wait_for_workers(1, timeout=60)
+            except (OSError, TimeoutError):
+                self.close(cancel=True)
+                raise StudyDefinitionError(
+                    "--scheduler",
+                    f"the Dask scheduler at {self.scheduler!r} has no workers (waited 60 s)",
+                    "start workers with `dask worker ADDRESS`",
+                ) from None
+        return self._client
+
+    def _map_unordered(self, batches: Iterator[tuple[Hashable, np.ndarray]]):
+        import cloudpickle
+
+        dist = self._distributed
+        client = self._connect()
+        killed_worker = getattr(dist, "KilledWorker", None)
+        if killed_worker is None:  # pragma: no cover - older distributed
+            from distributed.scheduler import KilledWorker as killed_worker
+        blob = cloudpickle.dumps(self.spec)
+        token = hashlib.sha1(blob).hexdigest()
+        k, q = len(self.spec.criteria), len(self.spec.constraints)
+        tracker = SuspectTracker(k, q)
+        threads = sum(client.nthreads().values()) or self.workers
+        limit = max(2, 2 * threads)
+        inflight: dict[str, tuple[Any, Task]] = {}
+        self._inflight = inflight
+        done = dist.as_completed()
+        exhausted = False
+
+        def top_up() -> None:
+            nonlocal exhausted
+            while len(inflight) < limit:
+                if tracker.queue:
+                    task = tracker.queue.popleft()
+                elif not exhausted:
+                    try:
+                        key, X = next(batches)
+                    except StopIteration:
+                        exhausted = True
+                        return
+                    task = Task(key, X)
+                else:
+                    return
+                fut = client.submit(
+                    _evaluate_task,
+                    token,
+                    blob,
+                    task.X,
+                    self.timeout,
+                    pure=False,
+                    retries=1,
+                    key=f"vectorid-batch-{uuid.uuid4().hex}",
+                )
+                inflight[fut.key] = (fut, task)
+                done.add(fut)
+
+        top_up()
+        while inflight:
+            fut = next(done)
+            _, task = inflight.pop(fut.key)
+            finished: list[tuple[Hashable, EvalResult]]
+            try:
+                kind, payload = fut.result()
+            except killed_worker:
+                # A task waiting on a worker behind the guilty one is blamed too when the
+                # worker dies, so a single trial gets one more try (a fresh task) before it
+                # is failed.
+                finished = tracker.lost(task, CRASH_REASON, timed_out=False)
+            except Exception as exc:
+                if fut.status == "cancelled" or isinstance(exc, OSError | TimeoutError):
+                    raise VectoridError(
+                        f"lost the Dask cluster ({describe_exception(exc)}); everything "
+                        "finished so far is stored: run the same command again to resume"
+                    ) from exc
+                finished = tracker.done(
+                    task, failed_result(len(task.X), k, q, describe_exception(exc))
+                )
+            else:
+                if kind == "init-error":
+                    raise StudyDefinitionError(
+                        "study.model",
+                        f"the Dask workers cannot build the model: {payload}",
+                        "make the model importable on every worker (same environment and "
+                        "files), or run with --executor processes",
+                    )
+                if kind == "timeout":
+                    assert self.timeout is not None
+                    self._restart(payload)
+                    finished = tracker.lost(task, timeout_reason(self.timeout), timed_out=True)
+                elif kind == "error":
+                    finished = tracker.done(task, failed_result(len(task.X), k, q, payload))
+                else:
+                    finished = tracker.done(task, payload)
+            fut.release()
+            yield from finished
+            top_up()
+
+    def _restart(self, address: str) -> None:
+        """Restart a worker whose model thread is stuck (through its nanny)."""
+        try:
+            self._client.restart_workers([address], timeout=60, raise_for_error=False)
+        except Exception as exc:  # no nanny, or the worker left already
+            logging.getLogger(__name__).warning(
+                "could not restart Dask worker %s after a timeout (%s); its stuck model "
+                "thread keeps running",
+                address,
+                exc,
+            )
+
+    def close(self, cancel: bool = False) -> None:
+        inflight = getattr(self, "_inflight", {})
+        if self._client is not None:
+            with contextlib.suppress(Exception):
+                if inflight:
+                    self._client.cancel([f for f, _ in inflight.values()], force=True)
+            inflight.clear()
+            with contextlib.suppress(Exception):
+                self._client.close(timeout=10)
+            self._client = None
+        if self._cluster is not None:
+            with contextlib.suppress(Exception):
+                self._cluster.close(timeout=10)
+            self._cluster = None
+
+    def worker_pids(self) -> dict[str, int]:
+        """Process id of every worker (for fault-injection tests)."""
+        return self._connect().run(os.getpid)
+
+    def build_counts(self) -> dict[str, dict[str, int]]:
+        """Per worker: how many times it built each study's model."""
+        return self._connect().run(build_counts)
