@@ -177,3 +177,26 @@ def test_console_script_installed():
     )
     out = subprocess.run([exe, "--version"], capture_output=True, text=True, check=True)
     assert out.stdout.startswith("vectorid ")
+
+
+def test_save_limits_persists_and_reruns_keep_working(ran, user_study, capsys):
+    # before: the study's own limit (f2 <= 1.0) only
+    _, out, _ = run_cli(capsys, "pareto", ran, "--json")
+    before = json.loads(out)
+    code, _, err = run_cli(capsys, "pareto", ran, "--limit", "f1<=0.8", "--save", "--json")
+    assert code == 0 and "saved in" in err and "f1 <= 0.8" in err
+    _, out, _ = run_cli(capsys, "pareto", ran, "--json")
+    after = json.loads(out)
+    assert "f1 <= 0.8" in after["constraints_in_force"]
+    assert after["n_feasible"] <= before["n_feasible"]
+    # removing a saved limit with inf, saved again
+    run_cli(capsys, "table", ran, "--limit", "f1<=inf", "--save")
+    _, out, _ = run_cli(capsys, "pareto", ran, "--json")
+    assert json.loads(out)["n_feasible"] == before["n_feasible"]
+    # a bound on the better side of a criterion cannot be saved as Φ**
+    code, _, err = run_cli(capsys, "pareto", ran, "--limit", "f1>=0.1", "--save")
+    assert code == 2 and "worst accepted value" in err
+    # the study file (without those limits) still runs on the store: limits are not identity
+    code, out, _ = run_cli(capsys, "run", user_study, "--store", ran, "--executor", "serial",
+                           "--trials", 130, "--quiet")  # fmt: skip
+    assert code == 0 and "2 trials computed" in out

@@ -118,6 +118,7 @@ def _parser() -> argparse.ArgumentParser:
     t = sub.add_parser("table", help="test tables: each criterion's trials, best first")
     t.add_argument("store")
     add_limit_options(t)
+    t.add_argument("--save", action="store_true", help="save the constraints in the study")
     t.add_argument("--top", type=positive_int, default=10, help="rows per criterion (default 10)")
     t.add_argument("--feasible", action="store_true", help="only trials in the feasible set D")
     t.add_argument("--json", action="store_true")
@@ -125,6 +126,7 @@ def _parser() -> argparse.ArgumentParser:
     pa = sub.add_parser("pareto", help="feasible set D and Edgeworth–Pareto set")
     pa.add_argument("store")
     add_limit_options(pa)
+    pa.add_argument("--save", action="store_true", help="save the constraints in the study")
     pa.add_argument("--json", action="store_true")
 
     e = sub.add_parser("export", help="every trial, one row each")
@@ -230,6 +232,35 @@ def _analysis(args: argparse.Namespace):
         return study.analysis(bounds, roles)
     finally:
         study.close()
+
+
+def _save_limits(args: argparse.Namespace, a: Any) -> None:
+    """Save the constraints in force (``--save``) into the study held by the store."""
+    from .errors import StudyDefinitionError
+
+    criteria: dict[str, float | None] = {}
+    for i, name in enumerate(a.crit_names):
+        lo, hi = a.bounds[name]
+        worse, other = (hi, lo) if a.senses[i] == "min" else (lo, hi)
+        if math.isfinite(other):
+            side = ">=" if a.senses[i] == "min" else "<="
+            raise StudyDefinitionError(
+                "--save",
+                f"cannot save '{name}{side}{other:g}': a criteria constraint is the worst "
+                f"accepted value of a {a.senses[i]} criterion",
+                "drop that --limit, or use it for this analysis only (without --save)",
+            )
+        criteria[name] = worse if math.isfinite(worse) else None
+    constraints = {
+        name: tuple(None if math.isinf(v) else v for v in a.bounds[name]) for name in a.con_names
+    }
+    study = _open_study(args.store, write=True)
+    with study:
+        study.store.set_limits(criteria, constraints)
+    print(
+        f"saved in {args.store}: " + (", ".join(str(b) for b in a.active_bounds()) or "no limits"),
+        file=sys.stderr,
+    )
 
 
 def _fmt(v: float) -> str:
@@ -381,6 +412,8 @@ def _cmd_info(args: argparse.Namespace) -> int:
 
 def _cmd_table(args: argparse.Namespace) -> int:
     a = _analysis(args)
+    if args.save:
+        _save_limits(args, a)
     tables = a.test_tables(feasible_only=args.feasible)
     if args.json:
         out = a.summary()
@@ -423,6 +456,8 @@ def _cmd_table(args: argparse.Namespace) -> int:
 
 def _cmd_pareto(args: argparse.Namespace) -> int:
     a = _analysis(args)
+    if args.save:
+        _save_limits(args, a)
     if args.json:
         _print_json(a.pareto_json())
         return 0

@@ -65,9 +65,13 @@ class Study:
             return cls.create(spec, path)
         st = Store.open(path, write=True)
         held = st.spec
+
+        def shape(criteria):  # limits are analysis-time choices, not part of the identity
+            return [(c.name, c.sense, c.role) for c in criteria]
+
         if (
             held.space != spec.space
-            or [c.to_dict() for c in held.criteria] != [c.to_dict() for c in spec.criteria]
+            or shape(held.criteria) != shape(spec.criteria)
             or held.model != spec.model
         ):
             st.close()

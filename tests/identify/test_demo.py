@@ -33,6 +33,8 @@ def test_demo_end_to_end_reduced(tmp_path, capsys):
     doc = json.loads(capsys.readouterr().out)
     assert doc["n"] == 160 and doc["n_pareto"] >= 1
     assert {c["name"] for c in doc["criteria"]} >= {"pos_h_abs", "vel_v_abs", "roll_abs"}
+    # the step's criteria constraints were saved with the study: later analyses start there
+    assert any(b.startswith("pos_h_abs <=") for b in doc["constraints_in_force"])
     # trajectories of a stored trial against the flight (used by the UI's trial panel)
     import numpy as np
 

@@ -187,6 +187,9 @@ def run_step(
         a = study.analysis()
         limits = auto_limits(a, auto_quantile, min_feasible)
         a = study.analysis(limits)
+        # The expert's stand-in constraints are saved with the study, so table, pareto,
+        # report and the UI start from them.
+        study.store.set_limits(limits)
         final = propose_refine(a, study.store.stages(), **dict(refine or {})).new
         cid = suggest_choice(a)
         chosen, crit = {}, {}

@@ -36,7 +36,7 @@ import os
 import socket
 import sqlite3
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -445,6 +445,54 @@ class Store:
         self._require_write()
         spec = self.spec.to_dict()
         spec["study"]["trials"] = int(trials)
+        with self._tx() as con:
+            con.execute("UPDATE meta SET value = ? WHERE key = 'study'", (json.dumps(spec),))
+        self._spec = None
+
+    def set_limits(
+        self,
+        criteria: Mapping[str, float | None] | None = None,
+        constraints: Mapping[str, tuple[float | None, float | None]] | None = None,
+    ) -> None:
+        """Save criteria constraints Φ** (and functional constraint bounds) in the study.
+
+        The expert's constraints are part of the study definition, so every later analysis
+        (``table``, ``pareto``, ``report``, the UI) starts from them; no trial changes.
+
+        Parameters
+        ----------
+        criteria : mapping, optional
+            ``name -> limit`` (the worst accepted value; None removes the limit).
+        constraints : mapping, optional
+            ``name -> (low, high)`` of functional constraints (None for no bound).
+        """
+        self._require_write()
+        spec = self.spec.to_dict()
+        crit = {c["name"]: c for c in spec["criteria"]}
+        cons = {c["name"]: c for c in spec.get("constraints", [])}
+        from ..errors import StudyDefinitionError, suggest
+
+        for name, value in (criteria or {}).items():
+            if name not in crit:
+                raise StudyDefinitionError(
+                    "limits", f"unknown criterion {name!r}", suggest(name, list(crit))
+                )
+            if value is None or not np.isfinite(value):
+                crit[name].pop("limit", None)
+            else:
+                crit[name]["limit"] = float(value)
+        for name, (lo, hi) in (constraints or {}).items():
+            if name not in cons:
+                raise StudyDefinitionError(
+                    "limits", f"unknown constraint {name!r}", suggest(name, list(cons))
+                )
+            for key, value in (("low", lo), ("high", hi)):
+                if value is None or not np.isfinite(value):
+                    cons[name].pop(key, None)
+                else:
+                    cons[name][key] = float(value)
+        # validate before writing
+        StudySpec.from_dict(spec, base_dir=self.spec.base_dir)
         with self._tx() as con:
             con.execute("UPDATE meta SET value = ? WHERE key = 'study'", (json.dumps(spec),))
         self._spec = None
