@@ -1,7 +1,8 @@
 """The browser UI in a real headless Chromium driven by Selenium: open a study, change a
 constraint and see ND change (and a malformed one get a message), select a trial and see its
-details, start a short refine stage and see the trial count grow. Screenshots are kept under
-test-artifacts/ (git-ignored).
+details, start a short refine stage and see the trial count grow, save the constraints with
+the study and find them in force after a reload. Screenshots are kept under test-artifacts/
+(git-ignored).
 
 The server is the real ``vectorid ui`` command on 127.0.0.1 and a free port, stopped at the
 end; every wait is bounded.
@@ -184,6 +185,13 @@ def _limit(name: str):
     return lambda d: _limit_input(d, name)
 
 
+def _bound_input(drv, name: str, side: str):
+    """The low or high field of a functional constraint."""
+    return drv.find_element(
+        By.CSS_SELECTOR, f'input[id*=\'"name":"{name}"\'][id*=\'"type":"con-{side}"\']'
+    )
+
+
 def _tab(drv, label: str) -> None:
     for el in drv.find_elements(By.CSS_SELECTOR, ".tab"):
         if el.text.strip() == label:
@@ -305,7 +313,8 @@ def test_select_trial_shows_details(browser, server):
     _until(
         drv, lambda d: f"Section through trial {tid}" in _text(d, "#trial-results"), "the section"
     )
-    assert _text(drv, "#job-text").startswith("done")
+    # the section is in the store a moment before the job process reports back
+    _until(drv, lambda d: _text(d, "#job-text").startswith("done"), "the job to finish")
     drv.save_screenshot(str(ARTIFACTS / "ui_trial.png"))
     # an unknown id is a message, not an error page
     _type(drv, _by_id("trial-id"), "987654")
@@ -328,6 +337,7 @@ def test_refine_stage_grows_the_study(browser, server):
     _until(drv, lambda d: "already running" in _text(d, "#job-msg"), "the busy message")
     _until(drv, lambda d: _text(d, "#count-n") == str(n0 + 256), "the trial count to grow")
     _until(drv, lambda d: _text(d, "#job-text").startswith("done"), "the job to finish")
+    _until(drv, lambda d: "already running" not in _text(d, "#job-msg"), "the busy message to go")
     drv.save_screenshot(str(ARTIFACTS / "ui_refine.png"))
     _tab(drv, "Study overview")
     _until(drv, lambda d: "refine basis=feasible" in _text(d, "#ov-stages"), "the new stage")
@@ -335,3 +345,46 @@ def test_refine_stage_grows_the_study(browser, server):
     with Study.open(store) as st:
         stages = [s for s in st.store.stages() if s.kind == "sample"]
         assert len(stages) == 2 and st.store.count(stages[1].stage) == 256
+
+
+def test_saved_constraints_are_in_force_after_reload(browser, server):
+    url, store = server
+    drv = browser
+    _tab(drv, "Test tables & plots")
+    a0 = _analysis(store)
+    _until(drv, lambda d: _text(d, "#count-n") == str(a0.n), "the tables tab")
+    # a criteria constraint and a functional bound, typed
+    a1 = _analysis(store, {"f1": 30.0, "g1": (None, 20.0), "g2": (7.7, None)})
+    assert a1.n_feasible != a0.n_feasible and a1.n_functional != a0.n_functional
+    _type(drv, _limit("f1"), "30")
+    _type(drv, lambda d: _bound_input(d, "g1", "high"), "20")
+    _until(drv, lambda d: _text(d, "#count-nd") == str(a1.n_feasible), "ND under the new bounds")
+    assert "g1 <= 20" in _text(drv, "#in-force")
+    # a malformed bound is marked and named, and nothing is saved while it is
+    _type(drv, lambda d: _bound_input(d, "g2", "low"), "seven")
+    _until(drv, lambda d: "low bound of g2" in _text(d, "#messages"), "the bound's message")
+    assert _bound_input(drv, "g2", "low").find_elements(
+        By.XPATH, "ancestor-or-self::*[contains(concat(' ', @class, ' '), ' invalid ')]"
+    )
+    drv.find_element(By.ID, "save-limits").click()
+    _until(drv, lambda d: "outlined in red" in _text(d, "#job-msg"), "the refusal to save")
+    _type(drv, lambda d: _bound_input(d, "g2", "low"), "7.7")
+    _until(drv, lambda d: _text(d, "#messages") == "", "the message to clear")
+    # save: a short background job
+    drv.find_element(By.ID, "save-limits").click()
+    _until(drv, lambda d: "started: saving" in _text(d, "#job-msg"), "the save job")
+    _until(drv, lambda d: "saved with the study" in _text(d, "#job-text"), "the save to finish")
+    assert _text(drv, "#job-text").startswith("done")
+    with Study.open(store) as st:
+        assert st.store.spec.criteria[0].limit == 30.0
+        assert st.store.spec.constraints[0].high == 20.0
+    _tab(drv, "Study overview")
+    _until(drv, lambda d: "30" in _text(d, "#ov-criteria"), "the saved limit in the overview")
+    assert "20" in _text(drv, "#ov-constraints")
+    # a reload starts from the saved constraints: same fields, same ND
+    drv.refresh()
+    _until(drv, lambda d: _limit_input(d, "f1").get_attribute("value") == "30", "f1 after reload")
+    assert _bound_input(drv, "g1", "high").get_attribute("value") == "20"
+    _until(drv, lambda d: _text(d, "#count-nd") == str(a1.n_feasible), "ND after the reload")
+    assert "f1 <= 30" in _text(drv, "#in-force")
+    drv.save_screenshot(str(ARTIFACTS / "ui_saved.png"))

@@ -1,6 +1,7 @@
 """The browser UI's callbacks as plain functions (no browser): counts, tables, selection,
-box-to-constraints, the chosen trial, refine, overview, input validation, the trial cache
-and the background jobs."""
+box-to-constraints, functional-constraint bounds, the chosen trial, refine, overview, input
+validation, the trial cache, the background jobs and saving the constraints with the
+study."""
 
 from __future__ import annotations
 
@@ -22,10 +23,18 @@ from vectorid.errors import StudyDefinitionError
 from vectorid.spec import load_study
 from vectorid.store.sqlite import Store
 from vectorid.views.ui import callbacks as cb
-from vectorid.views.ui.data import StoreCache, parse_constraints, parse_number, parse_trial_id
+from vectorid.views.ui.data import (
+    StoreCache,
+    bounds_text,
+    limits_text,
+    parse_constraints,
+    parse_number,
+    parse_trial_id,
+)
 from vectorid.views.ui.jobs import JobBusy, JobManager, run_job
 
 PURE2 = ["pure", "pure"]
+STUDY_G = [["", "25"], ["7.7", ""]]  # binh-korn's own functional bounds as the fields show them
 
 
 def _ctx(path: Path, executor: str = "serial") -> cb.UIContext:
@@ -89,6 +98,27 @@ def test_parse_constraints_keeps_study_limit_for_bad_field(bk):
         parse_constraints(spec, ["1"], PURE2)
 
 
+def test_parse_constraints_functional_bounds(bk):
+    spec = Store.open(bk).spec
+    c = parse_constraints(spec, ["", ""], PURE2, [["", "20"], ["7.7", ""]])
+    assert c.functional == {"g1": (None, 20.0), "g2": (7.7, None)} and not c.errors
+    assert c.overrides == {"f1": None, "f2": None, "g1": (None, 20.0), "g2": (7.7, None)}
+    # bad text: that side keeps the study's bound, with a message naming the field
+    c = parse_constraints(spec, ["", ""], PURE2, [["-1", "lots"], ["", ""]])
+    assert c.functional == {"g1": (-1.0, 25.0), "g2": (None, None)}
+    assert set(c.errors) == {"g1.high"} and "'lots'" in c.messages[0]
+    assert "high bound of g1" in c.messages[0] and "ignored" in c.messages[0]
+    # low > high: both fields marked, one message, the study's pair kept
+    c = parse_constraints(spec, ["", ""], PURE2, [["30", "20"], ["", ""]])
+    assert set(c.errors) == {"g1.low", "g1.high"} and len(c.messages) == 1
+    assert "low <= high" in c.messages[0] and c.functional["g1"] == (None, 25.0)
+    # None keeps the study's bounds; a wrong shape is an error
+    assert parse_constraints(spec, ["", ""], PURE2).functional == {}
+    with pytest.raises(StudyDefinitionError, match="expected 2 pairs"):
+        parse_constraints(spec, ["", ""], PURE2, [["", ""]])
+    assert bounds_text(spec) == [("", "25"), ("7.7", "")]
+
+
 # -- counts and tables ----------------------------------------------------------------------------
 
 
@@ -131,6 +161,50 @@ def test_test_tables_best_first_with_infeasible_marked(ctx, bk):
     assert v == sorted(v)
     red = {st["if"]["row_index"] for st in styles if st["if"]["column_id"] == "c1_v"}
     assert red == {i for i in range(len(data)) if not t.feasible[i]} and red
+
+
+def test_functional_bounds_update_counts_and_tables(ctx, bk):
+    base = cb.summary_view(ctx, ["", ""], PURE2, STUDY_G)
+    assert base["counts"] == cb.summary_view(ctx, ["", ""], PURE2)["counts"]
+    s = cb.summary_view(ctx, ["40", ""], PURE2, [["", "10"], ["7.7", ""]])
+    a = _direct(bk, {"f1": 40.0, "g1": (None, 10.0), "g2": (7.7, None)})
+    assert s["counts"] == {
+        "n": a.n,
+        "nd": a.n_feasible,
+        "np": a.n_pareto,
+        "failed": a.n_failed,
+        "functional": a.n_functional,
+    }
+    assert a.n_functional < base["counts"]["functional"]
+    assert s["invalid_functional"] == [[False, False], [False, False]]
+    assert "g1 <= 10" in s["in_force"]
+    # the test tables list only the trials meeting the new functional bounds, best first
+    t = a.test_table("f1")
+    rows = s["table"]["data"]
+    assert [r["c0_id"] for r in rows if "c0_id" in r] == [int(i) for i in t.ids[: len(rows)]]
+    g1 = dict(zip(a.trials.id.tolist(), a.trials.G[:, 0]))
+    assert all(g1[r["c0_id"]] <= 10 for r in rows if "c0_id" in r)
+    # back to the study's bounds: the cached tables of the study are used again
+    assert cb.summary_view(ctx, ["", ""], PURE2, STUDY_G)["table"] == base["table"]
+    # bad text: marked, a message, the study's bound used meanwhile
+    s = cb.summary_view(ctx, ["", ""], PURE2, [["", "ten"], ["7.7", ""]])
+    assert s["invalid_functional"] == [[False, True], [False, False]]
+    assert any("'ten'" in m for m in s["messages"])
+    assert s["counts"] == base["counts"]
+
+
+def test_functional_bounds_reach_every_view(ctx, bk):
+    g = [["", "10"], ["7.7", ""]]
+    a = _direct(bk, {"g1": (None, 10.0)})
+    fig, _ = cb.scatter_view(ctx, ["", ""], PURE2, "f1", "f2", None, None, functional=g)
+    green = [t for t in fig.data if (t.meta or {}).get("class") == "pareto"]
+    assert sum(len(t.x) for t in green) == a.n_pareto
+    tid = int(a.trials.id[np.flatnonzero(a.trials.G[:, 0] > 10)[0]])
+    v = cb.trial_view(ctx, str(tid), ["", ""], PURE2, g)
+    assert v["summary"].startswith(f"trial {tid}: infeasible")
+    assert [r["meets"] for r in v["criteria"] if r["name"] == "g1"] == ["no"]
+    r = cb.refine_view(ctx, ["", ""], PURE2, "feasible", "0.05", "0.1", g)
+    assert f"of {a.n_feasible} feasible trials" in r["summary"]
 
 
 def test_empty_d_is_diagnosed(ctx):
@@ -305,6 +379,99 @@ def test_start_job_rejects_bad_values_before_starting(ctx):
     assert ctx.jobs.status().state == "idle"
 
 
+def test_limits_to_save_follows_the_cli_rule(ctx, bkmax):
+    out = cb.limits_to_save(ctx, ["30", ""], PURE2, [["", "20"], ["7.7", ""]])
+    assert out["criteria"] == {"f1": 30.0, "f2": None}
+    assert out["constraints"] == {"g1": [None, 20.0], "g2": [7.7, None]}
+    assert out["text"] == "g1 <= 20, g2 >= 7.7, f1 <= 30"
+    c2 = _ctx(bkmax)
+    out = cb.limits_to_save(c2, ["", "-20"], PURE2)  # max criterion: its lower bound
+    assert out["criteria"] == {"f1": None, "neg_f2": -20.0}
+    with pytest.raises(StudyDefinitionError, match="outlined in red"):
+        cb.limits_to_save(ctx, ["thirty", ""], PURE2)
+    with pytest.raises(StudyDefinitionError, match="outlined in red"):
+        cb.limits_to_save(ctx, ["", ""], PURE2, [["", "x"], ["", ""]])
+    assert ctx.jobs.status().state == "idle"
+
+
+def test_saving_limits_updates_study_overview_and_reload(tmp_path):
+    path = make_store(tmp_path, "binh-korn", trials=64)
+    c = _ctx(path)
+    texts, g = ["30", ""], [["", "20"], ["7.7", ""]]
+    nd = cb.summary_view(c, texts, PURE2, g)["counts"]["nd"]
+    v0 = c.cache.version()
+
+    def wait():
+        deadline = time.monotonic() + 60
+        while c.jobs.status().running and time.monotonic() < deadline:
+            time.sleep(0.2)
+        return cb.job_view(c)
+
+    holder = Store.open(path, write=True)  # a running stage holds the writer lock
+    try:
+        note = cb.job_action(c, "limits", limit_texts=texts, roles=PURE2, functional=g)
+        assert note["text"].startswith("started: saving the constraints in force")
+        assert note["busy"] is None
+        st = wait()
+        assert st["state"] == "error" and "being written by another process" in st["text"]
+    finally:
+        holder.close()
+    assert Store.open(path).spec.criteria[0].limit is None  # nothing saved
+    try:
+        note = cb.job_action(c, "limits", limit_texts=texts, roles=PURE2, functional=g)
+        st = wait()
+        assert st["state"] == "done", st
+        assert "saved with the study: g1 <= 20, g2 >= 7.7, f1 <= 30" in st["text"]
+    finally:
+        c.jobs.shutdown()
+    spec = Store.open(path).spec
+    assert [cr.limit for cr in spec.criteria] == [30.0, None]
+    assert [(k.low, k.high) for k in spec.constraints] == [(None, 20.0), (7.7, None)]
+    # the UI sees the new definition (the trials are not read again) ...
+    assert c.cache.version() != v0 and c.cache.version()[:3] == v0[:3]
+    ov = cb.overview_view(c)
+    assert c.cache.loads == 1
+    assert [r["limit"] for r in ov["criteria"]] == [30.0, None]
+    assert [(r["low"], r["high"]) for r in ov["constraints"]] == [(None, 20.0), (7.7, None)]
+    # ... and a reload starts from the saved bounds, with the same ND
+    assert limits_text(c.spec) == texts and [list(p) for p in bounds_text(c.spec)] == g
+    assert cb.summary_view(c, limits_text(c.spec), PURE2, bounds_text(c.spec))["counts"]["nd"] == nd
+    assert cb.summary_view(c, None, None)["counts"]["nd"] == nd  # the study's defaults
+
+
+def test_page_reload_starts_from_the_saved_limits(tmp_path):
+    pytest.importorskip("dash", reason="the UI needs the ui extra (dash)")
+    from vectorid.views.ui.app import create_app
+
+    path = make_store(tmp_path, "binh-korn", trials=64)
+    app, c = create_app(path)
+
+    def fields(node, out):
+        i = getattr(node, "id", None)
+        if isinstance(i, dict) and i.get("type") in ("limit", "con-low", "con-high"):
+            out[(i["type"], i["name"])] = node.value
+        kids = getattr(node, "children", None)
+        for k in kids if isinstance(kids, list | tuple) else [kids]:
+            if hasattr(k, "to_plotly_json"):
+                fields(k, out)
+        return out
+
+    try:
+        before = fields(app.layout(), {})
+        assert before[("limit", "f1")] == "" and before[("con-high", "g1")] == "25"
+        run_job(
+            "limits",
+            str(path),
+            {"criteria": {"f1": 12.5}, "constraints": {"g1": [1.0, 20.0]}, "text": ""},
+        )
+        after = fields(app.layout(), {})
+        assert after[("limit", "f1")] == "12.5" and after[("limit", "f2")] == ""
+        assert after[("con-low", "g1")] == "1" and after[("con-high", "g1")] == "20"
+        assert after[("con-low", "g2")] == "7.7"
+    finally:
+        c.jobs.shutdown()
+
+
 def test_run_job_in_process_stores_a_section(tmp_path):
     path = make_store(tmp_path, "binh-korn", trials=64)
     msg = run_job("section", str(path), {"trial": 5, "param": "x1", "points": 7})
@@ -322,9 +489,18 @@ def test_job_manager_runs_one_job_at_a_time(tmp_path):
         assert out.startswith("started")
         with pytest.raises(JobBusy, match="already running"):
             cb.start_job(c, "section", trial="5", param="x1", points="5")
+        # through the button: a note that lasts while the running job runs
+        busy = cb.job_action(c, "section", trial="5", param="x1", points="5")
+        assert busy["busy"] == c.jobs.status().id and "already running" in busy["text"]
+        assert cb.job_message(c, busy) == busy["text"]  # still running (64 serial trials)
+        bad = cb.job_action(c, "section", trial="5", param="x9", points="5")
+        assert bad["busy"] is None and "unknown parameter" in bad["text"]
         deadline = time.monotonic() + 60
         while c.jobs.status().running and time.monotonic() < deadline:
             time.sleep(0.2)
+        assert cb.job_message(c, busy) == ""  # cleared once that job finished
+        assert cb.job_message(c, bad) == bad["text"]  # other messages stay
+        assert cb.job_message(c, None) == ""
         st = cb.job_view(c)
         assert st["state"] == "done", st
         assert st["progress"] == 1.0 and "64 trials computed" in st["message"]

@@ -17,8 +17,8 @@ from typing import Any
 
 from ...errors import VectoridError
 from . import callbacks as cb
-from .data import StoreCache, limits_text
-from .jobs import JobBusy, JobManager
+from .data import StoreCache, bounds_text, finite, limits_text
+from .jobs import JobManager
 
 __all__ = ["create_app"]
 
@@ -89,6 +89,7 @@ def _rows_table(rows: list[dict[str, Any]], id_: str | None = None) -> Any:
 def _layout(ctx: cb.UIContext) -> Any:
     from dash import dcc, html
 
+    ctx.cache.state()  # built at every page load: start from the limits saved in the store
     spec = ctx.spec
     a = ctx.cache.analysis()
     names = spec.criterion_names
@@ -146,6 +147,40 @@ def _layout(ctx: cb.UIContext) -> Any:
                 ],
             )
         )
+    for j, (g, (lo_text, hi_text)) in enumerate(zip(spec.constraints, bounds_text(spec))):
+        col = a.trials.G[a.ok, j] if a.n else a.trials.G[:0, j]
+        col = col[[finite(v) is not None for v in col]] if len(col) else col
+        span = f"range {col.min():.4g} .. {col.max():.4g}" if len(col) else "no value yet"
+        cards.append(
+            html.Div(
+                className="card",
+                children=[
+                    html.B(f"{g.name} (functional)"),
+                    html.Div(span, className="muted"),
+                    html.Label(
+                        [
+                            dcc.Input(
+                                id={"type": "con-low", "name": g.name},
+                                type="text",
+                                value=lo_text,
+                                debounce=True,
+                                placeholder="no low",
+                                size="7",
+                            ),
+                            f" <= {g.name} <= ",
+                            dcc.Input(
+                                id={"type": "con-high", "name": g.name},
+                                type="text",
+                                value=hi_text,
+                                debounce=True,
+                                placeholder="no high",
+                                size="7",
+                            ),
+                        ]
+                    ),
+                ],
+            )
+        )
     axes = names + spec.constraint_names + spec.space.names
     x0 = names[0]
     y0 = names[1] if len(names) > 1 else spec.space.names[0]
@@ -185,7 +220,13 @@ def _layout(ctx: cb.UIContext) -> Any:
     tables_tab = html.Div(
         [
             html.Div(id="messages", className="msg"),
-            html.Div(id="in-force", className="muted"),
+            html.Div(
+                className="bar",
+                children=[
+                    html.Span(id="in-force", className="muted"),
+                    html.Button("Save constraints with the study", id="save-limits"),
+                ],
+            ),
             html.Div(cards, className="cards"),
             html.Div(
                 className="row",
@@ -438,7 +479,7 @@ def _layout(ctx: cb.UIContext) -> Any:
                     dcc.Interval(id="tick", interval=1000),
                     dcc.Store(id="version", data=list(ctx.cache.version())),
                     dcc.Store(id="selection", data=None),
-                    dcc.Store(id="job-seen", data=0),
+                    dcc.Store(id="job-note", data=None),
                     dcc.Tabs(
                         id="tabs",
                         value="tables",
@@ -553,13 +594,24 @@ def create_app(
         category=DeprecationWarning,
         module="dash",
     )
-    app.layout = _layout(ctx)
+    app.layout = lambda: _layout(ctx)  # a function: a reload reads the saved limits
     names = ctx.spec.criterion_names
     K = len(names)
     LIM = Input({"type": "limit", "name": ALL}, "value")
     ROL = Input({"type": "role", "name": ALL}, "value")
     LIM_S = State({"type": "limit", "name": ALL}, "value")
     ROL_S = State({"type": "role", "name": ALL}, "value")
+    FLO = Input({"type": "con-low", "name": ALL}, "value")
+    FHI = Input({"type": "con-high", "name": ALL}, "value")
+    FLO_S = State({"type": "con-low", "name": ALL}, "value")
+    FHI_S = State({"type": "con-high", "name": ALL}, "value")
+    M = len(ctx.spec.constraints)
+
+    def pairs(lows: Any, highs: Any) -> list[list[Any]] | None:
+        """The functional-constraint fields as (low, high) text pairs, one per constraint."""
+        if lows is None or highs is None:
+            return None
+        return [[lo, hi] for lo, hi in zip(lows, highs)]
 
     # -- constraints: typed, dragged, or from a box -------------------------------------------
 
@@ -608,15 +660,20 @@ def create_app(
         Output("sets-table", "style_data_conditional"),
         Output("sets-note", "children"),
         Output({"type": "limit", "name": ALL}, "className"),
+        Output({"type": "con-low", "name": ALL}, "className"),
+        Output({"type": "con-high", "name": ALL}, "className"),
         LIM,
         ROL,
+        FLO,
+        FHI,
         Input("version", "data"),
     )
-    def summary(texts, roles, _v):
+    def summary(texts, roles, lows, highs, _v):
         try:
-            s = cb.summary_view(ctx, texts, roles)
+            s = cb.summary_view(ctx, texts, roles, pairs(lows, highs))
         except Exception as exc:
-            return (no_update, _err(exc), *([no_update] * 8), [no_update] * K)
+            keep = [no_update] * M
+            return (no_update, _err(exc), *([no_update] * 8), [no_update] * K, keep, keep)
         c = s["counts"]
         counts = [
             "N ",
@@ -644,6 +701,8 @@ def create_app(
             st["styles"],
             st["note"],
             ["invalid" if bad else "" for bad in s["invalid"]],
+            ["invalid" if lo else "" for lo, _ in s["invalid_functional"]],
+            ["invalid" if hi else "" for _, hi in s["invalid_functional"]],
         )
 
     # -- plots -------------------------------------------------------------------------------
@@ -653,15 +712,19 @@ def create_app(
         Output("sel-text", "children"),
         LIM,
         ROL,
+        FLO,
+        FHI,
         Input("x-axis", "value"),
         Input("y-axis", "value"),
         Input("selection", "data"),
         Input("trial-id", "value"),
         Input("version", "data"),
     )
-    def scatter(texts, roles, x, y, sel, chosen, _v):
+    def scatter(texts, roles, lows, highs, x, y, sel, chosen, _v):
         try:
-            return cb.scatter_view(ctx, texts, roles, x, y, sel, chosen)
+            return cb.scatter_view(
+                ctx, texts, roles, x, y, sel, chosen, functional=pairs(lows, highs)
+            )
         except Exception as exc:
             return no_update, _err(exc)
 
@@ -671,17 +734,21 @@ def create_app(
         Output("panel-msg", "children"),
         LIM,
         ROL,
+        FLO,
+        FHI,
         Input("panel", "value"),
         Input("cvp-crit", "value"),
         Input("selection", "data"),
         Input("trial-id", "value"),
         Input("version", "data"),
     )
-    def panel(texts, roles, which, crit, sel, chosen, _v):
+    def panel(texts, roles, lows, highs, which, crit, sel, chosen, _v):
         if which == "sets":
             raise PreventUpdate
         try:
-            fig = cb.panel_view(ctx, texts, roles, which, crit, sel, chosen)
+            fig = cb.panel_view(
+                ctx, texts, roles, which, crit, sel, chosen, functional=pairs(lows, highs)
+            )
         except Exception as exc:
             return no_update, no_update, _err(exc)
         return (fig, no_update, "") if which == "histograms" else (no_update, fig, "")
@@ -699,9 +766,11 @@ def create_app(
         State("cvp-crit", "value"),
         LIM_S,
         ROL_S,
+        FLO_S,
+        FHI_S,
         prevent_initial_call=True,
     )
-    def selection(s_sel, c_sel, h_click, _clear, x, y, crit, texts, roles):
+    def selection(s_sel, c_sel, h_click, _clear, x, y, crit, texts, roles, lows, highs):
         trig = dctx.triggered_id
         if trig == "clear-sel":
             return None
@@ -711,7 +780,14 @@ def create_app(
             elif trig == "cvp-graph":
                 spec = cb.selection_from_event(ctx, "cvp", c_sel, y=crit)
             else:
-                spec = cb.selection_from_event(ctx, "hist", h_click, limit_texts=texts, roles=roles)
+                spec = cb.selection_from_event(
+                    ctx,
+                    "hist",
+                    h_click,
+                    limit_texts=texts,
+                    roles=roles,
+                    functional=pairs(lows, highs),
+                )
         except Exception as exc:
             _err(exc)
             raise PreventUpdate from None
@@ -764,15 +840,17 @@ def create_app(
         Input("tabs", "value"),
         LIM,
         ROL,
+        FLO,
+        FHI,
         Input("version", "data"),
     )
-    def trial(tid, tab, texts, roles, _v):
+    def trial(tid, tab, texts, roles, lows, highs, _v):
         from dash import dcc
 
         if tab != "trial":
             raise PreventUpdate
         try:
-            v = cb.trial_view(ctx, tid, texts, roles)
+            v = cb.trial_view(ctx, tid, texts, roles, pairs(lows, highs))
         except Exception as exc:
             return (_err(exc), "", [], [], [], [], {"data": [], "layout": {}}, [], "")
         cols = lambda rows: [{"id": k, "name": k} for k in (rows[0] if rows else {})]  # noqa: E731
@@ -825,13 +903,15 @@ def create_app(
         Input("ref-margin", "value"),
         LIM,
         ROL,
+        FLO,
+        FHI,
         Input("version", "data"),
     )
-    def refine(tab, basis, q, margin, texts, roles, _v):
+    def refine(tab, basis, q, margin, texts, roles, lows, highs, _v):
         if tab != "refine":
             raise PreventUpdate
         try:
-            v = cb.refine_view(ctx, texts, roles, basis, q, margin)
+            v = cb.refine_view(ctx, texts, roles, basis, q, margin, pairs(lows, highs))
         except Exception as exc:
             return _err(exc), "", [], [], {"data": [], "layout": {}}
         cols = [
@@ -848,11 +928,12 @@ def create_app(
     # -- jobs --------------------------------------------------------------------------------------
 
     @app.callback(
-        Output("job-msg", "children"),
+        Output("job-note", "data"),
         Input("sec-run", "n_clicks"),
         Input("rob-run", "n_clicks"),
         Input("ref-apply", "n_clicks"),
         Input("ref-continue", "n_clicks"),
+        Input("save-limits", "n_clicks"),
         Input("job-stop", "n_clicks"),
         State("trial-id", "value"),
         State("sec-param", "value"),
@@ -868,31 +949,26 @@ def create_app(
         State("ref-n", "value"),
         LIM_S,
         ROL_S,
+        FLO_S,
+        FHI_S,
         prevent_initial_call=True,
     )
-    def job(
-        _a, _b, _c, _d, _e, tid, sp, spts, slo, shi, rr, rpts, basis, q, mg, rows, n, texts, roles
-    ):
+    def job(*values):
+        (*_clicks, tid, sp, spts, slo, shi, rr, rpts, basis, q, mg, rows, n) = values[:-4]
+        texts, roles, lows, highs = values[-4:]
+        bounds = {"limit_texts": texts, "roles": roles, "functional": pairs(lows, highs)}
         trig = dctx.triggered_id
         try:
             if trig == "job-stop":
-                return "stopping the job…" if ctx.jobs.stop() else "no job is running"
-            if trig == "sec-run":
-                return cb.start_job(
+                note = cb.job_action(ctx, "stop")
+            elif trig == "sec-run":
+                note = cb.job_action(
                     ctx, "section", trial=tid, param=sp, points=spts, lo=slo, hi=shi
                 )
-            if trig == "rob-run":
-                return cb.start_job(
-                    ctx,
-                    "robustness",
-                    trial=tid,
-                    radius=rr,
-                    points=rpts,
-                    limit_texts=texts,
-                    roles=roles,
-                )
-            if trig == "ref-apply":
-                return cb.start_job(
+            elif trig == "rob-run":
+                note = cb.job_action(ctx, "robustness", trial=tid, radius=rr, points=rpts, **bounds)
+            elif trig == "ref-apply":
+                note = cb.job_action(
                     ctx,
                     "refine",
                     trials=n,
@@ -900,33 +976,46 @@ def create_app(
                     quantile=q,
                     margin=mg,
                     rows=rows,
-                    limit_texts=texts,
-                    roles=roles,
+                    **bounds,
                 )
-            if trig == "ref-continue":
-                return cb.start_job(ctx, "continue", trials=n)
-        except JobBusy as exc:
-            return str(exc)
+            elif trig == "ref-continue":
+                note = cb.job_action(ctx, "continue", trials=n)
+            elif trig == "save-limits":
+                note = cb.job_action(ctx, "limits", **bounds)
+            else:
+                raise PreventUpdate
+        except PreventUpdate:
+            raise
         except Exception as exc:
-            return _err(exc)
-        raise PreventUpdate
+            note = {"text": _err(exc), "busy": None}
+        # a fresh dict every time, so that the same message twice still updates the page
+        return dict(note, at=_clicks_total(_clicks))
 
     @app.callback(
         Output("job-progress", "value"),
         Output("job-text", "children"),
         Output("version", "data"),
+        Output("job-msg", "children"),
         Input("tick", "n_intervals"),
+        Input("job-note", "data"),
         State("version", "data"),
+        State("job-msg", "children"),
     )
-    def tick(_n, version):
+    def tick(_n, note, version, shown):
         try:
             st = cb.job_view(ctx)
             now = list(ctx.cache.version())
+            msg = cb.job_message(ctx, note)
         except Exception as exc:
-            return no_update, _err(exc), no_update
+            return no_update, _err(exc), no_update, no_update
         prog = st["progress"]
         value = str(prog) if prog is not None else (None if st["state"] == "running" else "0")
-        return value, st["text"], (now if now != version else no_update)
+        return (
+            value,
+            st["text"],
+            (now if now != version else no_update),
+            (msg if msg != (shown or "") else no_update),
+        )
 
     # -- overview ----------------------------------------------------------------------------------
 
@@ -942,8 +1031,10 @@ def create_app(
         return [
             sec("Study", _rows_table(v["study"], "ov-study")),
             sec("Variables (box Π)", _rows_table(v["variables"])),
-            sec("Criteria", _rows_table(v["criteria"])),
-            sec("Functional constraints", _rows_table(v["constraints"])),
+            sec(
+                "Criteria (limits saved with the study)", _rows_table(v["criteria"], "ov-criteria")
+            ),
+            sec("Functional constraints", _rows_table(v["constraints"], "ov-constraints")),
             sec("Stages", _rows_table(v["stages"], "ov-stages")),
             sec("Boxes of the sample stages", _rows_table(v["boxes"])),
             sec(f"Failures ({v['n_failed']})", _rows_table(v["failures"])),
@@ -951,6 +1042,11 @@ def create_app(
         ]
 
     return app, ctx
+
+
+def _clicks_total(clicks: Any) -> int:
+    """Sum of the buttons' click counts (None for a button never pressed)."""
+    return sum(int(c) for c in clicks if isinstance(c, int))
 
 
 def _slider(ctx: cb.UIContext, name: str, text: Any) -> Any:

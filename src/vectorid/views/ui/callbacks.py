@@ -34,12 +34,15 @@ from ...analysis.sections import load_sections
 from ...errors import StudyDefinitionError, VectoridError
 from .. import figures as fg
 from .data import Constraints, StoreCache, finite, parse_constraints, parse_number, parse_trial_id
-from .jobs import JobManager
+from .jobs import JobBusy, JobManager
 
 __all__ = [
     "UIContext",
     "box_to_limits",
+    "job_action",
+    "job_message",
     "job_view",
+    "limits_to_save",
     "overview_view",
     "panel_view",
     "refine_view",
@@ -93,15 +96,19 @@ def _g(v: Any) -> float | None:
     return None if f is None else float(f"{f:.6g}")
 
 
-def _analysis(ctx: UIContext, limit_texts: Any, roles: Any) -> tuple[Analysis, Constraints]:
-    c = parse_constraints(ctx.spec, limit_texts, roles)
+def _analysis(
+    ctx: UIContext, limit_texts: Any, roles: Any, functional: Any = None
+) -> tuple[Analysis, Constraints]:
+    c = parse_constraints(ctx.spec, limit_texts, roles, functional)
     return ctx.cache.analysis(c), c
 
 
 # -- test tables and counts ----------------------------------------------------------------------
 
 
-def summary_view(ctx: UIContext, limit_texts: Any, roles: Any) -> dict[str, Any]:
+def summary_view(
+    ctx: UIContext, limit_texts: Any, roles: Any, functional: Any = None
+) -> dict[str, Any]:
     """Counts, messages, test tables and the simplified feasible/Pareto table.
 
     Parameters
@@ -110,15 +117,19 @@ def summary_view(ctx: UIContext, limit_texts: Any, roles: Any) -> dict[str, Any]
         One constraint field per criterion (text; empty for no limit).
     roles : sequence
         ``"pure"``/``"pseudo"`` per criterion.
+    functional : sequence, optional
+        One ``(low, high)`` pair of field texts per functional constraint (empty for no
+        bound); None keeps the study's bounds.
 
     Returns
     -------
     dict
         ``counts`` (n, nd, np, failed, functional), ``invalid`` (per criterion),
-        ``messages``, ``in_force`` (text), ``ranges`` (min/max per criterion), ``table``
-        (columns, data, styles of the test tables), ``sets`` (columns, data, styles).
+        ``invalid_functional`` (``[low, high]`` per functional constraint), ``messages``,
+        ``in_force`` (text), ``ranges`` (min/max per criterion), ``table`` (columns, data,
+        styles of the test tables), ``sets`` (columns, data, styles).
     """
-    a, c = _analysis(ctx, limit_texts, roles)
+    a, c = _analysis(ctx, limit_texts, roles, functional)
     messages = list(c.messages)
     if a.n == 0:
         messages.append("the store holds no trial yet; start a stage on the Refine tab")
@@ -127,7 +138,7 @@ def summary_view(ctx: UIContext, limit_texts: Any, roles: Any) -> dict[str, Any]
     # test tables (seed 000 Fig. 6): ids and values best first, red outside D. The order is
     # cached per store version (it does not depend on criteria constraints); whether a row
     # is in D is read from this analysis.
-    tables = ctx.cache.test_tables()
+    tables = ctx.cache.test_tables(c)
     columns: list[dict[str, Any]] = []
     styles: list[dict[str, Any]] = []
     m = ctx.table_rows
@@ -159,6 +170,9 @@ def summary_view(ctx: UIContext, limit_texts: Any, roles: Any) -> dict[str, Any]
             "functional": a.n_functional,
         },
         "invalid": [name in c.errors for name in a.crit_names],
+        "invalid_functional": [
+            [f"{name}.low" in c.errors, f"{name}.high" in c.errors] for name in a.con_names
+        ],
         "messages": messages,
         "in_force": ", ".join(str(b) for b in a.active_bounds()) or "none",
         "pure": [a.crit_names[i] for i in a.pure],
@@ -247,6 +261,7 @@ def selection_from_event(
     y: str | None = None,
     limit_texts: Any = None,
     roles: Any = None,
+    functional: Any = None,
 ) -> dict[str, Any] | None:
     """A selection spec from a Plotly selection or click event.
 
@@ -258,6 +273,8 @@ def selection_from_event(
         ``selectedData`` (scatter, cvp) or ``clickData`` (hist) as Plotly sends it.
     x, y : str
         Axes of the scatter; for ``cvp``, ``y`` is the criterion.
+    limit_texts, roles, functional
+        The constraint fields (for ``hist``: the bins are those of the feasible set).
 
     Returns
     -------
@@ -273,7 +290,7 @@ def selection_from_event(
         pt = (event.get("points") or [None])[0]
         if not pt:
             return None
-        a, _ = _analysis(ctx, limit_texts, roles)
+        a, _ = _analysis(ctx, limit_texts, roles, functional)
         hists = histograms(a)
         curve = int(pt.get("curveNumber", -1))
         panel, trace = divmod(curve, 2)  # two traces per panel: feasible, Pareto
@@ -439,6 +456,7 @@ def scatter_view(
     y: str,
     selection: Mapping[str, Any] | None = None,
     chosen: Any = None,
+    functional: Any = None,
 ) -> tuple[go.Figure, str]:
     """Criterion vs criterion (red/blue/green, constraints as lines, seed 001 Fig. 6) with
     the selection ringed and the chosen trial starred.
@@ -449,7 +467,7 @@ def scatter_view(
     """
     x = ctx.cache.check_name(x, "any")
     y = ctx.cache.check_name(y, "any")
-    a, _ = _analysis(ctx, limit_texts, roles)
+    a, _ = _analysis(ctx, limit_texts, roles, functional)
     fig = fg.scatter_figure(a, x, y, max_points=ctx.max_points)
     sel = selection_mask(ctx, a, selection)
     xv, yv = fg._column(a, x)[0], fg._column(a, y)[0]
@@ -468,11 +486,12 @@ def panel_view(
     criterion: str | None = None,
     selection: Mapping[str, Any] | None = None,
     chosen: Any = None,
+    functional: Any = None,
 ) -> go.Figure:
     """The lower panel: ``"histograms"`` (feasible and Pareto per parameter, seed 000 Fig. 7,
     with the selection's own histogram outlined) or ``"cvp"`` (one criterion against every
     parameter, seed 000 Fig. 9, selection ringed)."""
-    a, _ = _analysis(ctx, limit_texts, roles)
+    a, _ = _analysis(ctx, limit_texts, roles, functional)
     sel = selection_mask(ctx, a, selection)
     row = _chosen_row(ctx, chosen)
     if panel == "histograms":
@@ -535,7 +554,9 @@ def panel_view(
 # -- the chosen trial -------------------------------------------------------------------------
 
 
-def trial_view(ctx: UIContext, trial_text: Any, limit_texts: Any, roles: Any) -> dict[str, Any]:
+def trial_view(
+    ctx: UIContext, trial_text: Any, limit_texts: Any, roles: Any, functional: Any = None
+) -> dict[str, Any]:
     """Details of one sample trial: status, criteria against the constraints in force,
     parameters against nominal (seed 000 Fig. 13), its stored sections and robustness
     checks, and trajectories against the flight data for an identification study.
@@ -549,7 +570,7 @@ def trial_view(ctx: UIContext, trial_text: Any, limit_texts: Any, roles: Any) ->
     """
     tid = parse_trial_id(trial_text)
     row = ctx.cache.row_of(tid)
-    a, _ = _analysis(ctx, limit_texts, roles)
+    a, _ = _analysis(ctx, limit_texts, roles, functional)
     t = a.trials
     pc = point_classes(a)
     cls = "Pareto" if pc.pareto[row] else "feasible (in D)" if pc.feasible[row] else "infeasible"
@@ -660,13 +681,19 @@ def _refine_args(basis: Any, quantile: Any, margin: Any) -> dict[str, Any]:
 
 
 def refine_view(
-    ctx: UIContext, limit_texts: Any, roles: Any, basis: Any, quantile: Any, margin: Any
+    ctx: UIContext,
+    limit_texts: Any,
+    roles: Any,
+    basis: Any,
+    quantile: Any,
+    margin: Any,
+    functional: Any = None,
 ) -> dict[str, Any]:
     """The proposed box (double tuning, :func:`~vectorid.analysis.propose_refine`) under the
     constraints in force: editable rows (old and new bounds per variable), the figure of the
     old and new box, and a summary line."""
     args = _refine_args(basis, quantile, margin)
-    a, _ = _analysis(ctx, limit_texts, roles)
+    a, _ = _analysis(ctx, limit_texts, roles, functional)
     _, _, stages = ctx.cache.state()
     prop = propose_refine(a, stages, **args)
     rows = [
@@ -713,16 +740,64 @@ def _overrides(
     return out
 
 
+def limits_to_save(
+    ctx: UIContext, limit_texts: Any, roles: Any = None, functional: Any = None
+) -> dict[str, Any]:
+    """The constraints in force, as :meth:`~vectorid.store.sqlite.Store.set_limits` saves
+    them (the rule of ``vectorid table --save``: a criterion's saved limit is its worse-side
+    bound; functional constraints keep both bounds).
+
+    Returns
+    -------
+    dict
+        ``criteria`` (name -> limit or None), ``constraints`` (name -> [low, high], None for
+        no bound) and ``text`` (the bounds in words).
+
+    Raises
+    ------
+    StudyDefinitionError
+        When a field does not parse (nothing is saved while one is marked red), or a
+        criterion has a better-side bound (which a study cannot hold).
+    """
+    a, c = _analysis(ctx, limit_texts, roles, functional)
+    if c.errors:
+        raise StudyDefinitionError(
+            "save constraints",
+            f"{len(c.errors)} field(s) do not hold a number: " + "; ".join(c.errors.values()),
+            "correct or clear the fields outlined in red, then save",
+        )
+    criteria: dict[str, float | None] = {}
+    for i, name in enumerate(a.crit_names):
+        lo, hi = a.bounds[name]
+        worse, other = (hi, lo) if a.senses[i] == "min" else (lo, hi)
+        if math.isfinite(other):
+            side = ">=" if a.senses[i] == "min" else "<="
+            raise StudyDefinitionError(
+                "save constraints",
+                f"cannot save '{name}{side}{other:g}': a criteria constraint is the worst "
+                f"accepted value of a {a.senses[i]} criterion",
+                "remove that bound before saving",
+            )
+        criteria[name] = float(worse) if math.isfinite(worse) else None
+    constraints = {
+        name: [None if math.isinf(v) else float(v) for v in a.bounds[name]] for name in a.con_names
+    }
+    text = ", ".join(str(b) for b in a.active_bounds()) or "no limits"
+    return {"criteria": criteria, "constraints": constraints, "text": text}
+
+
 def start_job(ctx: UIContext, kind: str, **values: Any) -> str:
     """Validate the browser's values for a job and start it in the background.
 
     Parameters
     ----------
-    kind : {"section", "robustness", "refine", "continue"}
+    kind : {"section", "robustness", "refine", "continue", "limits"}
     values
         ``trial`` (text), ``param``, ``points``, ``lo``, ``hi`` (section); ``trial``,
         ``radius``, ``points`` (robustness); ``limit_texts``, ``roles``, ``basis``,
-        ``quantile``, ``margin``, ``rows``, ``trials`` (refine); ``trials`` (continue).
+        ``quantile``, ``margin``, ``rows``, ``trials`` (refine); ``trials`` (continue);
+        ``limit_texts``, ``roles`` (robustness, refine, limits) and ``functional``
+        (robustness, refine, limits: ``(low, high)`` field texts per functional constraint).
 
     Returns
     -------
@@ -771,12 +846,14 @@ def start_job(ctx: UIContext, kind: str, **values: Any) -> str:
             )
         if not (points.is_integer() and 4 <= points <= 4096):
             raise StudyDefinitionError("points", f"expected 4..4096, got {points:g}", "e.g. 32")
-        c = parse_constraints(ctx.spec, values.get("limit_texts"), values.get("roles"))
+        c = parse_constraints(
+            ctx.spec, values.get("limit_texts"), values.get("roles"), values.get("functional")
+        )
         params = {
             "trial": tid,
             "radius": radius,
             "points": int(points),
-            "limits": c.limits,
+            "limits": c.overrides,
             "roles": c.roles,
         }
         label = f"robustness check of trial {tid} (radius {radius:g}, {int(points)} points)"
@@ -789,18 +866,60 @@ def start_job(ctx: UIContext, kind: str, **values: Any) -> str:
         label = f"{int(n)} more trials in the current box"
         if kind == "refine":
             args = _refine_args(values.get("basis"), values.get("quantile"), values.get("margin"))
-            a, c = _analysis(ctx, values.get("limit_texts"), values.get("roles"))
+            a, c = _analysis(
+                ctx, values.get("limit_texts"), values.get("roles"), values.get("functional")
+            )
             _, _, stages = ctx.cache.state()
             bounds = _overrides(ctx, a, stages, args, values.get("rows"))
             propose_refine(a, stages, bounds=bounds, **args)  # validate here, visibly
-            params.update(args, bounds=bounds, limits=c.limits, roles=c.roles)
+            params.update(args, bounds=bounds, limits=c.overrides, roles=c.roles)
             label = f"new stage in the refined box, {int(n)} trials" + (
                 f" (edited: {', '.join(bounds)})" if bounds else ""
             )
+    elif kind == "limits":
+        params = limits_to_save(
+            ctx, values.get("limit_texts"), values.get("roles"), values.get("functional")
+        )
+        label = "saving the constraints in force with the study"
     else:
         raise StudyDefinitionError("job", f"unknown job {kind!r}", "use the buttons")
     ctx.jobs.start(kind, params, label)
     return f"started: {label}"
+
+
+def job_action(ctx: UIContext, action: str, **values: Any) -> dict[str, Any]:
+    """A job button pressed: start the job (:func:`start_job`) or, for ``"stop"``, stop the
+    running one; never raises for what a user can cause.
+
+    Returns
+    -------
+    dict
+        ``text`` (the message to show) and ``busy``: the id of the running job when the
+        request was refused because that job runs (the message then lasts only while it
+        runs, see :func:`job_message`), else None.
+    """
+    try:
+        if action == "stop":
+            text = "stopping the job…" if ctx.jobs.stop() else "no job is running"
+            return {"text": text, "busy": None}
+        return {"text": start_job(ctx, action, **values), "busy": None}
+    except JobBusy as exc:
+        return {"text": str(exc), "busy": ctx.jobs.status().id}
+    except VectoridError as exc:
+        return {"text": str(exc), "busy": None}
+
+
+def job_message(ctx: UIContext, note: Mapping[str, Any] | None) -> str:
+    """The message under the job bar for a note of :func:`job_action`: its text, except
+    that "a job is already running" clears once the job it names is no longer running."""
+    if not note:
+        return ""
+    busy = note.get("busy")
+    if busy is not None:
+        st = ctx.jobs.status()
+        if st.id != busy or not st.running:
+            return ""
+    return str(note.get("text", ""))
 
 
 def job_view(ctx: UIContext) -> dict[str, Any]:
@@ -833,8 +952,8 @@ def overview_view(ctx: UIContext) -> dict[str, Any]:
     """
     from ...run.loop import _reason_key
 
+    _, t, stages = ctx.cache.state()  # first: it re-reads a definition saved meanwhile
     spec = ctx.spec
-    _, t, stages = ctx.cache.state()
     d = spec.to_dict()["study"]
     study = [{"key": k, "value": str(v)} for k, v in d.items()]
     study.append({"key": "store", "value": str(ctx.cache.path)})

@@ -5,7 +5,8 @@ The UI process only ever *reads* the store (read-only SQLite connections, one pe
 since a connection may not cross threads); background jobs write it from another process
 (:mod:`vectorid.views.ui.jobs`). The loaded trials are cached and reloaded when the store's
 trial or stage count changes, so a constraint change never touches the disk beyond three
-``count`` queries, and a running stage shows up as it grows.
+``count`` queries and a read of the study definition (whose checksum shows constraints saved
+with the study), and a running stage shows up as it grows.
 
 Nothing the browser sends is a path or code: constraints and parameters are parsed here as
 numbers (non-finite, over-long or non-numeric text is rejected with a message that says what
@@ -16,10 +17,11 @@ from __future__ import annotations
 
 import math
 import threading
+import zlib
 from collections import OrderedDict
 from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -131,7 +133,8 @@ def parse_trial_id(text: Any, field: str = "trial id") -> int:
 
 @dataclass(frozen=True)
 class Constraints:
-    """Criteria constraints and roles as chosen in the browser, validated.
+    """Criteria constraints, functional-constraint bounds and roles as chosen in the browser,
+    validated.
 
     Attributes
     ----------
@@ -142,24 +145,48 @@ class Constraints:
     roles : dict
         Criterion name -> ``"pure"`` or ``"pseudo"``.
     errors : dict
-        Criterion name -> message, for fields that did not parse.
+        Field -> message, for fields that did not parse: the criterion's name, or
+        ``"<constraint>.low"`` / ``"<constraint>.high"`` for a functional bound.
+    functional : dict
+        Functional constraint name -> ``(low, high)`` (None for no bound on that side), for
+        every constraint whose fields were sent; a side whose field did not parse keeps the
+        study's bound.
     """
 
     limits: dict[str, float | None]
     roles: dict[str, str]
     errors: dict[str, str]
+    functional: dict[str, tuple[float | None, float | None]] = field(default_factory=dict)
 
     def key(self) -> tuple:
         """Hashable form (memo key)."""
-        return (tuple(sorted(self.limits.items())), tuple(sorted(self.roles.items())))
+        return (
+            tuple(sorted(self.limits.items())),
+            tuple(sorted(self.roles.items())),
+            self.functional_key(),
+        )
+
+    def functional_key(self) -> tuple:
+        """Hashable form of the functional bounds alone (they fix the test tables' rows)."""
+        return tuple(sorted(self.functional.items()))
+
+    @property
+    def overrides(self) -> dict[str, Any]:
+        """The bounds as :class:`~vectorid.analysis.Analysis` takes them: criterion ->
+        worse-side limit, functional constraint -> ``(low, high)``."""
+        return {**self.limits, **self.functional}
 
     @property
     def messages(self) -> list[str]:
-        return [f"{msg} (ignored: the study's limit is used)" for msg in self.errors.values()]
+        out = [f"{msg} (ignored: the study's bound is used)" for msg in self.errors.values()]
+        return list(dict.fromkeys(out))  # low > high marks both fields with one message
 
 
 def parse_constraints(
-    spec: StudySpec, limit_texts: Sequence[Any] | None, roles: Sequence[Any] | None
+    spec: StudySpec,
+    limit_texts: Sequence[Any] | None,
+    roles: Sequence[Any] | None,
+    functional: Sequence[Sequence[Any]] | None = None,
 ) -> Constraints:
     """Validate the constraint fields and role toggles of the test tables.
 
@@ -170,6 +197,9 @@ def parse_constraints(
         One field per criterion, in the study's order (text, number or None).
     roles : sequence
         One ``"pure"``/``"pseudo"`` per criterion, in the study's order.
+    functional : sequence, optional
+        One ``(low text, high text)`` pair per functional constraint, in the study's order
+        (empty for no bound on that side); None keeps the study's bounds.
     """
     names = spec.criterion_names
     limits: dict[str, float | None] = {}
@@ -194,7 +224,43 @@ def parse_constraints(
                 f"role of {name}", f"expected 'pure' or 'pseudo', got {role!r}", "reload the page"
             )
         out_roles[name] = str(role)
-    return Constraints(limits, out_roles, errors)
+    bounds: dict[str, tuple[float | None, float | None]] = {}
+    pairs = list(functional or [])
+    if pairs and len(pairs) != len(spec.constraints):
+        raise StudyDefinitionError(
+            "functional constraints",
+            f"expected {len(spec.constraints)} pairs of bounds, got {len(pairs)}",
+            "reload the page",
+        )
+    for con, pair in zip(spec.constraints, pairs):
+        if not isinstance(pair, list | tuple) or len(pair) != 2:
+            raise StudyDefinitionError(
+                f"bounds of {con.name}", f"expected a (low, high) pair, got {pair!r}", "reload"
+            )
+        side: list[float | None] = [con.low, con.high]
+        for k, (label, op) in enumerate((("low", ">="), ("high", "<="))):
+            try:
+                side[k] = parse_number(
+                    pair[k],
+                    f"{label} bound of {con.name} ({con.name} {op})",
+                    example="25",
+                    empty_means=f"no {label} bound",
+                )
+            except StudyDefinitionError as exc:
+                errors[f"{con.name}.{label}"] = str(exc)
+        lo, hi = side
+        if lo is not None and hi is not None and lo > hi:
+            for label in ("low", "high"):
+                errors[f"{con.name}.{label}"] = str(
+                    StudyDefinitionError(
+                        f"bounds of {con.name}",
+                        f"expected low <= high, got {lo:g} .. {hi:g}",
+                        "swap them, or clear one side",
+                    )
+                )
+            lo, hi = con.low, con.high
+        bounds[con.name] = (lo, hi)
+    return Constraints(limits, out_roles, errors, bounds)
 
 
 class StoreCache:
@@ -217,7 +283,7 @@ class StoreCache:
         self._trials: Trials | None = None
         self._spec: StudySpec | None = None
         self._stages: list[Stage] = []
-        self._tables: list[TestTable] | None = None
+        self._tables: OrderedDict[tuple, list[TestTable]] = OrderedDict()
         self.loads = 0  # how many times the trials were read from disk
         with self.open() as st:
             self._spec = st.spec
@@ -232,11 +298,15 @@ class StoreCache:
             st.close()
 
     @staticmethod
-    def _key_of(st: Store) -> tuple[int, int, int]:
-        return (st.count_sample(), st.count(), len(st.stages()))
+    def _key_of(st: Store) -> tuple[int, int, int, int]:
+        # the study definition changes when constraints are saved with it (Store.set_limits);
+        # a CRC-32 of its JSON stays exact through the browser's JSON numbers
+        study = st.meta().get("study", "")
+        return (st.count_sample(), st.count(), len(st.stages()), zlib.crc32(study.encode()))
 
-    def version(self) -> tuple[int, int, int]:
-        """``(sample trials, all trials, stages)`` now in the store (three cheap queries)."""
+    def version(self) -> tuple[int, int, int, int]:
+        """``(sample trials, all trials, stages, checksum of the study definition)`` now in
+        the store (four cheap queries)."""
         with self.open() as st:
             return self._key_of(st)
 
@@ -247,11 +317,12 @@ class StoreCache:
                 return
             self._spec = st.spec
             self._stages = st.stages()
-            self._trials = st.load()
+            if self._key is None or key[:3] != self._key[:3] or self._trials is None:
+                self._trials = st.load()  # only the definition changed: the trials stay
+                self.loads += 1
             self._key = key
             self._memo.clear()
-            self._tables = None
-            self.loads += 1
+            self._tables.clear()
 
     @property
     def spec(self) -> StudySpec:
@@ -279,23 +350,31 @@ class StoreCache:
             if hit is not None:
                 self._memo.move_to_end(full)
                 return hit
-            a = Analysis(self.spec, trials, c.limits, c.roles)
+            a = Analysis(self.spec, trials, c.overrides, c.roles)
             self._memo[full] = a
             while len(self._memo) > self._memo_size:
                 self._memo.popitem(last=False)
             return a
 
-    def test_tables(self) -> list[TestTable]:
+    def test_tables(self, c: Constraints | None = None) -> list[TestTable]:
         """The test tables (every criterion's trials meeting the functional constraints, best
-        first) of the current trials. Their order depends only on the trials and the
-        functional constraints, which the UI does not change, so they are computed once per
-        store version; a criteria constraint change only re-reads ``Analysis.feasible`` for
-        the rows shown (:meth:`rows_of`)."""
+        first) of the current trials under the functional bounds of ``c`` (the study's when
+        None). Their order depends only on the trials and the functional bounds, so they are
+        computed once per store version and functional bounds (4 kept); a criteria constraint
+        change only re-reads ``Analysis.feasible`` for the rows shown (:meth:`rows_of`)."""
+        functional = c.functional if c is not None else {}
         with self._lock:
             self.state()
-            if self._tables is None:
-                self._tables = self.analysis().test_tables()
-            return self._tables
+            key = tuple(sorted(functional.items()))
+            hit = self._tables.get(key)
+            if hit is not None:
+                self._tables.move_to_end(key)
+                return hit
+            tables = self.analysis(Constraints({}, {}, {}, dict(functional))).test_tables()
+            self._tables[key] = tables
+            while len(self._tables) > 4:
+                self._tables.popitem(last=False)
+            return tables
 
     def rows_of(self, ids: np.ndarray) -> np.ndarray:
         """Rows of the cached sample trials with these ids (all must exist)."""
@@ -341,9 +420,23 @@ class StoreCache:
         return name
 
 
+def _text_of(v: float | None) -> str:
+    """A bound as field text: short, and exact (the text parses back to the same float)."""
+    if v is None:
+        return ""
+    short = f"{v:.10g}"
+    return short if float(short) == v else repr(float(v))
+
+
 def limits_text(spec: StudySpec) -> list[str]:
     """The study's own limits as the initial text of the constraint fields."""
-    return ["" if c.limit is None else f"{c.limit:.10g}" for c in spec.criteria]
+    return [_text_of(c.limit) for c in spec.criteria]
+
+
+def bounds_text(spec: StudySpec) -> list[tuple[str, str]]:
+    """The study's functional-constraint bounds as the initial ``(low, high)`` text of their
+    fields (empty for no bound)."""
+    return [(_text_of(c.low), _text_of(c.high)) for c in spec.constraints]
 
 
 def finite(v: Any) -> float | None:

@@ -1,4 +1,5 @@
-"""Background jobs of the browser UI: sections, robustness checks, new sample stages.
+"""Background jobs of the browser UI: sections, robustness checks, new sample stages, and
+saving the constraints in force with the study.
 
 A job runs in a separate process (``multiprocessing`` *spawn* context, so nothing of the
 threaded web server is forked) that opens the store for writing, which takes the store's
@@ -28,7 +29,7 @@ from ...errors import VectoridError
 __all__ = ["JOB_KINDS", "JobBusy", "JobManager", "JobStatus", "run_job"]
 
 #: What a job may do. The browser chooses among these names; nothing else is run.
-JOB_KINDS = ("section", "robustness", "refine", "continue")
+JOB_KINDS = ("section", "robustness", "refine", "continue", "limits")
 
 
 class JobBusy(VectoridError):
@@ -99,7 +100,9 @@ def run_job(kind: str, store_path: str, params: Mapping[str, Any]) -> str:
     params : mapping
         Already validated by the UI: ``trial``, ``param``, ``points``, ``range``, ``radius``,
         ``seed``, ``limits``, ``roles``, ``basis``, ``quantile``, ``margin``, ``bounds``,
-        ``trials``, ``executor``, ``workers``.
+        ``trials``, ``executor``, ``workers``; for ``limits``: ``criteria`` (name -> limit or
+        None), ``constraints`` (name -> (low, high), None for no bound) and ``text`` (the
+        bounds in words), as :meth:`vectorid.store.sqlite.Store.set_limits` takes them.
 
     Returns
     -------
@@ -116,6 +119,12 @@ def run_job(kind: str, store_path: str, params: Mapping[str, Any]) -> str:
     if kind not in JOB_KINDS:
         raise ValueError(f"unknown job kind {kind!r}; expected one of {JOB_KINDS}")
     with Store.open(store_path, write=True) as store:
+        if kind == "limits":
+            store.set_limits(
+                dict(params.get("criteria") or {}),
+                {k: tuple(v) for k, v in dict(params.get("constraints") or {}).items()},
+            )
+            return f"saved with the study: {params.get('text') or 'no limits'}"
         if kind == "section":
             sec = run_section(
                 store,
