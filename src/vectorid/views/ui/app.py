@@ -17,7 +17,7 @@ from typing import Any
 
 from ...errors import VectoridError
 from . import callbacks as cb
-from .data import StoreCache, bounds_text, finite, limits_text
+from .data import StoreCache, bounds_text, limits_text
 from .jobs import JobManager
 
 __all__ = ["create_app"]
@@ -87,6 +87,7 @@ def _rows_table(rows: list[dict[str, Any]], id_: str | None = None) -> Any:
 
 
 def _layout(ctx: cb.UIContext) -> Any:
+    import numpy as np
     from dash import dcc, html
 
     ctx.cache.state()  # built at every page load: start from the limits saved in the store
@@ -148,8 +149,8 @@ def _layout(ctx: cb.UIContext) -> Any:
             )
         )
     for j, (g, (lo_text, hi_text)) in enumerate(zip(spec.constraints, bounds_text(spec))):
-        col = a.trials.G[a.ok, j] if a.n else a.trials.G[:0, j]
-        col = col[[finite(v) is not None for v in col]] if len(col) else col
+        col = a.trials.G[a.ok, j]
+        col = col[np.isfinite(col)]
         span = f"range {col.min():.4g} .. {col.max():.4g}" if len(col) else "no value yet"
         cards.append(
             html.Div(
