@@ -44,6 +44,7 @@ from selenium import webdriver  # noqa: E402
 from selenium.common.exceptions import (  # noqa: E402
     NoSuchElementException,
     StaleElementReferenceException,
+    TimeoutException,
 )
 from selenium.webdriver.chrome.service import Service  # noqa: E402
 from selenium.webdriver.common.action_chains import ActionChains  # noqa: E402
@@ -356,9 +357,20 @@ def test_saved_constraints_are_in_force_after_reload(browser, server):
     # a criteria constraint and a functional bound, typed
     a1 = _analysis(store, {"f1": 30.0, "g1": (None, 20.0), "g2": (7.7, None)})
     assert a1.n_feasible != a0.n_feasible and a1.n_functional != a0.n_functional
+    a_f1 = _analysis(store, {"f1": 30.0})
     _type(drv, _limit("f1"), "30")
-    _type(drv, lambda d: _bound_input(d, "g1", "high"), "20")
-    _until(drv, lambda d: _text(d, "#count-nd") == str(a1.n_feasible), "ND under the new bounds")
+    # let the page settle before the next field: a re-render racing the typing could drop it
+    _until(drv, lambda d: _text(d, "#count-nd") == str(a_f1.n_feasible), "ND under f1 <= 30")
+    for attempt in range(3):
+        _type(drv, lambda d: _bound_input(d, "g1", "high"), "20")
+        try:
+            WebDriverWait(drv, WAIT / 3, poll_frequency=0.2).until(
+                lambda d: _text(d, "#count-nd") == str(a1.n_feasible)
+            )
+            break
+        except TimeoutException:
+            if attempt == 2:
+                raise AssertionError("timed out waiting for ND under the new bounds") from None
     assert "g1 <= 20" in _text(drv, "#in-force")
     # a malformed bound is marked and named, and nothing is saved while it is
     _type(drv, lambda d: _bound_input(d, "g2", "low"), "seven")
