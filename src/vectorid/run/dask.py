@@ -15,16 +15,13 @@ How it keeps the executor contract (see :mod:`vectorid.run.executors`):
   as a small pickled blob, and the worker keeps the built :class:`~vectorid.problem.Problem`
   in a cache keyed by the blob's hash, so a worker builds it on its first task only.
 * **The client alone writes to the store** (the run loop does); workers only compute.
-* **Lost workers.** A task whose worker dies is re-run by Dask on another worker (the local
-  cluster allows one such loss per task, ``distributed.scheduler.allowed-failures = 1``; a
-  cluster you connect to keeps its own setting); a task that kept killing workers comes back
-  as ``KilledWorker`` and its batch is re-run one trial at a time, so only the guilty trial
-  fails. Dask blames a worker's death on every task the worker held, including one waiting
-  behind the guilty task, so a single trial that comes back ``KilledWorker`` gets one more
-  try as a fresh task before it is failed (a trial that really crashes its worker thus costs
-  four worker restarts on the local cluster). Tasks are submitted with ``retries=1`` for
-  exceptions outside the model. Whatever ran twice is stored once: the store refuses a batch
-  whose range is stored.
+* **Lost workers.** On the local cluster every task a dying worker held comes back at once as
+  ``KilledWorker`` (``distributed.scheduler.allowed-failures = 0``; a cluster you connect to
+  keeps its own setting). Its batch is then re-run one trial at a time, and each suspect trial
+  runs *alone* on the cluster, so when it kills its worker again no innocent task queued on
+  that worker is blamed with it. A single trial gets one more try as a fresh task before it is
+  failed. Tasks are submitted with ``retries=1`` for exceptions outside the model. Whatever ran
+  twice is stored once: the store refuses a batch whose range is stored.
 * **Timeouts.** With ``timeout`` (seconds per trial) the worker runs the model in a helper
   thread and stops waiting after ``n × timeout`` seconds: the batch comes back "timed out",
   the client restarts that worker through its nanny (a Python thread cannot be killed, a
@@ -204,8 +201,9 @@ class DaskExecutor(Executor):
             }
             kwargs.update(self._cluster_kwargs)
             config = {
-                # Re-run a lost worker's task once; a task that kills two workers is a suspect.
-                "distributed.scheduler.allowed-failures": 1,
+                # A task on a worker that died comes back at once as KilledWorker; the
+                # executor then re-runs it trial by trial, alone (see _map_unordered).
+                "distributed.scheduler.allowed-failures": 0,
                 # A one-thread worker running a pure-Python model shares the GIL with its
                 # event loop: Dask's profiler (every 10 ms), tick (20 ms), memory (100 ms) and
                 # system (500 ms) monitors slowed such a model by 10-25 % here. Sample less.
@@ -260,7 +258,14 @@ class DaskExecutor(Executor):
         def top_up() -> None:
             nonlocal exhausted
             while len(inflight) < limit:
+                # After a worker died, its batches are re-run one trial at a time and each
+                # suspect trial runs alone: when it kills its worker again, no innocent task
+                # queued on that worker is blamed with it.
+                if any(t.row is not None for _, t in inflight.values()):
+                    return
                 if tracker.queue:
+                    if inflight:
+                        return
                     task = tracker.queue.popleft()
                 elif not exhausted:
                     try:
