@@ -79,7 +79,7 @@ def assert_same_as_uninterrupted(tmp_path, study_file, store):
 def test_kill_9_mid_run_then_resume(tmp_path, executor):
     study_file = write_user_study(tmp_path / "s", trials=160)
     store = tmp_path / "killed.db"
-    proc = start_run(study_file, store, executor, sleep=0.05)
+    proc = start_run(study_file, store, executor, sleep=0.2)
     try:
         seen = wait_for_trials(store, 24, proc)
         os.kill(proc.pid, signal.SIGKILL)
@@ -105,11 +105,11 @@ def test_kill_9_mid_run_then_resume(tmp_path, executor):
 def test_ctrl_c_stores_finished_batches_and_exits_130(tmp_path):
     study_file = write_user_study(tmp_path / "s", trials=160)
     store = tmp_path / "int.db"
-    proc = start_run(study_file, store, "serial", sleep=0.05)
+    proc = start_run(study_file, store, "serial", sleep=0.2)
     wait_for_trials(store, 16, proc)
     proc.send_signal(signal.SIGINT)
     out, err = proc.communicate(timeout=30)
-    assert proc.returncode == 130
+    assert proc.returncode == 130, (proc.returncode, out, err)
     assert "interrupted" in err and "run the same command again to resume" in err
     resumed = start_run(study_file, store, "serial", sleep=0.0)
     _, err2 = resumed.communicate(timeout=60)
