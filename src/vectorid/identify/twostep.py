@@ -59,6 +59,20 @@ __all__ = [
 ]
 
 
+def _simulate_uncontrolled(ident, P: np.ndarray, d, wind) -> Any:
+    """One full parameter vector ``P`` over drop ``d``'s window with no control input."""
+    return ident.model.simulate(
+        P[None, :],
+        t_final=d.duration,
+        dt=ident.dt,
+        inputs=None,
+        wind=wind,
+        output_dt=ident.output_dt,
+        initial=d.initial,
+        atmosphere=ident.atmosphere,
+    )
+
+
 def auto_limits(a: Analysis, quantile: float = 0.3, min_feasible: int = 20) -> dict[str, float]:
     """Criteria constraints Φ** at a quantile of each criterion over the successful trials.
 
@@ -385,16 +399,7 @@ def control_contribution(
                 "params", f"unknown model parameter {k!r}", f"expected one of {pnames}"
             )
         P[pnames.index(k)] = float(v)
-    res = ident.model.simulate(
-        P[None, :],
-        t_final=d.duration,
-        dt=ident.dt,
-        inputs=None,
-        wind=d.wind,
-        output_dt=ident.output_dt,
-        initial=d.initial,
-        atmosphere=ident.atmosphere,
-    )
+    res = _simulate_uncontrolled(ident, P, d, d.wind)
     if res.status[0] != 0:
         raise StudyDefinitionError(
             "params",
@@ -550,16 +555,7 @@ def control_step_spec(
     P = ident.base.copy()
     for k, v in fixed.items():
         P[pnames.index(k)] = float(v)
-    calm = ident.model.simulate(
-        P[None, :],
-        t_final=d.duration,
-        dt=ident.dt,
-        inputs=None,
-        wind=None,
-        output_dt=ident.output_dt,
-        initial=d.initial,
-        atmosphere=ident.atmosphere,
-    )
+    calm = _simulate_uncontrolled(ident, P, d, None)
     if calm.status[0] != 0:
         raise StudyDefinitionError(
             "params",
@@ -576,16 +572,7 @@ def control_step_spec(
         "position": {"north": "north_m", "east": "east_m", "down": "down_m", "unit": "m"},
     }
     if "velocity" in d.flight.channels:  # for the initial state only (criteria 1, 3 only)
-        wind_sim = ident.model.simulate(
-            P[None, :],
-            t_final=d.duration,
-            dt=ident.dt,
-            inputs=None,
-            wind=d.wind,
-            output_dt=ident.output_dt,
-            initial=d.initial,
-            atmosphere=ident.atmosphere,
-        )
+        wind_sim = _simulate_uncontrolled(ident, P, d, d.wind)
         vel = d.measured("velocity") - wind_sim.velocity[0] + calm.velocity[0]
         cols.update({"v_north_ms": vel[:, 0], "v_east_ms": vel[:, 1], "v_down_ms": vel[:, 2]})
         mapping["velocity"] = {
