@@ -139,3 +139,53 @@ def test_missing_dask_gives_the_install_hint(user_study, monkeypatch):
     import vectorid.run.executors  # the core never imports dask
 
     assert "distributed" not in vars(vectorid.run.executors)
+
+
+PID_MODEL = """
+import os
+
+import numpy as np
+
+
+def pids(X):
+    # criteria: the process that evaluates and its parent
+    return np.column_stack([X[:, 0], np.full(len(X), os.getpid()), np.full(len(X), os.getppid())])
+"""
+
+
+def _pid_spec(folder) -> StudySpec:
+    from vectorid import Continuous, Criterion, Space
+
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "pidmodel.py").write_text(PID_MODEL, encoding="utf-8")
+    return StudySpec(
+        name="pids",
+        model="pidmodel:pids",
+        space=Space([Continuous("x", 0.0, 1.0)]),
+        criteria=(Criterion("xx"), Criterion("pid"), Criterion("ppid")),
+        base_dir=str(folder),
+    )
+
+
+@needs_dask
+@pytest.mark.parametrize("isolate", [True, False])
+def test_model_runs_in_a_model_process_of_each_worker(tmp_path, isolate):
+    """isolate=True: the model runs in one child process per worker (so pure-Python code does
+    not share the worker's GIL), the same child for every batch; isolate=False: in the worker."""
+    from vectorid.run.dask import DaskExecutor
+
+    spec = _pid_spec(tmp_path / "m")
+    X = spec.space.scale(spec.sampler_for().points(0, 64))
+    with DaskExecutor(spec, workers=2, isolate=isolate) as ex:
+        out = dict(ex.map_unordered((i, X[i * 4 : (i + 1) * 4]) for i in range(16)))
+        workers = set(ex.worker_pids().values())
+        counts = ex.build_counts()
+    assert sorted(out) == list(range(16))
+    pid = {int(v) for res in out.values() for v in res.criteria[:, 1]}
+    ppid = {int(v) for res in out.values() for v in res.criteria[:, 2]}
+    if isolate:
+        assert not pid & workers and ppid <= workers, (pid, ppid, workers)
+        assert len(pid) == len(ppid)  # one model process per worker (1 thread each)
+    else:
+        assert pid <= workers
+    assert sum(n for per in counts.values() for n in per.values()) == len(pid)

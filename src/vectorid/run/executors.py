@@ -263,6 +263,32 @@ def timeout_reason(seconds: float) -> str:
     return f"timed out: the trial ran longer than the timeout of {seconds:g} s (worker stopped)"
 
 
+def memory_reason(used: int, limit: int) -> str:
+    return (
+        f"worker process stopped: it used {used / 2**20:.0f} MiB, more than the memory limit "
+        f"of {limit / 2**20:.0f} MiB (the model leaks memory or needs more)"
+    )
+
+
+def resident_bytes(pid: int) -> int | None:
+    """Resident memory of process ``pid`` in bytes (None where it cannot be read)."""
+    try:
+        with open(f"/proc/{pid}/statm", "rb") as fh:
+            return int(fh.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        import psutil
+
+        return int(psutil.Process(pid).memory_info().rss)
+    except Exception:
+        return None
+
+
+#: Seconds between two looks at the workers' memory when a memory limit is set.
+MEMORY_POLL_S = 0.1
+
+
 # -- local processes -----------------------------------------------------------------------
 
 
@@ -327,14 +353,36 @@ class ProcessExecutor(Executor):
     the executor knows which batch a dead worker was running: only that batch is re-run (one
     trial at a time), and a batch that overruns ``n × timeout`` seconds has its worker killed
     (``SIGKILL``) and replaced.
+
+    Parameters
+    ----------
+    spec, workers, timeout
+        As for :class:`Executor`.
+    memory_limit : int, optional
+        Most bytes of resident memory one worker process may use. A worker found above it
+        (looked at every 0.1 s while it runs a batch) is killed like one that overran its
+        timeout: its batch is re-run one trial at a time and the trial that grows past the
+        limit fails with the reason. Default: no limit (the operating system's OOM killer
+        is the limit; such a death counts as a crash).
     """
 
     name = "processes"
 
     def __init__(
-        self, spec: StudySpec, workers: int | None = None, timeout: float | None = None
+        self,
+        spec: StudySpec,
+        workers: int | None = None,
+        timeout: float | None = None,
+        memory_limit: int | None = None,
     ) -> None:
         super().__init__(spec, workers, timeout)
+        if memory_limit is not None and not (isinstance(memory_limit, int) and memory_limit > 0):
+            raise StudyDefinitionError(
+                "memory_limit",
+                f"expected a positive number of bytes per worker, got {memory_limit!r}",
+                "give e.g. memory_limit=2**31 (2 GiB), or None for no limit",
+            )
+        self.memory_limit = memory_limit
         if callable(spec.model) and getattr(spec.model, "__module__", "") == "__main__":
             raise StudyDefinitionError(
                 "model",
@@ -394,6 +442,8 @@ class ProcessExecutor(Executor):
             wait_for = None
             if any(p.deadline < float("inf") for p in busy):
                 wait_for = max(0.0, min(p.deadline for p in busy) - time.monotonic())
+            if self.memory_limit is not None and busy:
+                wait_for = MEMORY_POLL_S if wait_for is None else min(wait_for, MEMORY_POLL_S)
             handles = [p.conn for p in self._procs] + [p.proc.sentinel for p in self._procs]
             mpc.wait(handles, timeout=wait_for)
             now = time.monotonic()
@@ -401,6 +451,11 @@ class ProcessExecutor(Executor):
                 finished: list[tuple[Hashable, EvalResult]] = []
                 dead = False
                 msg = None
+                over = None
+                if self.memory_limit is not None and p.task is not None:
+                    used = resident_bytes(p.proc.pid)
+                    if used is not None and used > self.memory_limit:
+                        over = memory_reason(used, self.memory_limit)
                 try:
                     if p.conn.poll():
                         msg = p.conn.recv()
@@ -428,7 +483,13 @@ class ProcessExecutor(Executor):
                         finished = tracker.done(task, res)
                 elif not p.proc.is_alive():
                     dead = True
-                if dead or (p.task is not None and now > p.deadline):
+                if over is not None and p.task is not None and msg is None and not dead:
+                    # Stopped for its memory: deterministic, like a timeout (no second try).
+                    task = p.task
+                    p.kill()
+                    self._procs[i] = _Proc(self._ctx, self.spec)
+                    finished = tracker.lost(task, over, timed_out=True)
+                elif dead or (p.task is not None and now > p.deadline):
                     timed_out = not dead
                     task = p.task
                     p.kill()
