@@ -262,3 +262,20 @@ def test_reference_rhs_with_solve_ivp_reproduces_the_batch_kernel(name):
     assert np.allclose(sol.y[3:6].T, res.euler[0], atol=1e-5)
     assert np.allclose(sol.y[vo + 3 : vo + 6].T, res.rates[0], atol=1e-5)
     assert abs(res.euler[0, -1, 2]) > np.radians(5.0)  # the flap input did turn it
+
+
+def test_fixed_size_ldlt_solves_match_numpy_and_refuse_indefinite_matrices():
+    from vectorid.models._parafoil_core import _solve6, _solve8
+
+    rng = np.random.default_rng(3)
+    for n, solve in ((8, _solve8), (6, _solve6)):
+        for _ in range(20):
+            q = rng.normal(size=(n, n))
+            a = q @ q.T + 1e-3 * np.eye(n)
+            b = rng.normal(size=n)
+            x = b.copy()
+            assert solve(a.copy(), x)
+            np.testing.assert_allclose(a @ x, b, rtol=1e-8, atol=1e-8 * np.abs(b).max())
+        indefinite = np.eye(n)
+        indefinite[n - 1, n - 1] = -1.0
+        assert not solve(indefinite, np.ones(n))

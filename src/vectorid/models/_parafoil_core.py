@@ -54,7 +54,10 @@ _jit = nb.njit(cache=True, fastmath=False, nogil=True, error_model="numpy")
 
 @_jit
 def solve_spd(a: np.ndarray, b: np.ndarray, n: int) -> bool:
-    """Solve ``a[:n, :n] x = b[:n]`` in place (Cholesky); ``False`` if not positive definite."""
+    """Solve ``a[:n, :n] x = b[:n]`` in place (Cholesky); ``False`` if not positive definite.
+
+    The general reference; the kernels use the fixed-size :func:`_solve8` and :func:`_solve6`.
+    """
     for j in range(n):
         s = a[j, j]
         for m in range(j):
@@ -83,59 +86,71 @@ def solve_spd(a: np.ndarray, b: np.ndarray, n: int) -> bool:
 
 @_jit
 def _solve8(a: np.ndarray, b: np.ndarray) -> bool:
-    """``solve_spd(a, b, 8)`` with constant bounds and reciprocal pivots (hot path)."""
-    for j in range(8):  # the reciprocal pivots are kept on the diagonal of ``a``
+    """``solve_spd(a, b, 8)`` by LDL^T without square roots (hot path).
+
+    The factorisation's critical path is one reciprocal per column instead of a square root
+    and a reciprocal; ``a`` receives the unit lower factor below its diagonal and D on it.
+    """
+    for j in range(8):
         s = a[j, j]
         for m in range(j):
-            s -= a[j, m] * a[j, m]
+            s -= a[j, m] * a[j, m] * a[m, m]
         if not s > 0.0:
             return False
-        r = 1.0 / math.sqrt(s)
-        a[j, j] = r
+        a[j, j] = s
+        r = 1.0 / s
         for i in range(j + 1, 8):
             s = a[i, j]
             for m in range(j):
-                s -= a[i, m] * a[j, m]
+                s -= a[i, m] * a[j, m] * a[m, m]
             a[i, j] = s * r
     for i in range(8):
         s = b[i]
         for m in range(i):
             s -= a[i, m] * b[m]
-        b[i] = s * a[i, i]
+        b[i] = s
+    for i in range(8):
+        b[i] /= a[i, i]
     for i in range(7, -1, -1):
         s = b[i]
         for m in range(i + 1, 8):
             s -= a[m, i] * b[m]
-        b[i] = s * a[i, i]
+        b[i] = s
     return True
 
 
 @_jit
 def _solve6(a: np.ndarray, b: np.ndarray) -> bool:
-    """``solve_spd(a, b, 6)`` with constant bounds and reciprocal pivots (hot path)."""
+    """``solve_spd(a, b, 6)`` by LDL^T without square roots (hot path).
+
+    The factorisation's critical path is one reciprocal per column instead of a square root
+    and a reciprocal; ``a`` receives the unit lower factor below its diagonal and D on it.
+    """
     for j in range(6):
         s = a[j, j]
         for m in range(j):
-            s -= a[j, m] * a[j, m]
+            s -= a[j, m] * a[j, m] * a[m, m]
         if not s > 0.0:
             return False
-        r = 1.0 / math.sqrt(s)
-        a[j, j] = r
+        a[j, j] = s
+        r = 1.0 / s
         for i in range(j + 1, 6):
             s = a[i, j]
             for m in range(j):
-                s -= a[i, m] * a[j, m]
+                s -= a[i, m] * a[j, m] * a[m, m]
             a[i, j] = s * r
     for i in range(6):
         s = b[i]
         for m in range(i):
             s -= a[i, m] * b[m]
-        b[i] = s * a[i, i]
+        b[i] = s
+    for i in range(6):
+        b[i] /= a[i, i]
     for i in range(5, -1, -1):
         s = b[i]
         for m in range(i + 1, 6):
             s -= a[m, i] * b[m]
-        b[i] = s * a[i, i]
+        b[i] = s
     return True
 
 
@@ -227,9 +242,10 @@ def parafoil_rhs(
     for i in range(3):
         dx[i] = rmat[i, 0] * u + rmat[i, 1] * v + rmat[i, 2] * w
     qr = vel[4] * sf + vel[5] * cf
-    dx[3] = vel[3] + qr * st / ct
+    inv_ct = 1.0 / ct
+    dx[3] = vel[3] + qr * st * inv_ct
     dx[4] = vel[4] * cf - vel[5] * sf
-    dx[5] = qr / ct
+    dx[5] = qr * inv_ct
     if rigid:
         for i in range(6):
             dx[6 + i] = vec[i]

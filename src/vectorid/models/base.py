@@ -15,6 +15,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import ClassVar
 
+import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -27,6 +28,9 @@ from vectorid.models.integrate import (
     Environment,
 )
 from vectorid.models.wind import Wind, WindProfile
+
+#: Trials per chunk of the parallel kernels' work queue (see :meth:`Model.simulate`).
+PARALLEL_CHUNK = 4
 
 __all__ = [
     "BASE_CHANNELS",
@@ -334,17 +338,21 @@ class Model(abc.ABC):
         Xc = np.where(finite[:, None], X, self.nominal[None, :])
         status |= np.where(status == 0, self._check_parameters(Xc), 0).astype(np.int64)
         t_fail = np.full(n, np.nan)
-        y = self._simulate(
-            np.ascontiguousarray(Xc),
-            status,
-            t_fail,
-            dt=dt,
-            n_steps=n_steps,
-            stride=stride,
-            controls=controls,
-            env=env,
-            initial=initial,
-        )
+        # Trials that diverge stop early, so equal static shares of the batch leave threads
+        # idle; small chunks handed out on demand keep every core busy (measured: 6 % faster
+        # on the parafoil box, where half the trials stop early).
+        with numba.parallel_chunksize(PARALLEL_CHUNK):
+            y = self._simulate(
+                np.ascontiguousarray(Xc),
+                status,
+                t_fail,
+                dt=dt,
+                n_steps=n_steps,
+                stride=stride,
+                controls=controls,
+                env=env,
+                initial=initial,
+            )
         expected = (n, n_steps // stride + 1, len(self.outputs))
         if y.shape != expected:  # a model bug, not a user error
             raise RuntimeError(f"{self.name}: _simulate returned {y.shape}, expected {expected}")

@@ -226,6 +226,7 @@ def rk4_trial(
     control_at(ctrl_t, ctrl_v, ctrl_mode, 0.0, u)
     observe(0.0, x, p, u, atm, gust, y[0])
     half = 0.5 * dt
+    sixth = dt / 6.0  # a product per state, not a division
     for step in range(n_steps):
         t = step * dt
         control_at(ctrl_t, ctrl_v, ctrl_mode, t, u)
@@ -243,7 +244,7 @@ def rk4_trial(
         rhs(t + dt, xt, p, u, atm, gust, k4)
         status = 0
         for j in range(ns):
-            xn = x[j] + dt * (k1[j] + 2.0 * (k2[j] + k3[j]) + k4[j]) / 6.0
+            xn = x[j] + sixth * (k1[j] + 2.0 * (k2[j] + k3[j]) + k4[j])
             if not np.isfinite(xn):
                 status = 1
             elif abs(xn) > x_max[j]:

@@ -218,10 +218,11 @@ class ParafoilModelBase(Model):
     inputs: tuple[Channel, ...] = _INPUTS
     #: Hand count of floating-point operations per RK4 step (trig, sqrt, division counted as
     #: 10): per right-hand side ~100 trig, ~270 canopy momenta and Kirchhoff terms, ~130
-    #: aerodynamics, ~200 payload kinematics and forces, ~550 the 8x8 payload mass terms, ~70
-    #: canopy mass block, ~460 Cholesky 8x8 with both substitutions, ~80 kinematics, wind and
-    #: table look-up: ~1,900; 4 evaluations, 192 for the stage combinations, ~40 controls.
-    flops_per_step: ClassVar[int] = 4 * 1900 + 192 + 40
+    #: aerodynamics, ~200 payload kinematics and forces, ~80 payload mass and force terms
+    #: (written out, see ``system_matrices``), ~70 canopy mass block, ~420 LDL^T 8x8 with both
+    #: substitutions, ~80 kinematics, wind and table look-up: ~1,350; 4 evaluations, 192 for
+    #: the stage combinations, ~40 controls.
+    flops_per_step: ClassVar[int] = 4 * 1350 + 192 + 40
     presets: ClassVar[dict[str, NDArray[np.float64]]] = {"set0": nominal_gains()}
     rigid: ClassVar[bool] = False
 

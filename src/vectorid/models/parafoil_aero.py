@@ -629,7 +629,8 @@ def canopy_aero(
             out[i] = 0.0
         return
     alpha = math.atan2(wr, ur)
-    beta = math.asin(min(1.0, max(-1.0, vr / va)))
+    inv_va = 1.0 / va  # one division, then products (divisions are slow and serial)
+    beta = math.asin(min(1.0, max(-1.0, vr * inv_va)))
     out[6] = va
     out[7] = alpha
     out[8] = beta
@@ -648,9 +649,10 @@ def canopy_aero(
     cy = (k[I_CYBN] + k[I_CYBG] * ac) * bd + (k[I_CYDAN] + k[I_CYDAG] * ac) * da
     b = k[I_B]
     c = k[I_C]
-    ph = p * b / (2.0 * va)
-    qh = q * c / (2.0 * va)
-    rh = r * b / (2.0 * va)
+    half_inv_va = 0.5 * inv_va
+    ph = p * b * half_inv_va
+    qh = q * c * half_inv_va
+    rh = r * b * half_inv_va
     cl_roll = (
         (k[I_CLBN] + k[I_CLBG] * ac) * bd
         + (k[I_CLDAN] + k[I_CLDAG] * ac) * da
@@ -666,12 +668,13 @@ def canopy_aero(
     )
     qs = 0.5 * rho * va2 * k[I_S]
     # unit vectors: drag along -V, lift perpendicular to V in the plane normal to canopy y
-    ex, ey, ez = ur / va, vr / va, wr / va
+    ex, ey, ez = ur * inv_va, vr * inv_va, wr * inv_va
     nxz = math.sqrt(ex * ex + ez * ez)
     if nxz < 1e-9:
         lx, lz = 0.0, 0.0
     else:
-        lx, lz = ez / nxz, -ex / nxz
+        inv_nxz = 1.0 / nxz
+        lx, lz = ez * inv_nxz, -ex * inv_nxz
     out[0] = qs * (-cd * ex + cl * lx)
     out[1] = qs * (-cd * ey + cy)
     out[2] = qs * (-cd * ez + cl * lz)
@@ -866,42 +869,69 @@ def system_matrices(
     mpx = -(ixx * al0x + ixy * al0y + ixz * al0z) - goo[0]
     mpy = -(ixy * al0x + iyy * al0y + iyz * al0z) - goo[1]
     mpz = -(ixz * al0x + iyz * al0y + izz * al0z) - goo[2]
-    # Jacobian columns. Translational: col j (0..2) = e_j; rotational cols (3..5) = e_j x rho,
-    # col 6 = e_theta x rho, col 7 = e_z x rho. Angular: cols 3..5 = e_j, 6 = e_theta, 7 = e_z.
-    jv = aux[16:40]  # 3 x 8, row-major by column index: jv[3*col + comp]
-    jw = aux[40:64]
-    for i in range(24):
-        jv[i] = 0.0
-        jw[i] = 0.0
-    jv[0] = 1.0
-    jv[4] = 1.0
-    jv[8] = 1.0
-    # e_x x rho = (0, -rz, ry); e_y x rho = (rz, 0, -rx); e_z x rho = (-ry, rx, 0)
-    jv[9], jv[10], jv[11] = 0.0, -rz, ry
-    jv[12], jv[13], jv[14] = rz, 0.0, -rx
-    jv[15], jv[16], jv[17] = -ry, rx, 0.0
+    # Partial velocities of the payload (Kane), canopy axes. Translational: col j (0..2) = e_j,
+    # cols 3..5 = e_j x rho, col 6 = e_theta x rho, col 7 = e_z x rho; angular: cols 0..2 = 0,
+    # cols 3..5 = e_j, col 6 = e_theta, col 7 = e_z. Their products are written out below
+    # (a generic 8x8 loop over these sparse columns cost ~25 % of the right-hand side):
+    #   forces:  Q_0..2 = F, Q_3..5 = T = rho x F + M_p, Q_6 = e_theta . T, Q_7 = T_z;
+    #   mass:    m_p (e_j x rho).(e_k x rho) = m_p (|rho|^2 delta_jk - rho_j rho_k), and the
+    #            payload's share of column 5 is column 7 (both partial velocities are equal).
+    tx = ry * fpz - rz * fpy + mpx
+    ty = rz * fpx - rx * fpz + mpy
+    tz = rx * fpy - ry * fpx + mpz
+    rhs[0] += fpx
+    rhs[1] += fpy
+    rhs[2] += fpz
+    rhs[3] += tx
+    rhs[4] += ty
+    rhs[5] += tz
+    rhs[6] += etx * tx + ety * ty
+    rhs[7] += tz
+    mrx, mry, mrz = mp * rx, mp * ry, mp * rz
+    rr = rx * rx + ry * ry + rz * rz
+    ret = rx * etx + ry * ety  # rho . e_theta (e_theta has no z component)
     ex_ = _cross(etx, ety, etz, rx, ry, rz)
-    jv[18], jv[19], jv[20] = ex_[0], ex_[1], ex_[2]
-    jv[21], jv[22], jv[23] = -ry, rx, 0.0
-    jw[9] = 1.0
-    jw[13] = 1.0
-    jw[17] = 1.0
-    jw[18], jw[19], jw[20] = etx, ety, etz
-    jw[23] = 1.0
-    for a in range(8):
-        va0, va1, va2 = jv[3 * a], jv[3 * a + 1], jv[3 * a + 2]
-        wa0, wa1, wa2 = jw[3 * a], jw[3 * a + 1], jw[3 * a + 2]
-        rhs[a] += va0 * fpx + va1 * fpy + va2 * fpz + wa0 * mpx + wa1 * mpy + wa2 * mpz
-        iw0 = ixx * wa0 + ixy * wa1 + ixz * wa2
-        iw1 = ixy * wa0 + iyy * wa1 + iyz * wa2
-        iw2 = ixz * wa0 + iyz * wa1 + izz * wa2
-        for b in range(a, 8):
-            vb0, vb1, vb2 = jv[3 * b], jv[3 * b + 1], jv[3 * b + 2]
-            wb0, wb1, wb2 = jw[3 * b], jw[3 * b + 1], jw[3 * b + 2]
-            m_ab = mp * (va0 * vb0 + va1 * vb1 + va2 * vb2) + iw0 * wb0 + iw1 * wb1 + iw2 * wb2
-            mass[a, b] += m_ab
-            if b != a:
-                mass[b, a] += m_ab
+    iex = ixx * etx + ixy * ety  # I e_theta
+    iey = ixy * etx + iyy * ety
+    iez = ixz * etx + iyz * ety
+    # translation rows 0..2
+    mass[0, 0] += mp
+    mass[1, 1] += mp
+    mass[2, 2] += mp
+    mass[1, 3] -= mrz
+    mass[2, 3] += mry
+    mass[0, 4] += mrz
+    mass[2, 4] -= mrx
+    mass[0, 6] = mp * ex_[0]
+    mass[1, 6] = mp * ex_[1]
+    mass[2, 6] = mp * ex_[2]
+    mass[0, 7] = -mry
+    mass[1, 7] = mrx
+    mass[0, 5] -= mry
+    mass[1, 5] += mrx
+    # rotation rows 3..5
+    izz_p = mp * (rr - rz * rz) + izz
+    ixz_p = -mrx * rz + ixz
+    iyz_p = -mry * rz + iyz
+    mass[3, 3] += mp * (rr - rx * rx) + ixx
+    mass[4, 4] += mp * (rr - ry * ry) + iyy
+    mass[5, 5] += izz_p
+    mass[3, 4] += -mrx * ry + ixy
+    mass[3, 5] += ixz_p
+    mass[4, 5] += iyz_p
+    mass[3, 6] = mp * (rr * etx - rx * ret) + iex
+    mass[4, 6] = mp * (rr * ety - ry * ret) + iey
+    mass[5, 6] = -mrz * ret + iez
+    mass[3, 7] = ixz_p
+    mass[4, 7] = iyz_p
+    mass[5, 7] = izz_p
+    # rows 6 and 7
+    mass[6, 6] = mp * (rr - ret * ret) + etx * iex + ety * iey
+    mass[6, 7] = mass[5, 6]
+    mass[7, 7] = izz_p
+    for i in range(8):  # the lower triangle
+        for j in range(i + 1, 8):
+            mass[j, i] = mass[i, j]
     # joint spring-damper (generalised forces on the relative coordinates)
     rhs[6] += -k[I_KTH] * th_r - k[I_CTH] * tdot
     rhs[7] += -k[I_KPS] * ps_r - k[I_CPS] * pdot
