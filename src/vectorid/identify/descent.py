@@ -43,7 +43,7 @@ _NP = 6
 _NS = 6
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _rhs(t, x, P, u, atm, gust, dx):  # pragma: no cover - compiled
     rho, g, wn, we, wd = env_at(atm, gust, t, -x[2])
     van = x[3] - wn

@@ -50,6 +50,7 @@ NX6 = 12
 NWORK = 192
 
 _jit = nb.njit(cache=True, fastmath=False, nogil=True, error_model="numpy")
+_jit_inline = nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
 
 
 @_jit
@@ -84,7 +85,7 @@ def solve_spd(a: np.ndarray, b: np.ndarray, n: int) -> bool:
     return True
 
 
-@_jit
+@_jit_inline
 def _solve8(a: np.ndarray, b: np.ndarray) -> bool:
     """``solve_spd(a, b, 8)`` by LDL^T without square roots (hot path).
 
@@ -119,7 +120,7 @@ def _solve8(a: np.ndarray, b: np.ndarray) -> bool:
     return True
 
 
-@_jit
+@_jit_inline
 def _solve6(a: np.ndarray, b: np.ndarray) -> bool:
     """``solve_spd(a, b, 6)`` by LDL^T without square roots (hot path).
 
@@ -154,7 +155,7 @@ def _solve6(a: np.ndarray, b: np.ndarray) -> bool:
     return True
 
 
-@_jit
+@_jit_inline
 def parafoil_rhs(
     k: np.ndarray,
     x: np.ndarray,

@@ -8,7 +8,12 @@ function as an argument (measured with numba 0.68: such a driver recompiles in e
 shared helpers below with the model's jitted functions as first-class arguments (the callees are
 compiled into the kernel's cached library). So every model module defines three things:
 
-1. ``_rhs(t, x, p, u, atm, gust, dx)`` — ``@njit(cache=True)``. Writes dx/dt into ``dx``.
+1. ``_rhs(t, x, p, u, atm, gust, dx)`` — ``@njit(cache=True, inline="always")``. Writes dx/dt
+   into ``dx``. Inlined into the RK4 loop (which calls it from one place, in a loop over the
+   four stages, so it is compiled in once), the compiler keeps the state in registers and
+   hoists the per-trial constants out of the time loop: measured 1.6x faster for the
+   parachute (146 -> 89 ns per evaluation) and 1.3x for the parafoil, for ~30 s more compile
+   time on first use (cached afterwards). Helpers it calls should be ``inline="always"`` too.
 
    - ``t`` float, s; ``x`` (n_state,) float64 state of ONE trial; ``p`` (n_const,) float64
      per-trial constants the model's Python side derived from the (n, p) parameter matrix;
@@ -215,10 +220,7 @@ def rk4_trial(
     """
     ns = x0.shape[0]
     x = x0.copy()
-    k1 = np.empty(ns)
-    k2 = np.empty(ns)
-    k3 = np.empty(ns)
-    k4 = np.empty(ns)
+    k = np.empty((4, ns))  # the four stage slopes
     xt = np.empty(ns)
     u = np.empty(ctrl_v.shape[1])
     n_out = y.shape[0]
@@ -229,22 +231,27 @@ def rk4_trial(
     sixth = dt / 6.0  # a product per state, not a division
     for step in range(n_steps):
         t = step * dt
-        control_at(ctrl_t, ctrl_v, ctrl_mode, t, u)
-        rhs(t, x, p, u, atm, gust, k1)
-        for j in range(ns):
-            xt[j] = x[j] + half * k1[j]
-        control_at(ctrl_t, ctrl_v, ctrl_mode, t + half, u)
-        rhs(t + half, xt, p, u, atm, gust, k2)
-        for j in range(ns):
-            xt[j] = x[j] + half * k2[j]
-        rhs(t + half, xt, p, u, atm, gust, k3)
-        for j in range(ns):
-            xt[j] = x[j] + dt * k3[j]
-        control_at(ctrl_t, ctrl_v, ctrl_mode, t + dt, u)
-        rhs(t + dt, xt, p, u, atm, gust, k4)
+        # One call site for the right-hand side, in a loop over the stages: a model whose
+        # ``_rhs`` is ``inline="always"`` is compiled into this loop once, not four times.
+        for stage in range(4):
+            if stage == 0:
+                ts = t
+                for j in range(ns):
+                    xt[j] = x[j]
+            elif stage == 3:
+                ts = t + dt
+                for j in range(ns):
+                    xt[j] = x[j] + dt * k[2, j]
+            else:
+                ts = t + half
+                for j in range(ns):
+                    xt[j] = x[j] + half * k[stage - 1, j]
+            if stage != 2:  # stages 1 and 2 share the time t + dt/2
+                control_at(ctrl_t, ctrl_v, ctrl_mode, ts, u)
+            rhs(ts, xt, p, u, atm, gust, k[stage])
         status = 0
         for j in range(ns):
-            xn = x[j] + sixth * (k1[j] + 2.0 * (k2[j] + k3[j]) + k4[j])
+            xn = x[j] + sixth * (k[0, j] + 2.0 * (k[1, j] + k[2, j]) + k[3, j])
             if not np.isfinite(xn):
                 status = 1
             elif abs(xn) > x_max[j]:
@@ -253,9 +260,9 @@ def rk4_trial(
             x[j] = xn
         if status != 0:
             first = (step + stride) // stride  # first output index not yet written
-            for k in range(first, n_out):
+            for i_out in range(first, n_out):
                 for c in range(y.shape[1]):
-                    y[k, c] = np.nan
+                    y[i_out, c] = np.nan
             return status, (step + 1) * dt
         if (step + 1) % stride == 0:
             observe((step + 1) * dt, x, p, u, atm, gust, y[(step + 1) // stride])

@@ -156,7 +156,7 @@ def _cm_static(a_deg, x11, x12, sx12):  # pragma: no cover - compiled
     return s * x11 * (np.sin(np.pi / 40.0 * a_deg - x12) + sx12)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _rhs(t, x, P, u, atm, gust, dx):  # pragma: no cover - compiled
     sphi = np.sin(x[3])
     cphi = np.cos(x[3])

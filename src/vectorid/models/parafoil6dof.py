@@ -28,7 +28,7 @@ from vectorid.models.parafoil_aero import NPROP
 __all__ = ["Parafoil6DoF"]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _rhs(t, x, p, u, atm, gust, dx):  # pragma: no cover - compiled
     rho, g, wn, we, wd = env_at(atm, gust, t, -x[2])
     parafoil_rhs(p, x, rho, g, wn, we, wd, u[0], u[1], True, dx, p[NPROP:])

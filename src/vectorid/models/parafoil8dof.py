@@ -170,7 +170,7 @@ def _initial_states(
             x[j] = start[j] - (rmat[j, 0] * rx + rmat[j, 1] * ry + rmat[j, 2] * rz)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _rhs(t, x, p, u, atm, gust, dx):  # pragma: no cover - compiled
     rho, g, wn, we, wd = env_at(atm, gust, t, -x[2])
     parafoil_rhs(p, x, rho, g, wn, we, wd, u[0], u[1], False, dx, p[NPROP:])

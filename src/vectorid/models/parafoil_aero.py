@@ -552,6 +552,7 @@ def build_properties(
 # ---------------------------------------------------------------------------------------------
 
 _jit = nb.njit(cache=True, fastmath=False, nogil=True, error_model="numpy")
+_jit_inline = nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
 
 
 @_jit
@@ -590,7 +591,7 @@ def euler_rates(
     return p + qr * math.tan(theta), q * cf - r * sf, qr / ct
 
 
-@_jit
+@_jit_inline
 def canopy_aero(
     k: np.ndarray,
     rho: float,
@@ -688,7 +689,7 @@ def _cross(ax, ay, az, bx, by, bz):
     return ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
 
 
-@_jit
+@_jit_inline
 def system_matrices(
     k: np.ndarray,
     rho: float,
@@ -744,10 +745,10 @@ def system_matrices(
     tdot, pdot = vel[6], vel[7]
 
     # ---- canopy: rigid part + apparent mass (Kirchhoff), about J -------------------------
-    for i in range(8):
-        rhs[i] = 0.0
-        for j in range(8):
-            mass[i, j] = 0.0
+    # Every entry of ``mass`` and ``rhs`` is assigned below except these (sums start from 0).
+    rhs[6] = 0.0
+    rhs[7] = 0.0
+    mass[2, 7] = 0.0
     wx, wy, wz = wind_c[0], wind_c[1], wind_c[2]
     urel, vrel, wrel = u - wx, v - wy, w - wz
     for i in range(6):
