@@ -92,6 +92,36 @@ def peak_memory_mb(name: str, n: int, t_final: float) -> tuple[float, float, flo
     return rss, nbytes, el
 
 
+def scenario(model: models.Model, name: str) -> dict:
+    """Control inputs and wind of a benchmark scenario (keyword arguments of ``simulate``).
+
+    ``calm``: no control, calm air (the issue's benchmark). ``controlled``: a flight as the
+    identification studies fly it, a steady wind profile (no turbulence) and control steps
+    (parachute: riser 1 pulled from 40 to 80 s, riser 2 from 120 to 160 s; parafoils: a left
+    then a right turn with 50 % flap, 5-s ramps), so ``solve_ivp`` must resolve the actuator
+    transients as real studies make it do.
+    """
+    if name == "calm":
+        return {}
+    wind = models.WindProfile(
+        [0.0, 500.0, 1000.0, 1500.0, 3000.0], [2.0, 5.0, 8.0, 10.0, 12.0], [0.0, 2.0, 4.0, 3.0, 2.0]
+    )
+    names = tuple(model.input_names)
+    if names == ("riser1", "riser2", "riser3", "riser4"):
+        lengths = np.ones((5, 4))
+        lengths[1, 0] = 0.0
+        lengths[3, 1] = 0.0
+        inputs = models.riser_commands([0.0, 40.0, 80.0, 120.0, 160.0], lengths)
+    elif names == ("flap_left", "flap_right"):
+        t = [0.0, 40.0, 45.0, 75.0, 80.0, 120.0, 125.0, 155.0, 160.0]
+        left = [0.0, 0.0, 0.5, 0.5, 0.0, 0.0, 0.0, 0.0, 0.0]
+        right = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0]
+        inputs = models.flap_deflections(t, left, right)
+    else:
+        raise SystemExit(f"no controlled scenario for {model.name} (inputs {names})")
+    return {"inputs": inputs, "wind": wind}
+
+
 def bench_model(name: str, args: argparse.Namespace, gflops_peak: float) -> dict | None:
     try:
         model = models.get(name)
@@ -99,9 +129,10 @@ def bench_model(name: str, args: argparse.Namespace, gflops_peak: float) -> dict
         print(f"[skip] {name}: {exc}")
         return None
     X = sobol_batch(model, args.n)
-    model.simulate(X[:2], t_final=1.0, dt=args.dt)  # compile or load the cache
+    env = scenario(model, args.scenario)
+    model.simulate(X[:2], t_final=1.0, dt=args.dt, **env)  # compile or load the cache
     t0 = time.perf_counter()
-    res = model.simulate(X, t_final=args.t_final, dt=args.dt, output_dt=1.0)
+    res = model.simulate(X, t_final=args.t_final, dt=args.dt, output_dt=1.0, **env)
     wall = time.perf_counter() - t0
     # Trials that diverge stop early: count the batch in full-flight equivalents, and time the
     # baseline on full-length (status 0) trials only, so early stops flatter neither side.
@@ -126,7 +157,7 @@ def bench_model(name: str, args: argparse.Namespace, gflops_peak: float) -> dict
     full = np.flatnonzero(res.status == 0)
     for i in full[: args.baseline_trials]:
         try:
-            f, x0 = model.reference_rhs(X[i], t_final=args.t_final)
+            f, x0 = model.reference_rhs(X[i], t_final=args.t_final, **env)
         except NotImplementedError as exc:
             print(f"[note] {name}: no baseline ({exc})")
             break
@@ -160,13 +191,21 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--baseline-trials", type=int, default=3)
     ap.add_argument("--memory-trials", type=int, default=16_384)
     ap.add_argument("--skip-memory", action="store_true")
+    ap.add_argument(
+        "--scenario",
+        choices=["calm", "controlled"],
+        default="calm",
+        help="calm: no control, calm air (the goal's benchmark); controlled: control steps "
+        "and a wind profile, as identification flights are flown",
+    )
     args = ap.parse_args(argv)
     import numba
 
     gpk = matmul_gflops()
     print(
         f"cores: {os.cpu_count()}, numba threads: {numba.get_num_threads()}, "
-        f"load average: {os.getloadavg()[0]:.2f}, numpy matmul: {gpk:.1f} GFLOP/s"
+        f"load average: {os.getloadavg()[0]:.2f}, numpy matmul: {gpk:.1f} GFLOP/s, "
+        f"scenario: {args.scenario}"
     )
     rows = [r for name in args.models if (r := bench_model(name, args, gpk)) is not None]
     print()
