@@ -53,106 +53,52 @@ _jit = nb.njit(cache=True, fastmath=False, nogil=True, error_model="numpy")
 _jit_inline = nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
 
 
-@_jit
+@_jit_inline
 def solve_spd(a: np.ndarray, b: np.ndarray, n: int) -> bool:
-    """Solve ``a[:n, :n] x = b[:n]`` in place (Cholesky); ``False`` if not positive definite.
+    """Solve ``a[:n, :n] x = b[:n]`` in place by LDL^T; ``False`` if not positive definite.
 
-    The general reference; the kernels use the fixed-size :func:`_solve8` and :func:`_solve6`.
+    No square roots: the factorisation's critical path is one reciprocal per column. ``a``
+    receives the unit lower factor below its diagonal and D on it. Inlined, so a constant
+    ``n`` (the kernels' 8 or 6) gives loops with constant bounds.
     """
     for j in range(n):
         s = a[j, j]
         for m in range(j):
-            s -= a[j, m] * a[j, m]
+            s -= a[j, m] * a[j, m] * a[m, m]
         if not s > 0.0:
             return False
-        d = math.sqrt(s)
-        a[j, j] = d
+        a[j, j] = s
+        r = 1.0 / s
         for i in range(j + 1, n):
             s = a[i, j]
             for m in range(j):
-                s -= a[i, m] * a[j, m]
-            a[i, j] = s / d
+                s -= a[i, m] * a[j, m] * a[m, m]
+            a[i, j] = s * r
     for i in range(n):
         s = b[i]
         for m in range(i):
             s -= a[i, m] * b[m]
-        b[i] = s / a[i, i]
+        b[i] = s
+    for i in range(n):
+        b[i] /= a[i, i]
     for i in range(n - 1, -1, -1):
         s = b[i]
         for m in range(i + 1, n):
             s -= a[m, i] * b[m]
-        b[i] = s / a[i, i]
+        b[i] = s
     return True
 
 
 @_jit_inline
 def _solve8(a: np.ndarray, b: np.ndarray) -> bool:
-    """``solve_spd(a, b, 8)`` by LDL^T without square roots (hot path).
-
-    The factorisation's critical path is one reciprocal per column instead of a square root
-    and a reciprocal; ``a`` receives the unit lower factor below its diagonal and D on it.
-    """
-    for j in range(8):
-        s = a[j, j]
-        for m in range(j):
-            s -= a[j, m] * a[j, m] * a[m, m]
-        if not s > 0.0:
-            return False
-        a[j, j] = s
-        r = 1.0 / s
-        for i in range(j + 1, 8):
-            s = a[i, j]
-            for m in range(j):
-                s -= a[i, m] * a[j, m] * a[m, m]
-            a[i, j] = s * r
-    for i in range(8):
-        s = b[i]
-        for m in range(i):
-            s -= a[i, m] * b[m]
-        b[i] = s
-    for i in range(8):
-        b[i] /= a[i, i]
-    for i in range(7, -1, -1):
-        s = b[i]
-        for m in range(i + 1, 8):
-            s -= a[m, i] * b[m]
-        b[i] = s
-    return True
+    """``solve_spd(a, b, 8)`` (the 8-DoF kernel's solve)."""
+    return solve_spd(a, b, 8)
 
 
 @_jit_inline
 def _solve6(a: np.ndarray, b: np.ndarray) -> bool:
-    """``solve_spd(a, b, 6)`` by LDL^T without square roots (hot path).
-
-    The factorisation's critical path is one reciprocal per column instead of a square root
-    and a reciprocal; ``a`` receives the unit lower factor below its diagonal and D on it.
-    """
-    for j in range(6):
-        s = a[j, j]
-        for m in range(j):
-            s -= a[j, m] * a[j, m] * a[m, m]
-        if not s > 0.0:
-            return False
-        a[j, j] = s
-        r = 1.0 / s
-        for i in range(j + 1, 6):
-            s = a[i, j]
-            for m in range(j):
-                s -= a[i, m] * a[j, m] * a[m, m]
-            a[i, j] = s * r
-    for i in range(6):
-        s = b[i]
-        for m in range(i):
-            s -= a[i, m] * b[m]
-        b[i] = s
-    for i in range(6):
-        b[i] /= a[i, i]
-    for i in range(5, -1, -1):
-        s = b[i]
-        for m in range(i + 1, 6):
-            s -= a[m, i] * b[m]
-        b[i] = s
-    return True
+    """``solve_spd(a, b, 6)`` (the rigid 6-DoF kernel's solve)."""
+    return solve_spd(a, b, 6)
 
 
 @_jit_inline
@@ -204,18 +150,10 @@ def parafoil_rhs(
     wc = work[96:99]
     aux = work[100:180]
     phi, theta, psi = x[3], x[4], x[5]
+    dcm_body_to_ned(phi, theta, psi, rmat)
+    # for the Euler-angle rates (the compiler shares these with the inlined DCM)
     cf, sf = math.cos(phi), math.sin(phi)
     ct, st = math.cos(theta), math.sin(theta)
-    cp, sp = math.cos(psi), math.sin(psi)
-    rmat[0, 0] = ct * cp
-    rmat[0, 1] = sf * st * cp - cf * sp
-    rmat[0, 2] = cf * st * cp + sf * sp
-    rmat[1, 0] = ct * sp
-    rmat[1, 1] = sf * st * sp + cf * cp
-    rmat[1, 2] = cf * st * sp - sf * cp
-    rmat[2, 0] = -st
-    rmat[2, 1] = sf * ct
-    rmat[2, 2] = cf * ct
     if rigid:
         th_r = 0.0
         ps_r = 0.0

@@ -555,7 +555,7 @@ _jit = nb.njit(cache=True, fastmath=False, nogil=True, error_model="numpy")
 _jit_inline = nb.njit(cache=True, nogil=True, error_model="numpy", inline="always")
 
 
-@_jit
+@_jit_inline
 def dcm_body_to_ned(phi: float, theta: float, psi: float, out: np.ndarray) -> None:
     """Rotation matrix body -> NED for 3-2-1 Euler angles (rad); writes ``out`` (3, 3)."""
     cf, sf = math.cos(phi), math.sin(phi)
