@@ -333,28 +333,18 @@ class DaskExecutor(Executor):
         inflight: dict[str, tuple[Any, Task]] = {}
         self._inflight = inflight
         done = dist.as_completed()
-        exhausted = False
 
         def top_up() -> None:
-            nonlocal exhausted
             while len(inflight) < limit:
                 # After a worker died, its batches are re-run one trial at a time and each
                 # suspect trial runs alone: when it kills its worker again, no innocent task
                 # queued on that worker is blamed with it.
                 if any(t.row is not None for _, t in inflight.values()):
                     return
-                if tracker.queue:
-                    if inflight:
-                        return
-                    task = tracker.queue.popleft()
-                elif not exhausted:
-                    try:
-                        key, X = next(batches)
-                    except StopIteration:
-                        exhausted = True
-                        return
-                    task = Task(key, X)
-                else:
+                if tracker.queue and inflight:
+                    return
+                task = tracker.next_task(batches)
+                if task is None:
                     return
                 fut = client.submit(
                     _evaluate_task,

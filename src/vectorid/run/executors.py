@@ -197,6 +197,15 @@ class SuspectTracker:
     queue: collections.deque = field(default_factory=collections.deque)
     _splits: dict[Hashable, _Split] = field(default_factory=dict)
 
+    def next_task(self, batches: Iterator[tuple[Hashable, np.ndarray]]) -> Task | None:
+        """What a free worker runs next: a queued suspect first (so a split batch finishes
+        and is stored soon), else the next new batch; None when neither is left."""
+        if self.queue:
+            return self.queue.popleft()
+        for key, X in batches:
+            return Task(key, X)
+        return None
+
     def done(self, task: Task, res: EvalResult) -> list[tuple[Hashable, EvalResult]]:
         if task.row is None:
             return [(task.key, res)]
@@ -409,23 +418,16 @@ class ProcessExecutor(Executor):
         self._deaths_before_ready = 0
         while len(self._procs) < self.workers:
             self._procs.append(_Proc(self._ctx, self.spec))
-        exhausted = False
+        exhausted = False  # no new batches and no suspects left to hand out
         while True:
             # hand work to idle workers: suspects first, then new batches
             for p in self._procs:
                 if not p.ready or p.task is not None:
                     continue
-                if tracker.queue:
-                    task = tracker.queue.popleft()
-                elif not exhausted:
-                    try:
-                        key, X = next(batches)
-                    except StopIteration:
-                        exhausted = True
-                        continue
-                    task = Task(key, X)
-                else:
-                    continue
+                task = tracker.next_task(batches)
+                if task is None:
+                    exhausted = True
+                    break
                 try:
                     p.conn.send(task.X)
                 except OSError:  # died since; the sentinel reports it below
