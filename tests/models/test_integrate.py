@@ -5,12 +5,19 @@ import pytest
 from numba import njit, prange
 
 from vectorid.models.integrate import (
+    LANE_WORK,
+    LANES,
     STATUS_NONFINITE,
     STATUS_RUNAWAY,
     Environment,
     allocate_outputs,
+    env_at,
+    env_gather,
+    rk4_lanes,
     rk4_trial,
+    table_position,
 )
+from vectorid.models.wind import DrydenTurbulence, Wind, WindProfile
 
 
 @njit(cache=True)
@@ -40,7 +47,36 @@ def _kernel(x0, p, ct, cv, cm, atm, gust, dt, n_steps, stride, x_max, y, status,
         )
 
 
-def _run(x0, p, t_final, dt, stride=1, x_max=None, u=0.0):
+@njit(inline="always", error_model="numpy")
+def _rhs_lanes(t, X, P, u, atm, gust, DX, W):
+    # the same equations as _rhs, one trial per column, written with selects
+    for i in range(X.shape[1]):
+        osc = P[0, i] == 0.0
+        d0 = X[1, i] if osc else X[0, i] * X[0, i]
+        d1 = -P[1, i] * X[0, i] - P[2, i] * X[1, i] + u[0]
+        DX[0, i] = d0
+        DX[1, i] = d1 if osc else 0.0
+
+
+@njit(inline="always", error_model="numpy")
+def _observe_lanes(t, X, P, u, atm, gust, W, Y):
+    for i in range(X.shape[1]):
+        Y[0, i] = X[0, i]
+        Y[1, i] = X[1, i]
+
+
+@njit(parallel=True, error_model="numpy")
+def _kernel_lanes(x0, p, rows, ct, cv, cm, atm, gust, dt, n_steps, stride, x_max, y, st, tf):
+    for g in prange((rows.shape[0] + LANES - 1) // LANES):
+        lo = g * LANES
+        hi = min(lo + LANES, rows.shape[0])
+        rk4_lanes(
+            _rhs_lanes, _observe_lanes, x0, p, rows[lo:hi], ct, cv, cm, atm, gust, dt,
+            n_steps, stride, x_max, y, st, tf,
+        )  # fmt: skip
+
+
+def _run(x0, p, t_final, dt, stride=1, x_max=None, u=0.0, lanes=False):
     n = x0.shape[0]
     n_steps = round(t_final / dt)
     env = Environment.build()
@@ -48,7 +84,7 @@ def _run(x0, p, t_final, dt, stride=1, x_max=None, u=0.0):
     status = np.zeros(n, dtype=np.int64)
     t_fail = np.full(n, np.nan)
     x_max = np.full(2, np.inf) if x_max is None else x_max
-    _kernel(
+    args = (
         x0,
         p,
         np.zeros(1),
@@ -64,6 +100,10 @@ def _run(x0, p, t_final, dt, stride=1, x_max=None, u=0.0):
         status,
         t_fail,
     )
+    if lanes:
+        _kernel_lanes(*args[:2], np.flatnonzero(status == 0), *args[2:])
+    else:
+        _kernel(*args)
     return y, status, t_fail
 
 
@@ -111,3 +151,61 @@ def test_runaway_bound():
     )
     assert status[0] == STATUS_RUNAWAY
     assert t_fail[0] == pytest.approx(0.9, abs=0.02)  # x = 1/(1-t) reaches 10 at t = 0.9
+
+
+def _mixed_batch(n):
+    """Oscillators with different damping, and every 7th trial blowing up (x' = x²)."""
+    rng = np.random.default_rng(5)
+    x0 = np.column_stack([rng.uniform(0.2, 1.5, n), rng.uniform(-1, 1, n)])
+    p = np.column_stack([np.zeros(n), rng.uniform(0.5, 4, n), rng.uniform(0, 0.3, n)])
+    p[::7, 0] = 1.0
+    x0[::7, 0] = 1.0
+    return x0, p
+
+
+@pytest.mark.parametrize("n", [1, 5, LANES, 2 * LANES + 3])
+def test_lockstep_driver_equals_the_trial_driver_bit_for_bit(n):
+    """rk4_lanes: same outputs, status codes and failure times as rk4_trial, group sizes
+    from 1 to several groups with a partial last group."""
+    x0, p = _mixed_batch(n)
+    x_max = np.array([50.0, np.inf])
+    want = _run(x0, p, 3.0, 0.01, stride=10, x_max=x_max, u=0.3)
+    got = _run(x0, p, 3.0, 0.01, stride=10, x_max=x_max, u=0.3, lanes=True)
+    for w, g in zip(want, got):
+        np.testing.assert_array_equal(g, w)
+    assert np.all(got[1][::7] == STATUS_RUNAWAY)
+    assert np.all(got[1][np.arange(n) % 7 != 0] == 0)
+
+
+def test_lockstep_driver_result_does_not_depend_on_the_group():
+    x0, p = _mixed_batch(2 * LANES + 3)
+    y, status, t_fail = _run(x0, p, 3.0, 0.01, stride=10, lanes=True)
+    order = np.random.default_rng(1).permutation(x0.shape[0])
+    y2, status2, t_fail2 = _run(x0[order], p[order], 3.0, 0.01, stride=10, lanes=True)
+    np.testing.assert_array_equal(y2, y[order])
+    np.testing.assert_array_equal(status2, status[order])
+    np.testing.assert_array_equal(t_fail2, t_fail[order])
+    alone = _run(x0[[3]], p[[3]], 3.0, 0.01, stride=10, lanes=True)[0]
+    np.testing.assert_array_equal(alone[0], y[3])
+
+
+@njit
+def _gather(atm, gust, t, h):
+    W = np.empty((LANE_WORK, h.shape[0]))
+    for k in range(h.shape[0]):
+        W[5, k], W[6, k] = table_position(h[k], atm[0, 0], atm[0, 1], int(atm[0, 2]))
+    env_gather(atm, gust, t, W)
+    return W[:5]
+
+
+@pytest.mark.parametrize("windy", [False, True])
+def test_env_gather_equals_env_at_bit_for_bit(windy):
+    wind = Wind(WindProfile([0, 2000], [3, -4], [1, 6]), DrydenTurbulence(5.0, seed=2))
+    env = Environment.build(wind=wind if windy else None, t_final=10.0, h0=1000.0)
+    assert env.atm[0, 3] == (1.0 if windy else 0.0)
+    h = np.array([-500.0, -200.0, -199.5, 0.0, 123.456, 999.999, 2999.5, 3000.0, 4000.0, np.nan])
+    for t in (0.0, 3.33, 50.0):
+        got = _gather(env.atm, env.gust, t, h)
+        for k, hk in enumerate(h):
+            want = env_at(env.atm, env.gust, t, hk if np.isfinite(hk) else -1e9)
+            np.testing.assert_array_equal(got[:, k], want)

@@ -17,7 +17,13 @@ from vectorid.models import parachute6dof as pc
 from vectorid.models import riser_commands
 from vectorid.models.atmosphere import RHO0, UniformAtmosphere, density
 from vectorid.models.base import InitialState
-from vectorid.models.integrate import STATUS_BAD_PARAMETER, STATUS_REJECTED, Environment
+from vectorid.models.integrate import (
+    LANE_WORK,
+    LANES,
+    STATUS_BAD_PARAMETER,
+    STATUS_REJECTED,
+    Environment,
+)
 from vectorid.models.wind import DrydenTurbulence, Wind, WindProfile
 
 G12_RATED_DESCENT = 28.5 * 0.3048  # m/s at sea level
@@ -49,20 +55,56 @@ def test_parameters_follow_the_seed_tables(model):
 
 
 def test_compiled_rhs_equals_the_plain_numpy_equations(model):
+    """The vectorised right-hand side, column by column, against the plain numpy equations."""
     wind = Wind(WindProfile([0, 2000], [3, -4], [1, 6]), DrydenTurbulence(7.0, seed=3))
     ctrl = riser_commands([0, 1], [[0.3, 1, 0.5, 1], [0, 0, 1, 1]], interpolation="linear")
     rng = np.random.default_rng(1)
-    X = _box_samples(model, 8)[-8:]
+    X = _box_samples(model, LANES)[-LANES:]
     P = model.constants(X)
     env = Environment.build(wind=wind, h_min=-4000, h_max=3000, t_final=10, h0=1000)
-    for i in range(X.shape[0]):
-        f, x0 = model.reference_rhs(X[i], t_final=10, inputs=ctrl, wind=wind)
-        s = x0 + rng.normal(scale=[0, 0, 5, 0.2, 0.2, 1, 1, 1, 1, 0.1, 0.1, 0.1, 0, 0, 0, 0])
-        s[12:] = rng.uniform(0, 1, 4)
-        t = rng.uniform(0, 1)
-        dx = np.empty(16)
-        pc._rhs(t, s, P[i], ctrl(np.array(t)), env.atm, env.gust, dx)
-        np.testing.assert_allclose(dx, f(t, s), rtol=1e-12, atol=1e-12)
+    for t in rng.uniform(0, 1, 3):
+        S = np.empty((16, LANES))
+        refs = []
+        for i in range(LANES):
+            f, x0 = model.reference_rhs(X[i], t_final=10, inputs=ctrl, wind=wind)
+            s = x0 + rng.normal(scale=[0, 0, 5, 0.2, 0.2, 1, 1, 1, 1, 0.1, 0.1, 0.1, 0, 0, 0, 0])
+            s[12:] = rng.uniform(0, 1, 4)
+            if i == 0:
+                s[12:] = 1.0  # one column at rest: the group still takes the controlled path
+            S[:, i] = s
+            refs.append(f)
+        DX = np.empty((16, LANES))
+        work = np.empty((LANE_WORK, LANES))
+        pc._rhs(t, S, np.ascontiguousarray(P.T), ctrl(np.array(t)), env.atm, env.gust, DX, work)
+        for i in range(LANES):
+            np.testing.assert_allclose(DX[:, i], refs[i](t, S[:, i]), rtol=1e-12, atol=1e-12)
+
+
+def test_compiled_rhs_at_rest_equals_the_plain_numpy_equations(model):
+    """Risers lengthened and commanded so: the group skips the control factors."""
+    X = _box_samples(model, LANES)[-LANES:]
+    P = model.constants(X)
+    env = Environment.build()
+    rng = np.random.default_rng(2)
+    S = np.empty((16, LANES))
+    refs = []
+    for i in range(LANES):
+        f, x0 = model.reference_rhs(X[i], t_final=10)
+        S[:, i] = x0 + rng.normal(scale=[0, 0, 5, 0.2, 0.2, 1, 1, 1, 1, 0.1, 0.1, 0.1, 0, 0, 0, 0])
+        refs.append(f)
+    DX = np.empty((16, LANES))
+    pc._rhs(
+        0.5,
+        S,
+        np.ascontiguousarray(P.T),
+        np.ones(4),
+        env.atm,
+        env.gust,
+        DX,
+        np.empty((LANE_WORK, LANES)),
+    )
+    for i in range(LANES):
+        np.testing.assert_allclose(DX[:, i], refs[i](0.5, S[:, i]), rtol=1e-12, atol=1e-12)
 
 
 def test_mass_matrices_symmetric_and_total_positive_definite_over_the_box(model):

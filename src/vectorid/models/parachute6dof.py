@@ -27,14 +27,18 @@ import numpy as np
 from numba import njit, prange
 from numpy.typing import ArrayLike, NDArray
 
+from vectorid.models import vecmath as vm
 from vectorid.models.atmosphere import G0, RHO0
 from vectorid.models.base import BASE_CHANNELS, Channel, InitialState, Model, Parameter
 from vectorid.models.integrate import (
+    ENV_ROWS,
+    LANES,
     STATUS_REJECTED,
     Environment,
     allocate_outputs,
-    env_at,
-    rk4_trial,
+    env_gather,
+    rk4_lanes,
+    table_position,
 )
 
 __all__ = ["TABLE2", "TABLE3", "TABLE5", "Parachute6DoF"]
@@ -134,269 +138,381 @@ _MEANING = (
     _ZPL,
     _TANT,
     _VMAX,
-    _TAUP,
+    _RTAU,
     _SX12,
     _EX10,
     _EX7,
-) = range(30)
-_NP = 30
+    _RR0,
+) = range(31)
+_NP = 31
 _NS = 16
-_D2R = np.pi / 180.0
+_R2D = 180.0 / np.pi
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def _cm_static(a_deg, x11, x12, sx12):  # pragma: no cover - compiled
     """Eq. (13) at n_ctrl = 0, extended oddly to negative angles, angle clipped to ±35°."""
-    s = 1.0
-    if a_deg < 0.0:
-        s = -1.0
-        a_deg = -a_deg
-    if a_deg > 35.0:
-        a_deg = 35.0
-    return s * x11 * (np.sin(np.pi / 40.0 * a_deg - x12) + sx12)
+    s = -1.0 if a_deg < 0.0 else 1.0
+    a = abs(a_deg)
+    a = 35.0 if a > 35.0 else a
+    return s * x11 * (vm.sin(np.pi / 40.0 * a - x12) + sx12)
 
 
-@njit(cache=True, inline="always")
-def _rhs(t, x, P, u, atm, gust, dx):  # pragma: no cover - compiled
-    sphi = np.sin(x[3])
-    cphi = np.cos(x[3])
-    sth = np.sin(x[4])
-    cth = np.cos(x[4])
-    sps = np.sin(x[5])
-    cps = np.cos(x[5])
-    U = x[6]
-    V = x[7]
-    W = x[8]
-    p = x[9]
-    q = x[10]
-    r = x[11]
-    rho, g, wn, we, wd = env_at(atm, gust, t, -x[2])
-    # DCM body -> NED (3-2-1)
-    r00 = cth * cps
-    r01 = sphi * sth * cps - cphi * sps
-    r02 = cphi * sth * cps + sphi * sps
-    r10 = cth * sps
-    r11 = sphi * sth * sps + cphi * cps
-    r12 = cphi * sth * sps - sphi * cps
-    r20 = -sth
-    r21 = sphi * cth
-    r22 = cphi * cth
-    dx[0] = r00 * U + r01 * V + r02 * W
-    dx[1] = r10 * U + r11 * V + r12 * W
-    dx[2] = r20 * U + r21 * V + r22 * W
-    tq = q * sphi + r * cphi
-    dx[3] = p + tq * sth / cth
-    dx[4] = q * cphi - r * sphi
-    dx[5] = tq / cth
-    # wind in body axes, air-relative velocity of O
-    wbx = r00 * wn + r10 * we + r20 * wd
-    wby = r01 * wn + r11 * we + r21 * wd
-    wbz = r02 * wn + r12 * we + r22 * wd
-    ua = U - wbx
-    va = V - wby
-    wa = W - wbz
-    # actuators: rate-limited first order towards the command
-    vmax = P[_VMAX]
-    taup = P[_TAUP]
-    ldot0 = min(max((u[0] - x[12]) / taup, -vmax), vmax)
-    ldot1 = min(max((u[1] - x[13]) / taup, -vmax), vmax)
-    ldot2 = min(max((u[2] - x[14]) / taup, -vmax), vmax)
-    ldot3 = min(max((u[3] - x[15]) / taup, -vmax), vmax)
-    dx[12] = ldot0
-    dx[13] = ldot1
-    dx[14] = ldot2
-    dx[15] = ldot3
-    # masses
-    m = P[_M]
-    mzg = P[_MZG]
-    a11 = P[_C11] * rho
-    a15 = P[_C15] * rho
-    a33 = P[_C33] * rho
-    a44 = P[_C44] * rho
-    a66 = P[_C66] * rho
-    M11 = m + a11
-    M15 = mzg + a15
-    M33 = m + a33
-    M44 = P[_IXX] + a44
-    M66 = P[_IZZ] + a66
-    # momenta: rigid (velocity of O) and apparent (air-relative velocity)
-    P0 = m * U + mzg * q
-    P1 = m * V - mzg * p
-    P2 = m * W
-    H0 = -mzg * V + P[_IXX] * p
-    H1 = mzg * U + P[_IXX] * q
-    H2 = P[_IZZ] * r
-    Q0 = a11 * ua + a15 * q
-    Q1 = a11 * va - a15 * p
-    Q2 = a33 * wa
-    K0 = -a15 * va + a44 * p
-    K1 = a15 * ua + a44 * q
-    K2 = a66 * r
-    # gravity at the CG
-    gx = -g * sth
-    gy = g * sphi * cth
-    gz = g * cphi * cth
-    f0 = m * gx
-    f1 = m * gy
-    f2 = m * gz
-    f3 = -mzg * gy
-    f4 = mzg * gx
-    f5 = 0.0
-    if P[_AERO] != 0.0:
-        zp = P[_ZP]
+@njit(cache=True, inline="always", error_model="numpy")
+def _clip1(v):  # pragma: no cover - compiled
+    v = 1.0 if v > 1.0 else v
+    return -1.0 if v < -1.0 else v
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _pma_rate(command, length, rtau, vmax):  # pragma: no cover - compiled
+    """Actuator: rate-limited first order towards the command, 1/s."""
+    return min(max((command - length) * rtau, -vmax), vmax)
+
+
+# Rows of the work array W (see integrate.rk4_lanes): the environment of env_lanes, then the
+# control-dependent factors of eq. (11), (13) and (14).
+_W_E7 = ENV_ROWS  # exp(-x7 (1 - sin(π n/4))²) of eq. (11)
+_W_DCMX = ENV_ROWS + 1  # C_m control part of eq. (13) times the x component of the tilt
+_W_DCMY = ENV_ROWS + 2  # ... times the y component
+_W_CNL = ENV_ROWS + 3  # yaw coefficient of the riser transitions, eq. (14), without vv and x13
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _rhs(t, X, P, u, atm, gust, DX, W):  # pragma: no cover - compiled
+    """dX/dt of a group of trials, one per column of X (n_state, lanes); see integrate.rk4_lanes.
+
+    Three loops over the columns: the environment (``env_lanes``, scalar: table reads); the
+    control-dependent factors, only if a riser of the group is shortened or moving (else their
+    resting values, bit for bit what the loop would give); the dynamics. The last two are
+    vectorised by the compiler: ``vecmath`` replaces sin, cos, atan2, arccos and exp, and every
+    condition is a select (the aerodynamic terms are computed for every column and added where
+    aerodynamics is on).
+    """
+    n = X.shape[1]
+    h_min = atm[0, 0]
+    dh = atm[0, 1]
+    n_h = int(atm[0, 2])
+    u0 = u[0]
+    u1 = u[1]
+    u2 = u[2]
+    u3 = u[3]
+    # One loop for the small per-column work (a loop this short on its own is unrolled by the
+    # compiler and then stays scalar): where each column is in the atmosphere table, the
+    # resting values of the control factors, and whether a riser is shortened or moving.
+    n_active = 0  # an integer sum vectorises
+    for i in range(n):
+        W[5, i], W[6, i] = table_position(-X[2, i], h_min, dh, n_h)
+        W[_W_E7, i] = P[_EX7, i]
+        W[_W_DCMX, i] = 0.0
+        W[_W_DCMY, i] = 0.0
+        W[_W_CNL, i] = 0.0
+        rtau = P[_RTAU, i]
+        vmax = P[_VMAX, i]
+        l0 = X[12, i]
+        l1 = X[13, i]
+        l2 = X[14, i]
+        l3 = X[15, i]
+        moving = (_pma_rate(u0, l0, rtau, vmax) != 0.0) | (_pma_rate(u1, l1, rtau, vmax) != 0.0)
+        moving |= (_pma_rate(u2, l2, rtau, vmax) != 0.0) | (_pma_rate(u3, l3, rtau, vmax) != 0.0)
+        shortened = 4.0 - (l0 + l1 + l2 + l3) > 1e-12
+        n_active += 1 if moving | shortened else 0
+    env_gather(atm, gust, t, W)
+    if n_active > 0:
+        for i in range(n):
+            rtau = P[_RTAU, i]
+            vmax = P[_VMAX, i]
+            l0 = X[12, i]
+            l1 = X[13, i]
+            l2 = X[14, i]
+            l3 = X[15, i]
+            n_ctrl = 4.0 - (l0 + l1 + l2 + l3)
+            sn = vm.sin(np.pi / 4.0 * n_ctrl)  # = cos(π n/4 - π/2)
+            d2 = (1.0 - sn) * (1.0 - sn)
+            e7_ctrl = vm.exp(-P[_X7, i] * d2)
+            dcm_ctrl = vm.exp(-P[_X10, i] * d2) - P[_EX10, i]
+            e7_rest = P[_EX7, i]
+            controlled = n_ctrl > 1e-12
+            W[_W_E7, i] = e7_ctrl if controlled else e7_rest
+            dcm = dcm_ctrl if controlled else 0.0
+            sx = (1.0 - l0) - (1.0 - l2)
+            sy = (1.0 - l1) - (1.0 - l3)
+            rsnorm = 1.0 / np.sqrt(sx * sx + sy * sy + 1e-6)
+            W[_W_DCMX, i] = dcm * sx * rsnorm
+            W[_W_DCMY, i] = dcm * sy * rsnorm
+            ldot0 = _pma_rate(u0, l0, rtau, vmax)
+            ldot1 = _pma_rate(u1, l1, rtau, vmax)
+            ldot2 = _pma_rate(u2, l2, rtau, vmax)
+            ldot3 = _pma_rate(u3, l3, rtau, vmax)
+            c0 = _clip1((l3 - l1) * 20.0) * vm.sin(np.pi * l0) * ldot0
+            c1 = _clip1((l0 - l2) * 20.0) * vm.sin(np.pi * l1) * ldot1
+            c2 = _clip1((l1 - l3) * 20.0) * vm.sin(np.pi * l2) * ldot2
+            c3 = _clip1((l2 - l0) * 20.0) * vm.sin(np.pi * l3) * ldot3
+            cnl = 0.0
+            cnl += c0 if ldot0 != 0.0 else 0.0
+            cnl += c1 if ldot1 != 0.0 else 0.0
+            cnl += c2 if ldot2 != 0.0 else 0.0
+            cnl += c3 if ldot3 != 0.0 else 0.0
+            W[_W_CNL, i] = cnl
+    for i in range(n):
+        sphi, cphi = vm.sincos(X[3, i])
+        sth, cth = vm.sincos(X[4, i])
+        sps, cps = vm.sincos(X[5, i])
+        U = X[6, i]
+        V = X[7, i]
+        W_ = X[8, i]
+        p = X[9, i]
+        q = X[10, i]
+        r = X[11, i]
+        l0 = X[12, i]
+        l1 = X[13, i]
+        l2 = X[14, i]
+        l3 = X[15, i]
+        rho = W[0, i]
+        g = W[1, i]
+        wn = W[2, i]
+        we = W[3, i]
+        wd = W[4, i]
+        # DCM body -> NED (3-2-1)
+        r00 = cth * cps
+        r01 = sphi * sth * cps - cphi * sps
+        r02 = cphi * sth * cps + sphi * sps
+        r10 = cth * sps
+        r11 = sphi * sth * sps + cphi * cps
+        r12 = cphi * sth * sps - sphi * cps
+        r20 = -sth
+        r21 = sphi * cth
+        r22 = cphi * cth
+        DX[0, i] = r00 * U + r01 * V + r02 * W_
+        DX[1, i] = r10 * U + r11 * V + r12 * W_
+        DX[2, i] = r20 * U + r21 * V + r22 * W_
+        tq = q * sphi + r * cphi
+        DX[4, i] = q * cphi - r * sphi
+        # wind in body axes, air-relative velocity of O
+        wbx = r00 * wn + r10 * we + r20 * wd
+        wby = r01 * wn + r11 * we + r21 * wd
+        wbz = r02 * wn + r12 * we + r22 * wd
+        ua = U - wbx
+        va = V - wby
+        wa = W_ - wbz
+        # actuators
+        rtau = P[_RTAU, i]
+        vmax = P[_VMAX, i]
+        DX[12, i] = _pma_rate(u0, l0, rtau, vmax)
+        DX[13, i] = _pma_rate(u1, l1, rtau, vmax)
+        DX[14, i] = _pma_rate(u2, l2, rtau, vmax)
+        DX[15, i] = _pma_rate(u3, l3, rtau, vmax)
+        # masses
+        m = P[_M, i]
+        mzg = P[_MZG, i]
+        ixx = P[_IXX, i]
+        izz = P[_IZZ, i]
+        a11 = P[_C11, i] * rho
+        a15 = P[_C15, i] * rho
+        a33 = P[_C33, i] * rho
+        a44 = P[_C44, i] * rho
+        a66 = P[_C66, i] * rho
+        M11 = m + a11
+        M15 = mzg + a15
+        M33 = m + a33
+        M44 = ixx + a44
+        M66 = izz + a66
+        # momenta: rigid (velocity of O) and apparent (air-relative velocity)
+        P0 = m * U + mzg * q
+        P1 = m * V - mzg * p
+        P2 = m * W_
+        H0 = -mzg * V + ixx * p
+        H1 = mzg * U + ixx * q
+        H2 = izz * r
+        Q0 = a11 * ua + a15 * q
+        Q1 = a11 * va - a15 * p
+        Q2 = a33 * wa
+        K0 = -a15 * va + a44 * p
+        K1 = a15 * ua + a44 * q
+        K2 = a66 * r
+        # gravity at the CG
+        gx = -g * sth
+        gy = g * sphi * cth
+        gz = g * cphi * cth
+        f0 = m * gx
+        f1 = m * gy
+        f2 = m * gz
+        f3 = -mzg * gy
+        f4 = mzg * gx
+        f5 = 0.0
+        # aerodynamics, where switched on and the canopy moves through the air
+        zp = P[_ZP, i]
         ucp = ua + q * zp
         vcp = va - p * zp
         wcp = wa
+        uv = np.sqrt(ucp * ucp + vcp * vcp)
         vv = np.sqrt(ucp * ucp + vcp * vcp + wcp * wcp)
-        if vv > 1e-9:
-            qd = 0.5 * rho * vv * vv
-            l0 = x[12]
-            l1 = x[13]
-            l2 = x[14]
-            l3 = x[15]
-            n_ctrl = 4.0 - (l0 + l1 + l2 + l3)
-            if n_ctrl > 1e-12:
-                sn = np.sin(np.pi / 4.0 * n_ctrl)  # = cos(π n/4 - π/2)
-                e7 = np.exp(-P[_X7] * (1.0 - sn) ** 2)
-                dcm = np.exp(-P[_X10] * (1.0 - sn) ** 2) - P[_EX10]
-            else:
-                e7 = P[_EX7]
-                dcm = 0.0
-            cw = wcp / vv
-            if cw > 1.0:
-                cw = 1.0
-            elif cw < -1.0:
-                cw = -1.0
-            asp = np.arccos(cw) / _D2R
-            if asp > 35.0:
-                asp = 35.0
-            cd = P[_X6] + P[_X9] * e7 * (1.0 + P[_X8] * np.sin(np.pi * asp / 70.0))
-            s0 = P[_S0]
-            fd = cd * qd * s0 / vv
-            fx = -fd * ucp
-            fy = -fd * vcp
-            fz = -fd * wcp
-            # riser force (eq. 15) towards the shortened risers, at the centre of pressure
-            sx = (1.0 - l0) - (1.0 - l2)
-            sy = (1.0 - l1) - (1.0 - l3)
-            kr = P[_X15] * cd * qd * s0 * P[_TANT]
-            fx += kr * sx
-            fy += kr * sy
-            f0 += fx
-            f1 += fy
-            f2 += fz
-            f3 += -zp * fy
-            f4 += zp * fx
-            # canopy moments (eq. 12-13): restoring in both planes + control tilt
-            alpha = np.arctan2(ucp, wcp) / _D2R
-            beta = np.arctan2(vcp, wcp) / _D2R
-            snorm = np.sqrt(sx * sx + sy * sy + 1e-6)
-            mref = 2.0 * qd * s0 * P[_R0]
-            f3 += mref * (-_cm_static(beta, P[_X11], P[_X12], P[_SX12]) + dcm * sy / snorm)
-            f4 += mref * (_cm_static(alpha, P[_X11], P[_X12], P[_SX12]) - dcm * sx / snorm)
-            # yaw (eq. 14): riser transitions and damping, normalised by the yaw inertia
-            cnl = 0.0
-            if ldot0 != 0.0:
-                cnl += min(max((l3 - l1) / 0.05, -1.0), 1.0) * np.sin(np.pi * l0) * ldot0
-            if ldot1 != 0.0:
-                cnl += min(max((l0 - l2) / 0.05, -1.0), 1.0) * np.sin(np.pi * l1) * ldot1
-            if ldot2 != 0.0:
-                cnl += min(max((l1 - l3) / 0.05, -1.0), 1.0) * np.sin(np.pi * l2) * ldot2
-            if ldot3 != 0.0:
-                cnl += min(max((l2 - l0) / 0.05, -1.0), 1.0) * np.sin(np.pi * l3) * ldot3
-            f5 += P[_IZZ] * (2.0 * vv / P[_R0] * P[_X13] * cnl - P[_X14] * r)
-    # Kirchhoff terms: -Ω×P -Ω×Q ; -Ω×H - V×P - Ω×K - Va×Q ; minus A [Ω×w_b; 0]
-    S0_ = P0 + Q0
-    S1 = P1 + Q1
-    S2 = P2 + Q2
-    f0 -= q * S2 - r * S1
-    f1 -= r * S0_ - p * S2
-    f2 -= p * S1 - q * S0_
-    T0_ = H0 + K0
-    T1 = H1 + K1
-    T2 = H2 + K2
-    f3 -= q * T2 - r * T1 + (V * P2 - W * P1) + (va * Q2 - wa * Q1)
-    f4 -= r * T0_ - p * T2 + (W * P0 - U * P2) + (wa * Q0 - ua * Q2)
-    f5 -= p * T1 - q * T0_ + (U * P1 - V * P0) + (ua * Q1 - va * Q0)
-    c0 = q * wbz - r * wby
-    c1 = r * wbx - p * wbz
-    c2 = p * wby - q * wbx
-    f0 -= a11 * c0
-    f1 -= a11 * c1
-    f2 -= a33 * c2
-    f3 -= -a15 * c1
-    f4 -= a15 * c0
-    # block solve of M ν̇ = f
-    det = M11 * M44 - M15 * M15
-    dx[6] = (M44 * f0 - M15 * f4) / det
-    dx[10] = (M11 * f4 - M15 * f0) / det
-    dx[7] = (M44 * f1 + M15 * f3) / det
-    dx[9] = (M11 * f3 + M15 * f1) / det
-    dx[8] = f2 / M33
-    dx[11] = f5 / M66
+        aero = (P[_AERO, i] != 0.0) & (vv > 1e-9)
+        qd = 0.5 * rho * vv * vv
+        asp = vm.atan2(uv, wcp) * _R2D  # spatial angle of attack = arccos(w/|V|), degrees
+        asp = 35.0 if asp > 35.0 else asp
+        e7 = W[_W_E7, i]
+        cd = P[_X6, i] + P[_X9, i] * e7 * (1.0 + P[_X8, i] * vm.sin(np.pi / 70.0 * asp))
+        s0 = P[_S0, i]
+        fd = cd * (0.5 * rho * vv) * s0  # drag force / |V|
+        fx = -fd * ucp
+        fy = -fd * vcp
+        fz = -fd * wcp
+        # riser force (eq. 15) towards the shortened risers, at the centre of pressure
+        sx = (1.0 - l0) - (1.0 - l2)
+        sy = (1.0 - l1) - (1.0 - l3)
+        kr = P[_X15, i] * cd * qd * s0 * P[_TANT, i]
+        fx += kr * sx
+        fy += kr * sy
+        # canopy moments (eq. 12-13): restoring in both planes + control tilt
+        alpha = vm.atan2(ucp, wcp) * _R2D
+        beta = vm.atan2(vcp, wcp) * _R2D
+        mref = 2.0 * qd * s0 * P[_R0, i]
+        x11 = P[_X11, i]
+        x12 = P[_X12, i]
+        sx12 = P[_SX12, i]
+        m3 = mref * (-_cm_static(beta, x11, x12, sx12) + W[_W_DCMY, i])
+        m4 = mref * (_cm_static(alpha, x11, x12, sx12) - W[_W_DCMX, i])
+        # yaw (eq. 14): riser transitions and damping
+        m5 = izz * (2.0 * vv * P[_RR0, i] * P[_X13, i] * W[_W_CNL, i] - P[_X14, i] * r)
+        f0_aero = f0 + fx
+        f1_aero = f1 + fy
+        f2_aero = f2 + fz
+        f3_aero = (f3 + -zp * fy) + m3
+        f4_aero = (f4 + zp * fx) + m4
+        f5_aero = f5 + m5
+        f0 = f0_aero if aero else f0
+        f1 = f1_aero if aero else f1
+        f2 = f2_aero if aero else f2
+        f3 = f3_aero if aero else f3
+        f4 = f4_aero if aero else f4
+        f5 = f5_aero if aero else f5
+        # Kirchhoff terms: -Ω×P -Ω×Q ; -Ω×H - V×P - Ω×K - Va×Q ; minus A [Ω×w_b; 0]
+        S0_ = P0 + Q0
+        S1 = P1 + Q1
+        S2 = P2 + Q2
+        f0 -= q * S2 - r * S1
+        f1 -= r * S0_ - p * S2
+        f2 -= p * S1 - q * S0_
+        T0_ = H0 + K0
+        T1 = H1 + K1
+        T2 = H2 + K2
+        f3 -= q * T2 - r * T1 + (V * P2 - W_ * P1) + (va * Q2 - wa * Q1)
+        f4 -= r * T0_ - p * T2 + (W_ * P0 - U * P2) + (wa * Q0 - ua * Q2)
+        f5 -= p * T1 - q * T0_ + (U * P1 - V * P0) + (ua * Q1 - va * Q0)
+        cx = q * wbz - r * wby
+        cy = r * wbx - p * wbz
+        cz = p * wby - q * wbx
+        f0 -= a11 * cx
+        f1 -= a11 * cy
+        f2 -= a33 * cz
+        f3 -= -a15 * cy
+        f4 -= a15 * cx
+        # block solve of M ν̇ = f: two 2x2 systems sharing one determinant, two scalars; the
+        # four reciprocals it needs with the Euler rates' 1/cos θ come from one division
+        det = M11 * M44 - M15 * M15
+        d33 = det * M33
+        c66 = cth * M66
+        rall = 1.0 / (d33 * c66)
+        rdet = rall * M33 * c66
+        DX[6, i] = (M44 * f0 - M15 * f4) * rdet
+        DX[10, i] = (M11 * f4 - M15 * f0) * rdet
+        DX[7, i] = (M44 * f1 + M15 * f3) * rdet
+        DX[9, i] = (M11 * f3 + M15 * f1) * rdet
+        DX[8, i] = f2 * (rall * det * c66)
+        DX[11, i] = f5 * (rall * d33 * cth)
+        sec = rall * d33 * M66
+        DX[3, i] = p + tq * sth * sec
+        DX[5, i] = tq * sec
 
 
-@njit(cache=True)
-def _observe(t, x, P, u, atm, gust, y):  # pragma: no cover - compiled
-    sphi = np.sin(x[3])
-    cphi = np.cos(x[3])
-    sth = np.sin(x[4])
-    cth = np.cos(x[4])
-    sps = np.sin(x[5])
-    cps = np.cos(x[5])
-    r00 = cth * cps
-    r01 = sphi * sth * cps - cphi * sps
-    r02 = cphi * sth * cps + sphi * sps
-    r10 = cth * sps
-    r11 = sphi * sth * sps + cphi * cps
-    r12 = cphi * sth * sps - sphi * cps
-    r20 = -sth
-    r21 = sphi * cth
-    r22 = cphi * cth
-    zpl = P[_ZPL]
-    y[0] = x[0] + r02 * zpl
-    y[1] = x[1] + r12 * zpl
-    y[2] = x[2] + r22 * zpl
-    ub = x[6] + x[10] * zpl
-    vb = x[7] - x[9] * zpl
-    wb = x[8]
-    y[3] = r00 * ub + r01 * vb + r02 * wb
-    y[4] = r10 * ub + r11 * vb + r12 * wb
-    y[5] = r20 * ub + r21 * vb + r22 * wb
-    y[6] = x[3]
-    y[7] = x[4]
-    y[8] = x[5]
-    y[9] = x[9]
-    y[10] = x[10]
-    y[11] = x[11]
-    rho, g, wn, we, wd = env_at(atm, gust, t, -x[2])
-    zp = P[_ZP]
-    ucp = x[6] - (r00 * wn + r10 * we + r20 * wd) + x[10] * zp
-    vcp = x[7] - (r01 * wn + r11 * we + r21 * wd) - x[9] * zp
-    wcp = x[8] - (r02 * wn + r12 * we + r22 * wd)
-    vv = np.sqrt(ucp * ucp + vcp * vcp + wcp * wcp)
-    y[12] = vv
-    y[13] = np.arctan2(ucp, wcp)
-    y[14] = np.arctan2(vcp, wcp)
-    y[15] = np.arccos(min(max(wcp / vv, -1.0), 1.0)) if vv > 0 else 0.0
-    y[16] = x[12]
-    y[17] = x[13]
-    y[18] = x[14]
-    y[19] = x[15]
+@njit(cache=True, inline="always", error_model="numpy")
+def _observe(t, X, P, u, atm, gust, W, Y):  # pragma: no cover - compiled
+    """Output channels of a group of trials into Y (n_out, lanes); see integrate.rk4_lanes."""
+    n = X.shape[1]
+    h_min = atm[0, 0]
+    dh = atm[0, 1]
+    n_h = int(atm[0, 2])
+    for i in range(n):
+        W[5, i], W[6, i] = table_position(-X[2, i], h_min, dh, n_h)
+    env_gather(atm, gust, t, W)
+    for i in range(n):
+        sphi, cphi = vm.sincos(X[3, i])
+        sth, cth = vm.sincos(X[4, i])
+        sps, cps = vm.sincos(X[5, i])
+        r00 = cth * cps
+        r01 = sphi * sth * cps - cphi * sps
+        r02 = cphi * sth * cps + sphi * sps
+        r10 = cth * sps
+        r11 = sphi * sth * sps + cphi * cps
+        r12 = cphi * sth * sps - sphi * cps
+        r20 = -sth
+        r21 = sphi * cth
+        r22 = cphi * cth
+        zpl = P[_ZPL, i]
+        Y[0, i] = X[0, i] + r02 * zpl
+        Y[1, i] = X[1, i] + r12 * zpl
+        Y[2, i] = X[2, i] + r22 * zpl
+        ub = X[6, i] + X[10, i] * zpl
+        vb = X[7, i] - X[9, i] * zpl
+        wb = X[8, i]
+        Y[3, i] = r00 * ub + r01 * vb + r02 * wb
+        Y[4, i] = r10 * ub + r11 * vb + r12 * wb
+        Y[5, i] = r20 * ub + r21 * vb + r22 * wb
+        Y[6, i] = X[3, i]
+        Y[7, i] = X[4, i]
+        Y[8, i] = X[5, i]
+        Y[9, i] = X[9, i]
+        Y[10, i] = X[10, i]
+        Y[11, i] = X[11, i]
+        wn = W[2, i]
+        we = W[3, i]
+        wd = W[4, i]
+        zp = P[_ZP, i]
+        ucp = X[6, i] - (r00 * wn + r10 * we + r20 * wd) + X[10, i] * zp
+        vcp = X[7, i] - (r01 * wn + r11 * we + r21 * wd) - X[9, i] * zp
+        wcp = X[8, i] - (r02 * wn + r12 * we + r22 * wd)
+        uv = np.sqrt(ucp * ucp + vcp * vcp)
+        vv = np.sqrt(ucp * ucp + vcp * vcp + wcp * wcp)
+        Y[12, i] = vv
+        Y[13, i] = vm.atan2(ucp, wcp)
+        Y[14, i] = vm.atan2(vcp, wcp)
+        asp = vm.atan2(uv, wcp)  # = arccos(w/|V|)
+        Y[15, i] = asp if vv > 0.0 else 0.0
+        Y[16, i] = X[12, i]
+        Y[17, i] = X[13, i]
+        Y[18, i] = X[14, i]
+        Y[19, i] = X[15, i]
 
 
-@njit(parallel=True, cache=True)
+@njit(parallel=True, cache=True, error_model="numpy", fastmath={"contract"})
 def _kernel(
-    x0, p, ctrl_t, ctrl_v, ctrl_mode, atm, gust, dt, n_steps, stride, x_max, y, status, t_fail
+    x0,
+    p,
+    rows,
+    ctrl_t,
+    ctrl_v,
+    ctrl_mode,
+    atm,
+    gust,
+    dt,
+    n_steps,
+    stride,
+    x_max,
+    y,
+    status,
+    t_fail,
 ):  # pragma: no cover - compiled
-    for i in prange(x0.shape[0]):
-        if status[i] != 0:
-            continue
-        status[i], t_fail[i] = rk4_trial(
+    n_groups = (rows.shape[0] + LANES - 1) // LANES
+    for g in prange(n_groups):
+        lo = g * LANES
+        hi = min(lo + LANES, rows.shape[0])
+        rk4_lanes(
             _rhs,
             _observe,
-            x0[i],
-            p[i],
+            x0,
+            p,
+            rows[lo:hi],
             ctrl_t,
             ctrl_v,
             ctrl_mode,
@@ -406,7 +522,9 @@ def _kernel(
             n_steps,
             stride,
             x_max,
-            y[i],
+            y,
+            status,
+            t_fail,
         )
 
 
@@ -510,10 +628,11 @@ class Parachute6DoF(Model):
         P[:, _ZPL] = Z_PAYLOAD
         P[:, _TANT] = TAN_TILT
         P[:, _VMAX] = 1.0 / T_TRANSITION
-        P[:, _TAUP] = TAU_PMA
+        P[:, _RTAU] = 1.0 / TAU_PMA
         P[:, _SX12] = np.sin(X[:, 11])
         P[:, _EX10] = np.exp(-X[:, 9])
         P[:, _EX7] = np.exp(-X[:, 6])
+        P[:, _RR0] = 1.0 / R0
         return P
 
     def apparent_mass(self, X: ArrayLike, rho: float = RHO0) -> NDArray[np.float64]:
@@ -719,6 +838,7 @@ class Parachute6DoF(Model):
         _kernel(
             np.ascontiguousarray(x0),
             P,
+            np.flatnonzero(status == 0).astype(np.int64),
             controls.times,
             controls.values,
             controls.mode,
