@@ -43,6 +43,12 @@ from numba.extending import intrinsic
 
 __all__ = ["atan2", "cos", "exp", "sin", "sincos"]
 
+# Compiled on their own and inlined by LLVM (``forceinline``) rather than by numba: numba-level
+# inlining of these bodies at the parachute's ~20 call sites made its kernel's first compile
+# take 62 s instead of 22 s, for the same speed within the machine's noise. No division
+# checks; fused multiply-add allowed (NaN and inf semantics kept).
+_JIT = {"cache": True, "forceinline": True, "error_model": "numpy", "fastmath": {"contract"}}
+
 # π/2 in three parts (33, 33 and 53 significant bits; computed in 60-digit arithmetic): the
 # first two products n * part are exact for |n| < 2**20 (|x| < 1.6e6), and the sum of the three
 # parts is π/2 to 1e-37.
@@ -108,7 +114,7 @@ def _bits_as_float(typingctx, bits):
     return types.float64(bits), codegen
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(**_JIT)
 def sincos(x):  # pragma: no cover - compiled
     """``(sin x, cos x)`` of an angle ``x`` in radians; see the module docstring."""
     n = np.floor(x * _TWO_OVER_PI + 0.5)
@@ -127,19 +133,19 @@ def sincos(x):  # pragma: no cover - compiled
     return sn, cs
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(**_JIT)
 def sin(x):  # pragma: no cover - compiled
     """``sin x``, x in radians (the cosine polynomial of :func:`sincos` is compiled away)."""
     return sincos(x)[0]
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(**_JIT)
 def cos(x):  # pragma: no cover - compiled
     """``cos x``, x in radians."""
     return sincos(x)[1]
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(**_JIT)
 def atan2(y, x):  # pragma: no cover - compiled
     """Angle of the point ``(x, y)`` in radians, in ``[-π, π]``, as ``numpy.arctan2(y, x)``."""
     ax = abs(x)
@@ -177,7 +183,7 @@ def atan2(y, x):  # pragma: no cover - compiled
     return math.copysign(r, y)
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(**_JIT)
 def exp(x):  # pragma: no cover - compiled
     """``e**x``; overflows to inf above 709.78 and underflows to 0 below -745.1."""
     x = 710.0 if x > 710.0 else x
