@@ -9,7 +9,7 @@ from numba import njit
 from vectorid.models import vecmath as vm
 
 
-@njit(error_model="numpy")
+@njit(error_model="numpy", fastmath={"contract"})  # the flags of the lockstep kernels
 def _apply(x, y, out):
     for i in range(x.shape[0]):
         s, c = vm.sincos(x[i])
@@ -19,10 +19,14 @@ def _apply(x, y, out):
         out[3, i] = vm.exp(x[i])
         out[4, i] = vm.sin(x[i])
         out[5, i] = vm.cos(x[i])
+        out[6, i] = vm.sincos_hot(x[i])[0]
+        out[7, i] = vm.sincos_hot(x[i])[1]
+        out[8, i] = vm.atan2_hot(y[i], x[i])
+        out[9, i] = vm.sin_hot(x[i])
 
 
 def _run(x, y):
-    out = np.empty((6, x.size))
+    out = np.empty((10, x.size))
     _apply(np.ascontiguousarray(x, dtype=float), np.ascontiguousarray(y, dtype=float), out)
     return out
 
@@ -98,6 +102,15 @@ def test_special_values_follow_numpy():
         np.testing.assert_array_equal(np.isnan(out[0]), np.isnan(np.sin(x)))
         np.testing.assert_array_equal(np.isnan(out[1]), np.isnan(np.cos(x)))
     assert np.isnan(_run(np.array([np.nan]), np.array([0.0]))[3][0])
+
+
+def test_hot_loop_twins_give_the_same_bits(samples):
+    """Inlined by numba, the twins take the caller's flags: the kernels' (contract) here."""
+    _, _, out = samples
+    np.testing.assert_array_equal(out[6], out[0])
+    np.testing.assert_array_equal(out[7], out[1])
+    np.testing.assert_array_equal(out[8], out[2])
+    np.testing.assert_array_equal(out[9], out[0])
 
 
 def test_a_loop_over_them_is_vectorised():

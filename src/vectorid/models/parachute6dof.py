@@ -155,7 +155,7 @@ def _cm_static(a_deg, x11, x12, sx12):  # pragma: no cover - compiled
     s = -1.0 if a_deg < 0.0 else 1.0
     a = abs(a_deg)
     a = 35.0 if a > 35.0 else a
-    return s * x11 * (vm.sin(np.pi / 40.0 * a - x12) + sx12)
+    return s * x11 * (vm.sin_hot(np.pi / 40.0 * a - x12) + sx12)
 
 
 @njit(cache=True, inline="always", error_model="numpy")
@@ -255,9 +255,9 @@ def _rhs(t, X, P, u, atm, gust, DX, W):  # pragma: no cover - compiled
             cnl += c3 if ldot3 != 0.0 else 0.0
             W[_W_CNL, i] = cnl
     for i in range(n):
-        sphi, cphi = vm.sincos(X[3, i])
-        sth, cth = vm.sincos(X[4, i])
-        sps, cps = vm.sincos(X[5, i])
+        sphi, cphi = vm.sincos_hot(X[3, i])
+        sth, cth = vm.sincos_hot(X[4, i])
+        sps, cps = vm.sincos_hot(X[5, i])
         U = X[6, i]
         V = X[7, i]
         W_ = X[8, i]
@@ -349,10 +349,10 @@ def _rhs(t, X, P, u, atm, gust, DX, W):  # pragma: no cover - compiled
         vv = np.sqrt(ucp * ucp + vcp * vcp + wcp * wcp)
         aero = (P[_AERO, i] != 0.0) & (vv > 1e-9)
         qd = 0.5 * rho * vv * vv
-        asp = vm.atan2(uv, wcp) * _R2D  # spatial angle of attack = arccos(w/|V|), degrees
+        asp = vm.atan2_hot(uv, wcp) * _R2D  # spatial angle of attack = arccos(w/|V|), degrees
         asp = 35.0 if asp > 35.0 else asp
         e7 = W[_W_E7, i]
-        cd = P[_X6, i] + P[_X9, i] * e7 * (1.0 + P[_X8, i] * vm.sin(np.pi / 70.0 * asp))
+        cd = P[_X6, i] + P[_X9, i] * e7 * (1.0 + P[_X8, i] * vm.sin_hot(np.pi / 70.0 * asp))
         s0 = P[_S0, i]
         fd = cd * (0.5 * rho * vv) * s0  # drag force / |V|
         fx = -fd * ucp
@@ -365,8 +365,8 @@ def _rhs(t, X, P, u, atm, gust, DX, W):  # pragma: no cover - compiled
         fx += kr * sx
         fy += kr * sy
         # canopy moments (eq. 12-13): restoring in both planes + control tilt
-        alpha = vm.atan2(ucp, wcp) * _R2D
-        beta = vm.atan2(vcp, wcp) * _R2D
+        alpha = vm.atan2_hot(ucp, wcp) * _R2D
+        beta = vm.atan2_hot(vcp, wcp) * _R2D
         mref = 2.0 * qd * s0 * P[_R0, i]
         x11 = P[_X11, i]
         x12 = P[_X12, i]

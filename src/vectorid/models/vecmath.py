@@ -206,3 +206,17 @@ def exp(x):  # pragma: no cover - compiled
     k1 = ki >> 1
     k2 = ki - k1
     return p * _bits_as_float((k1 + 1023) << 52) * _bits_as_float((k2 + 1023) << 52)
+
+
+# Hot-loop twins, inlined by numba itself (``inline="always"``) from the same source: measured
+# ~6 % faster in the parachute's main loop than the LLVM-inlined versions above, which is why
+# that loop (and only it: each numba-inlined call site costs compile time) uses them.
+_HOT = {"inline": "always", "error_model": "numpy", "fastmath": {"contract"}}
+sincos_hot = njit(**_HOT)(sincos.py_func)
+atan2_hot = njit(**_HOT)(atan2.py_func)
+
+
+@njit(**_HOT)
+def sin_hot(x):  # pragma: no cover - compiled
+    """``sin x`` for hot loops (see ``sincos_hot``)."""
+    return sincos_hot(x)[0]
