@@ -61,7 +61,10 @@ and ``_observe(t, X, P, u, atm, gust, W, Y)`` take ``(n, LANES)`` arrays, one tr
 and loop over the columns; for LLVM to vectorise that loop:
 
 - no calls without a vector version: use :mod:`vectorid.models.vecmath` instead of ``np.sin``,
-  ``np.cos``, ``np.arctan2``, ``np.arccos``, ``np.exp`` (``np.sqrt`` and ``abs`` are fine);
+  ``np.cos``, ``np.arctan2``, ``np.arccos``, ``np.exp`` (``np.sqrt`` and ``abs`` are fine); its
+  ``*_hot`` twins, inlined by numba, in the one loop that dominates the run time (each such
+  call site costs compile time: the parachute's kernel compiles in ~40 s, 62 s with every call
+  numba-inlined);
 - no branches with work in them: compute both values, then select (``a if c else b`` with
   ``a`` and ``b`` already computed); conditional loads stay branches;
 - no table reads at computed rows in a loop that also stores: compute the rows with

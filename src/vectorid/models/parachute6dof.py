@@ -578,9 +578,10 @@ class Parachute6DoF(Model):
     )
     presets: ClassVar[dict[str, NDArray[np.float64]]] = {"table5": TABLE5.copy()}
     #: Hand count of floating-point work per RK4 step, for the benchmark's GFLOP/s estimate:
-    #: ~290 arithmetic operations per right-hand side plus 13 libm calls (sin/cos x9, atan2 x2,
-    #: arccos, sqrt) counted as 10 flops each = ~420; 4 evaluations, 192 for the stage
-    #: combinations of 16 states, ~40 for control interpolation.
+    #: ~290 arithmetic operations per right-hand side plus 13 elementary functions (sin/cos
+    #: x9, atan2 x3, sqrt; the square roots share one count) counted as 10 flops each, a
+    #: convention (as vecmath polynomials they take 20-30) = ~420; 4 evaluations, 192 for the
+    #: stage combinations of 16 states, ~40 for control interpolation.
     flops_per_step = 4 * 420 + 192 + 40
     domains: ClassVar[dict[str, NDArray[np.float64]]] = {
         "table2": TABLE2.copy(),
