@@ -170,7 +170,7 @@ def _pma_rate(command, length, rtau, vmax):  # pragma: no cover - compiled
     return min(max((command - length) * rtau, -vmax), vmax)
 
 
-# Rows of the work array W (see integrate.rk4_lanes): the environment of env_lanes, then the
+# Rows of the work array W (see integrate.rk4_lanes): the environment of env_gather, then the
 # control-dependent factors of eq. (11), (13) and (14).
 _W_E7 = ENV_ROWS  # exp(-x7 (1 - sin(π n/4))²) of eq. (11)
 _W_DCMX = ENV_ROWS + 1  # C_m control part of eq. (13) times the x component of the tilt
@@ -182,12 +182,13 @@ _W_CNL = ENV_ROWS + 3  # yaw coefficient of the riser transitions, eq. (14), wit
 def _rhs(t, X, P, u, atm, gust, DX, W):  # pragma: no cover - compiled
     """dX/dt of a group of trials, one per column of X (n_state, lanes); see integrate.rk4_lanes.
 
-    Three loops over the columns: the environment (``env_lanes``, scalar: table reads); the
-    control-dependent factors, only if a riser of the group is shortened or moving (else their
-    resting values, bit for bit what the loop would give); the dynamics. The last two are
-    vectorised by the compiler: ``vecmath`` replaces sin, cos, atan2, arccos and exp, and every
-    condition is a select (the aerodynamic terms are computed for every column and added where
-    aerodynamics is on).
+    Loops over the columns, in order: the small per-column work (where each trial is in the
+    atmosphere table, the resting control factors, whether a riser moves); the table reads
+    (``env_gather``, scalar); the control-dependent factors, only if a riser of the group is
+    shortened or moving (else the resting values stand, bit for bit what the loop would give);
+    the dynamics. All but the table reads are vectorised by the compiler: ``vecmath`` replaces
+    sin, cos, atan2, arccos and exp, and every condition is a select (the aerodynamic terms are
+    computed for every column and added where aerodynamics is on).
     """
     n = X.shape[1]
     h_min = atm[0, 0]
