@@ -200,7 +200,8 @@ def _rhs(t, X, P, u, atm, gust, DX, W):  # pragma: no cover - compiled
     u3 = u[3]
     # One loop for the small per-column work (a loop this short on its own is unrolled by the
     # compiler and then stays scalar): where each column is in the atmosphere table, the
-    # resting values of the control factors, and whether a riser is shortened or moving.
+    # resting values of the control factors, the actuator rates (the derivatives of the last
+    # four states, read again by the loops below) and whether a riser is shortened or moving.
     n_active = 0  # an integer sum vectorises
     for i in range(n):
         W[5, i], W[6, i] = table_position(-X[2, i], h_min, dh, n_h)
@@ -214,15 +215,20 @@ def _rhs(t, X, P, u, atm, gust, DX, W):  # pragma: no cover - compiled
         l1 = X[13, i]
         l2 = X[14, i]
         l3 = X[15, i]
-        moving = (_pma_rate(u0, l0, rtau, vmax) != 0.0) | (_pma_rate(u1, l1, rtau, vmax) != 0.0)
-        moving |= (_pma_rate(u2, l2, rtau, vmax) != 0.0) | (_pma_rate(u3, l3, rtau, vmax) != 0.0)
+        ldot0 = _pma_rate(u0, l0, rtau, vmax)
+        ldot1 = _pma_rate(u1, l1, rtau, vmax)
+        ldot2 = _pma_rate(u2, l2, rtau, vmax)
+        ldot3 = _pma_rate(u3, l3, rtau, vmax)
+        DX[12, i] = ldot0
+        DX[13, i] = ldot1
+        DX[14, i] = ldot2
+        DX[15, i] = ldot3
+        moving = (ldot0 != 0.0) | (ldot1 != 0.0) | (ldot2 != 0.0) | (ldot3 != 0.0)
         shortened = 4.0 - (l0 + l1 + l2 + l3) > 1e-12
         n_active += 1 if moving | shortened else 0
     env_gather(atm, gust, t, W)
     if n_active > 0:
         for i in range(n):
-            rtau = P[_RTAU, i]
-            vmax = P[_VMAX, i]
             l0 = X[12, i]
             l1 = X[13, i]
             l2 = X[14, i]
@@ -241,10 +247,10 @@ def _rhs(t, X, P, u, atm, gust, DX, W):  # pragma: no cover - compiled
             rsnorm = 1.0 / np.sqrt(sx * sx + sy * sy + 1e-6)
             W[_W_DCMX, i] = dcm * sx * rsnorm
             W[_W_DCMY, i] = dcm * sy * rsnorm
-            ldot0 = _pma_rate(u0, l0, rtau, vmax)
-            ldot1 = _pma_rate(u1, l1, rtau, vmax)
-            ldot2 = _pma_rate(u2, l2, rtau, vmax)
-            ldot3 = _pma_rate(u3, l3, rtau, vmax)
+            ldot0 = DX[12, i]
+            ldot1 = DX[13, i]
+            ldot2 = DX[14, i]
+            ldot3 = DX[15, i]
             c0 = _clip1((l3 - l1) * 20.0) * vm.sin(np.pi * l0) * ldot0
             c1 = _clip1((l0 - l2) * 20.0) * vm.sin(np.pi * l1) * ldot1
             c2 = _clip1((l1 - l3) * 20.0) * vm.sin(np.pi * l2) * ldot2
@@ -296,13 +302,6 @@ def _rhs(t, X, P, u, atm, gust, DX, W):  # pragma: no cover - compiled
         ua = U - wbx
         va = V - wby
         wa = W_ - wbz
-        # actuators
-        rtau = P[_RTAU, i]
-        vmax = P[_VMAX, i]
-        DX[12, i] = _pma_rate(u0, l0, rtau, vmax)
-        DX[13, i] = _pma_rate(u1, l1, rtau, vmax)
-        DX[14, i] = _pma_rate(u2, l2, rtau, vmax)
-        DX[15, i] = _pma_rate(u3, l3, rtau, vmax)
         # masses
         m = P[_M, i]
         mzg = P[_MZG, i]
