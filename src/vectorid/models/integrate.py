@@ -225,23 +225,11 @@ def env_at(atm, gust, t, h):  # pragma: no cover - compiled
         wn = r0[2]
         we = r0[3]
         wd = r0[4]
-    n_g = int(gust[0, 2])
-    if n_g > 1:
-        sg = (t - gust[0, 0]) / gust[0, 1]
-        if sg <= 0.0:
-            wn += gust[1, 0]
-            we += gust[1, 1]
-            wd += gust[1, 2]
-        elif sg >= n_g - 1:
-            wn += gust[n_g, 0]
-            we += gust[n_g, 1]
-            wd += gust[n_g, 2]
-        else:
-            j = int(sg)
-            a = sg - j
-            wn += gust[j + 1, 0] + a * (gust[j + 2, 0] - gust[j + 1, 0])
-            we += gust[j + 1, 1] + a * (gust[j + 2, 1] - gust[j + 1, 1])
-            wd += gust[j + 1, 2] + a * (gust[j + 2, 2] - gust[j + 1, 2])
+    if int(gust[0, 2]) > 1:
+        gn, ge, gd = gust_at(gust, t)
+        wn += gn
+        we += ge
+        wd += gd
     return rho, g, wn, we, wd
 
 
