@@ -757,20 +757,23 @@ def _order_rows(table: _Table, t: Array, used: list[str], policy: str) -> NDArra
     return np.flatnonzero(keep)
 
 
-def _events(
-    table: _Table, mapping: Mapping[str, Any], t: Array, rows: NDArray[np.int64]
-) -> dict[str, float]:
+def _events(table: _Table, mapping: Mapping[str, Any], t_all: Array) -> dict[str, float]:
+    """Events of ``event_column`` (each new value at the time of its first row) and ``events``.
+
+    ``t_all`` is the time of every row of the file, before duplicate rows are dropped: a row
+    dropped as a repeated timestamp can still carry a change of the event column, and its time
+    is the time of the row it repeats.
+    """
     events: dict[str, float] = {}
     col = mapping.get("event_column")
     if col is not None:
         names_map = {str(k): str(v) for k, v in (mapping.get("event_names") or {}).items()}
         vals = table.strings(str(col), "event_column")
         prev = None
-        for r in rows:
-            v = vals[r]
+        for r, v in enumerate(vals):
             if v != prev and v != "":
                 label = names_map.get(v, v)
-                events.setdefault(label, float(t[r]))
+                events.setdefault(label, float(t_all[r]))
             prev = v
     given = mapping.get("events") or {}
     if not isinstance(given, Mapping):
@@ -852,7 +855,7 @@ def _build(table: _Table, mapping: Mapping[str, Any], name: str | None) -> Fligh
             )
         a = channels["altitude"]
         channels["altitude"] = Channel(a.name, a.t, a.values - origin[2], a.components, a.unit)
-    events = _events(table, mapping, t, rows)
+    events = _events(table, mapping, t_all)
     lo = min(float(c.t[0]) for c in channels.values())
     hi = max(float(c.t[-1]) for c in channels.values())
     for k, v in events.items():
