@@ -391,6 +391,14 @@ def detect_apogee(t, h, *, smooth: float = 1.0) -> tuple[float, float]:
     g, hg, dt = _uniform(t, h)
     s = _running_median(hg, round(smooth / dt))
     i = int(np.argmax(s))
+    # a running median flattens the top of the curve: the vertex of a parabola through it
+    near = np.abs(g - g[i]) <= smooth
+    if near.sum() >= 5:
+        c = np.polyfit(g[near] - g[i], s[near], 2)
+        if c[0] < 0:
+            tv = -c[1] / (2 * c[0])
+            if abs(tv) <= smooth:
+                return float(g[i] + tv), float(s[i])
     return float(g[i]), float(s[i])
 
 
@@ -525,7 +533,8 @@ def detect_touchdown(
     Returns
     -------
     Touchdown or None
-        None when the data end before the descent settles (a log that stops in the air).
+        None when the data end before the descent settles (a log that stops in the air, or
+        one that stops less than about ``smooth + hold`` s after touchdown).
     """
     t, h = _series(t, h)
     if after is None:

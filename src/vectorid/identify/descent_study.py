@@ -358,6 +358,7 @@ class PhaseResult:
     vz_rms_ms: float | None = None
     best_cds: float | None = None
     best_alt_rms_m: float | None = None
+    best_vz_mean_abs_ms: float | None = None
     stated_alt_rms_m: float | None = None
     empty_by: str | None = None
     effective_cds: tuple[float, float] | None = None
@@ -435,7 +436,11 @@ class PhaseResult:
             "box": _pair(self.box),
             "best_fit": None
             if self.best_cds is None
-            else {"cds": self.best_cds, "alt_rms_m": self.best_alt_rms_m},
+            else {
+                "cds": self.best_cds,
+                "alt_rms_m": self.best_alt_rms_m,
+                "vz_mean_abs_ms": self.best_vz_mean_abs_ms,
+            },
             "stated_alt_rms_m": self.stated_alt_rms_m,
             "empty_by": self.empty_by,
             "effective_cds_range": _pair(self.effective_cds),
@@ -580,6 +585,7 @@ def _load(plan: DescentPlan):
     path = Path(plan.file)
     if not path.exists():
         raise _err("file", f"no such file: {path}", "check the path of the altimeter log")
+    path = path.resolve()
     flight = load_flight(path, mapping=plan.mapping, format=plan.format)
     if "altitude" not in flight.channels:
         raise _err(
@@ -1078,6 +1084,8 @@ def _run_phase(
             ib = int(np.flatnonzero(ok)[np.argmin(F[ok, 0])])
             res.best_cds = float(X[ib])
             res.best_alt_rms_m = math.sqrt(max(float(F[ib, 0]), 0.0) / T)
+            okv = a.ok & np.isfinite(F[:, 1])
+            res.best_vz_mean_abs_ms = float(F[okv, 1].min()) / T if okv.any() else None
         if a.n_feasible:
             res.cds_feasible = (float(X[a.feasible].min()), float(X[a.feasible].max()))
             res.cds_pareto = (float(X[a.pareto].min()), float(X[a.pareto].max()))
@@ -1164,7 +1172,8 @@ def _verdict(r: PhaseResult, by_name: Mapping[str, PhaseResult], plan: DescentPl
         what = (
             f"an altitude RMS of {r.best_alt_rms_m:.1f} m against {lim.alt_rms:.1f} m allowed"
             if crit.startswith("alt_")
-            else f"a vertical-speed residual above the {lim.vz_mean_abs:.2f} m/s allowed"
+            else "a mean vertical-speed residual of at least "
+            f"{r.best_vz_mean_abs_ms:.2f} m/s against {lim.vz_mean_abs:.2f} m/s allowed"
         )
         parts.append(
             f"no drag area keeps the model within the criteria constraints (D empty; {crit} "
