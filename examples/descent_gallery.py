@@ -210,12 +210,6 @@ def _slug(name: str) -> str:
     return "".join(c if c.isalnum() else "-" for c in name.lower()).strip("-")
 
 
-def _pct(v: float | None, ref: float | None) -> str:
-    if v is None or ref is None:
-        return ""
-    return f" ({100 * (v / ref - 1):+.0f} %)"
-
-
 def table(results: dict[str, Any]) -> str:
     """The gallery as a Markdown table."""
     rows = [
@@ -230,20 +224,23 @@ def table(results: dict[str, Any]) -> str:
         for p in r.phases:
             stated = "-" if p.stated_cds is None else f"{p.stated_cds:.4g}"
             if p.cds is not None:
-                ident = f"{p.cds:.4g}{_pct(p.cds, p.stated_cds)}"
+                ident = f"{p.cds:.4g}"
+                if p.cds_corrected is not None:
+                    ident += f" (hot-day corrected {p.cds_corrected:.4g})"
                 rng = f"{p.cds_feasible[0]:.4g}-{p.cds_feasible[1]:.4g}"
                 rms = f"{p.alt_rms_m:.1f}"
-            elif p.best_cds is not None:
-                ident = f"none (best fit {p.best_cds:.4g}{_pct(p.best_cds, p.stated_cds)})"
+            elif p.best_cds is not None and p.cds_feasible is None:
+                ident = f"none (best fit {p.best_cds:.4g})"
                 rng = "D empty"
-                rms = f"{p.best_alt_rms_m:.1f} (best)"
+                rms = f"{p.best_alt_rms_m:.1f} (best fit)"
+            elif p.cds_feasible is not None:
+                ident = "not identified"
+                rng = f"{p.cds_feasible[0]:.4g}-{p.cds_feasible[1]:.4g}"
+                rms = "-"
             else:
                 ident, rng, rms = "none", "-", "-"
-            verdict = p.verdict.replace("|", "/")
-            rows.append(
-                f"| {name} | {p.name} | {stated} | {ident} | {rng} | {rms} | {p.status}: "
-                f"{verdict} |"
-            )
+            verdict = p.summary.replace("|", "/")
+            rows.append(f"| {name} | {p.name} | {stated} | {ident} | {rng} | {rms} | {verdict} |")
     return "\n".join(rows)
 
 

@@ -367,6 +367,7 @@ class PhaseResult:
     sensor_disagreement_m: float | None = None
     status: str = "no data"
     verdict: str = ""
+    summary: str = ""
     store: str | None = None
 
     @property
@@ -424,6 +425,7 @@ class PhaseResult:
             "diameter_m": self.diameter,
             "status": self.status,
             "verdict": self.verdict,
+            "summary": self.summary,
             "window_s": _pair(self.window),
             "descent_rate_ms": self.descent_rate,
             "altitude_loss_m": self.altitude_loss,
@@ -804,7 +806,7 @@ def identify_descent(
         )
     by_name = {r.name: r for r in results}
     for r in results:
-        r.verdict = _verdict(r, by_name, plan) if not r.verdict else r.verdict
+        r.verdict, r.summary = _verdict(r, by_name, plan)
     if td is not None and "landed" in events and events["landed"] - td.time > 2.0:
         notes.append(
             f"the logger's 'landed' state ({events['landed']:.2f} s) comes "
@@ -1160,24 +1162,36 @@ def _status(r: PhaseResult) -> str:
     return "not identified"
 
 
-def _verdict(r: PhaseResult, by_name: Mapping[str, PhaseResult], plan: DescentPlan) -> str:
-    """A specific sentence: agreement with the stated drag area, or why not."""
+def _verdict(
+    r: PhaseResult, by_name: Mapping[str, PhaseResult], plan: DescentPlan
+) -> tuple[str, str]:
+    """A specific sentence (agreement with the stated drag area, or why not) and its short
+    form for a table."""
     if r.status == "no data":
-        return r.verdict or "no data in the window"
+        v = r.verdict or "no data in the window"
+        return v, v
     parts: list[str] = []
+    short: list[str] = []
     empty = r.status == "D empty"
     if empty:
         lim = r.limits
         crit = r.empty_by or "a constraint"
-        what = (
-            f"an altitude RMS of {r.best_alt_rms_m:.1f} m against {lim.alt_rms:.1f} m allowed"
-            if crit.startswith("alt_")
-            else "a mean vertical-speed residual of at least "
-            f"{r.best_vz_mean_abs_ms:.2f} m/s against {lim.vz_mean_abs:.2f} m/s allowed"
-        )
+        if crit.startswith("alt_"):
+            what = (
+                f"an altitude RMS of {r.best_alt_rms_m:.1f} m against {lim.alt_rms:.1f} m allowed"
+            )
+            short.append(f"D empty ({crit}: {r.best_alt_rms_m:.1f} > {lim.alt_rms:.1f} m RMS)")
+        else:
+            what = (
+                f"a mean vertical-speed residual of at least {r.best_vz_mean_abs_ms:.2f} m/s "
+                f"against {lim.vz_mean_abs:.2f} m/s allowed"
+            )
+            short.append(
+                f"D empty ({crit}: {r.best_vz_mean_abs_ms:.2f} > {lim.vz_mean_abs:.2f} m/s)"
+            )
         parts.append(
-            f"no drag area keeps the model within the criteria constraints (D empty; {crit} "
-            f"empties it): the best fit leaves {what}"
+            f"no drag area keeps the model within the criteria constraints ({crit} empties "
+            f"D): the best fit leaves {what}"
         )
     if r.status in ("weak", "not identified"):
         lo, hi = r.cds_feasible
@@ -1185,36 +1199,38 @@ def _verdict(r: PhaseResult, by_name: Mapping[str, PhaseResult], plan: DescentPl
             f"the data bound the drag area only to {lo:.4g}-{hi:.4g} m² (feasible range; "
             f"{r.duration:.0f} s and {r.altitude_loss:.0f} m of descent in the window)"
         )
+        short.append(f"{r.status}: {lo:.3g}-{hi:.3g} m²")
     value = r.compared_cds
     stated = r.stated_cds
     label = "the best fit" if empty else "identified"
     corrected = " (hot-day corrected)" if r.height_ratio else ""
     if stated is not None and value is not None:
         ratio = value / stated
+        pct = f"{100 * (ratio - 1):+.0f} %"
         what = f"{label} {value:.4g} m²{corrected} is {ratio:.2f} × the stated {stated:.4g} m²"
         dro = by_name.get("drogue")
         dval = None if dro is None else dro.compared_cds
+        under = None
+        if r.name == "main" and dval:
+            under = value + (dval if plan.convention == "adds" else 0.0)
         if abs(ratio - 1) <= AGREEMENT:
             if empty:
                 parts.append(
                     f"{label}, {value:.4g} m²{corrected}, is within 15 % of the stated "
-                    f"{stated:.4g} m² ({100 * (ratio - 1):+.0f} %)"
+                    f"{stated:.4g} m² ({pct})"
                 )
+                short.append(f"best fit within 15 % ({pct})")
             else:
-                parts.insert(
-                    0,
-                    f"agrees with the stated {stated:.4g} m² ({100 * (ratio - 1):+.0f} %)"
-                    + corrected,
-                )
-        elif (
-            r.name == "main"
-            and dval
-            and (value + (dval if plan.convention == "adds" else 0.0)) < 2.0 * dval
-        ):
-            total = value + (dval if plan.convention == "adds" else 0.0)
+                parts.insert(0, f"agrees with the stated {stated:.4g} m² ({pct}){corrected}")
+                short.insert(0, f"agrees ({pct}{', hot-day corrected' if corrected else ''})")
+        elif under is not None and under < 2.0 * dval:
             parts.append(
                 f"the main did not open (or not fully): {what}; the drag area under it, "
-                f"{total:.3g} m², is {total / dval:.2f} × the drogue phase's {dval:.3g} m²"
+                f"{under:.3g} m², is {under / dval:.2f} × the drogue phase's {dval:.3g} m²"
+            )
+            short.append(
+                f"the main did not open (or not fully): {under / dval:.2f} × the drogue "
+                "phase's drag area"
             )
         elif (
             r.name == "drogue"
@@ -1226,6 +1242,10 @@ def _verdict(r: PhaseResult, by_name: Mapping[str, PhaseResult], plan: DescentPl
             parts.append(
                 f"{what}, but {value / sm:.2f} × the stated main's {sm:.4g} m²: a main-sized "
                 "canopy was open in this phase"
+            )
+            short.append(
+                f"{ratio:.1f} × the stated drogue, {value / sm:.2f} × the stated main: a "
+                "main-sized canopy was open"
             )
         else:
             v_stated = r.descent_rate * math.sqrt(value / stated)
@@ -1240,14 +1260,19 @@ def _verdict(r: PhaseResult, by_name: Mapping[str, PhaseResult], plan: DescentPl
                     f"{r.limits.alt_rms:.1f} m allowed)"
                 )
             parts.append(text)
+            short.append(
+                f"the descent rate ({r.descent_rate:.1f} m/s) does not fit the stated value: "
+                f"{ratio:.2f} × it (it would give {v_stated:.1f} m/s)"
+            )
     elif stated is None:
         parts.append("no stated drag area to compare with")
     if r.sensor_disagreement_m is not None and r.alt_rms_m is not None:
-        if r.alt_rms_m > 2 * r.limits.alt_rms or r.alt_rms_m > 5.0:
+        if r.alt_rms_m > 5.0:
             parts.append(
                 f"the log's GPS and barometric heights disagree by {r.sensor_disagreement_m:.1f} "
                 "m RMS in this window (beyond a scale factor)"
             )
+            short.append(f"GPS and baro heights disagree by {r.sensor_disagreement_m:.1f} m RMS")
     if empty:
         if r.rate_change is not None:
             rc = r.rate_change
@@ -1255,9 +1280,13 @@ def _verdict(r: PhaseResult, by_name: Mapping[str, PhaseResult], plan: DescentPl
                 f"the drag area changes ×{rc['drag_area_ratio']:.2f} at {rc['time_s']:.1f} s "
                 f"({rc['altitude_m']:.0f} m) inside the window"
             )
+            short.append(f"drag area changes ×{rc['drag_area_ratio']:.2f} at {rc['time_s']:.0f} s")
         if r.effective_cds is not None:
             parts.append(
                 f"the drag area the descent rate implies goes from {r.effective_cds[0]:.3g} to "
                 f"{r.effective_cds[1]:.3g} m² along the phase (10 s windows)"
             )
-    return "; ".join(parts)
+            short.append(
+                f"descent rate implies {r.effective_cds[0]:.3g}-{r.effective_cds[1]:.3g} m²"
+            )
+    return "; ".join(parts), "; ".join(short)
