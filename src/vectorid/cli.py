@@ -11,6 +11,7 @@ Verbs (a contract; more may be added)::
     vectorid export STORE [--format csv|json|parquet] [--out PATH]
     vectorid init PROBLEM [--out FILE] [--trials N]
     vectorid demo [--out DIR] [--trials N] [--analytic]
+    vectorid descent LOG --mass KG [--columns time=COL,altitude=COL] [...] [--json]
 
 Errors in user input print one line saying what was expected, what came and how to fix it,
 and exit with status 2; an interrupted run exits with 130 after storing what it finished.
@@ -158,7 +159,7 @@ def _parser() -> argparse.ArgumentParser:
 
 #: Modules adding verbs: each has ``add_parsers(subparsers)`` and ``COMMANDS`` (verb -> function
 #: taking the parsed arguments and returning an exit code).
-_EXTENSION_MODULES = ("vectorid.cli_analysis", "vectorid.cli_ui")
+_EXTENSION_MODULES = ("vectorid.cli_analysis", "vectorid.cli_ui", "vectorid.cli_descent")
 
 
 def _extensions() -> list[Any]:

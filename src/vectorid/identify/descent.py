@@ -13,17 +13,38 @@ are their drag coefficients (referred to the nominal area π D²/4):
     \\qquad \\mathbf v_a = \\mathbf v - \\mathbf w(h, t),
 
 in NED (m, m/s), with ``u_main`` in [0, 1] the main parachute's deployment state, an input
-channel (0 stowed, 1 fully inflated; a ramp between models the inflation). The drogue stays
-attached after the main opens (the usual dual-deploy rigging), so under the main the drag area
-is the sum. ``C_{D,b} S_b`` is an optional fixed drag area of the body (default 0: the body's drag
-is lumped into the drogue's coefficient, which is then an *effective* coefficient).
+channel (0 stowed, 1 fully inflated; a ramp between models the inflation). ``C_{D,b} S_b`` is an
+optional fixed drag area of the body (default 0: the body's drag is lumped into the drogue's
+coefficient, which is then an *effective* coefficient).
+
+The drag areas' convention (``drag_convention``) says what a main parachute's drag area means:
+
+- ``"adds"`` (the equation above): the drogue stays attached after the main opens (the usual
+  dual-deploy rigging) and keeps its drag, so under the main the drag area is the sum
+  C_D,d S_d + C_D,m S_m; the main's own drag area is what the main adds.
+- ``"replaces"``: under the main the drag area is the main's alone,
+  (1 - u_main) C_D,d S_d + u_main C_D,m S_m (+ C_D,b S_b). This is the convention of RocketPy,
+  whose stated parachute ``cd_s`` is the whole drag area of the phase that parachute opens; a
+  main's drag area in it includes whatever the drogue still adds.
+
+The two identify the same total drag area under the main; they differ in what is called the
+main's. :class:`RocketDescent` takes drag coefficients referred to the canopies' nominal areas
+π D²/4 (``cd_drogue``, ``cd_main``); :class:`RocketDescentCdS` (``"rocket-descent-cds"``) takes
+the drag areas themselves (``cds_drogue``, ``cds_main``, m²), for a rocket whose recovery is
+stated as C_D S.
 
 Outputs are the 15 base channels (Euler angles, body rates, angle of attack and sideslip are 0:
 a point mass has no attitude) plus ``drag_area`` (m²).
+
+The data side of a descent (:func:`detect_apogee`, :func:`detect_touchdown`,
+:func:`crossing_time`, :func:`detect_rate_change`, :func:`noise_floor`) reads an altitude
+series: where the descent starts, where it ends on the ground, when it passes a trigger height,
+where its drag area changes, how noisy it is.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
@@ -33,13 +54,28 @@ from numpy.typing import NDArray
 from vectorid.models.base import BASE_CHANNELS, Channel, InitialState, Model, Parameter
 from vectorid.models.integrate import STATUS_REJECTED, allocate_outputs, env_at, rk4_trial
 
-__all__ = ["INCH", "RocketDescent"]
+__all__ = [
+    "DRAG_CONVENTIONS",
+    "INCH",
+    "RateChange",
+    "RocketDescent",
+    "RocketDescentCdS",
+    "Touchdown",
+    "crossing_time",
+    "detect_apogee",
+    "detect_rate_change",
+    "detect_touchdown",
+    "noise_floor",
+]
 
 INCH = 0.0254
 
-# Per-trial constants vector P.
-_MASS, _SD, _SM, _CDD, _CDM, _CDAB = range(6)
-_NP = 6
+#: What a main parachute's drag area means (see the module docstring).
+DRAG_CONVENTIONS = ("adds", "replaces")
+
+# Per-trial constants vector P (_REPL: 1 when the main replaces the drogue, 0 when it adds).
+_MASS, _SD, _SM, _CDD, _CDM, _CDAB, _REPL = range(7)
+_NP = 7
 _NS = 6
 
 
@@ -55,7 +91,7 @@ def _rhs(t, x, P, u, atm, gust, dx):  # pragma: no cover - compiled
         f = 0.0
     elif f > 1.0:
         f = 1.0
-    cda = P[_CDD] * P[_SD] + f * P[_CDM] * P[_SM] + P[_CDAB]
+    cda = (1.0 - P[_REPL] * f) * P[_CDD] * P[_SD] + f * P[_CDM] * P[_SM] + P[_CDAB]
     k = 0.5 * rho * va * cda / P[_MASS]
     dx[0] = x[3]
     dx[1] = x[4]
@@ -79,7 +115,7 @@ def _observe(t, x, P, u, atm, gust, y):  # pragma: no cover - compiled
     y[13] = 0.0
     y[14] = 0.0
     f = min(max(u[0], 0.0), 1.0)
-    y[15] = P[_CDD] * P[_SD] + f * P[_CDM] * P[_SM] + P[_CDAB]
+    y[15] = (1.0 - P[_REPL] * f) * P[_CDD] * P[_SD] + f * P[_CDM] * P[_SM] + P[_CDAB]
 
 
 @njit(parallel=True, cache=True)
@@ -107,6 +143,11 @@ def _kernel(
         )
 
 
+def _check_positive(name: str, v: float) -> None:
+    if not (np.isfinite(v) and v > 0):
+        raise ValueError(f"{name} must be a finite number > 0, got {v!r}")
+
+
 class RocketDescent(Model):
     """Point mass under a drogue and a main round parachute (see the module docstring).
 
@@ -119,6 +160,9 @@ class RocketDescent(Model):
         Nominal canopy diameters, m (default 24 in and 72 in).
     body_drag_area : float
         Fixed drag area of the body C_D S, m² (default 0: lumped into the drogue).
+    drag_convention : {"adds", "replaces"}
+        Whether the main's drag adds to the drogue's (default: the drogue stays attached) or
+        replaces it once the main is out (RocketPy's convention); see the module docstring.
 
     Notes
     -----
@@ -143,23 +187,34 @@ class RocketDescent(Model):
         drogue_diameter: float = 24 * INCH,
         main_diameter: float = 72 * INCH,
         body_drag_area: float = 0.0,
+        drag_convention: str = "adds",
     ) -> None:
         for name, v in (
             ("mass", mass),
             ("drogue_diameter", drogue_diameter),
             ("main_diameter", main_diameter),
         ):
-            if not (np.isfinite(v) and v > 0):
-                raise ValueError(f"{name} must be a finite number > 0, got {v!r}")
-        if not (np.isfinite(body_drag_area) and body_drag_area >= 0):
-            raise ValueError(f"body_drag_area must be >= 0 m², got {body_drag_area!r}")
-        self.mass = float(mass)
+            _check_positive(name, v)
+        self._set_common(mass, body_drag_area, drag_convention)
         self.drogue_area = float(np.pi * drogue_diameter**2 / 4)
         self.main_area = float(np.pi * main_diameter**2 / 4)
+
+    def _set_common(self, mass: float, body_drag_area: float, drag_convention: str) -> None:
+        _check_positive("mass", mass)
+        if not (np.isfinite(body_drag_area) and body_drag_area >= 0):
+            raise ValueError(f"body_drag_area must be >= 0 m², got {body_drag_area!r}")
+        if drag_convention not in DRAG_CONVENTIONS:
+            raise ValueError(
+                f"drag_convention must be 'adds' (the main's drag adds to the drogue's) or "
+                f"'replaces' (the main's drag area is the whole drag area under it), got "
+                f"{drag_convention!r}"
+            )
+        self.mass = float(mass)
         self.body_drag_area = float(body_drag_area)
+        self.drag_convention = drag_convention
 
     def constants(self, X: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Per-trial constants (n, 6): mass, areas, coefficients, body drag area."""
+        """Per-trial constants (n, 7): mass, areas, coefficients, body drag area, convention."""
         X = np.atleast_2d(np.asarray(X, dtype=float))
         P = np.empty((X.shape[0], _NP))
         P[:, _MASS] = self.mass
@@ -168,12 +223,22 @@ class RocketDescent(Model):
         P[:, _CDD] = X[:, 0]
         P[:, _CDM] = X[:, 1]
         P[:, _CDAB] = self.body_drag_area
+        P[:, _REPL] = 1.0 if self.drag_convention == "replaces" else 0.0
         return P
+
+    def drag_area(self, X, main: float = 0.0) -> NDArray[np.float64]:
+        """Total drag area C_D S (m²) per trial with the main in state ``main`` (0 to 1)."""
+        P = self.constants(X)
+        f = min(max(float(main), 0.0), 1.0)
+        return (
+            (1.0 - P[:, _REPL] * f) * P[:, _CDD] * P[:, _SD]
+            + f * P[:, _CDM] * P[:, _SM]
+            + P[:, _CDAB]
+        )
 
     def steady_descent_rate(self, X, rho: float, g: float = 9.80665, main: float = 0.0):
         """Steady descent rate sqrt(2 m g / (ρ S_e)), m/s, per trial (S_e: total drag area)."""
-        P = self.constants(X)
-        cda = P[:, _CDD] * P[:, _SD] + main * P[:, _CDM] * P[:, _SM] + P[:, _CDAB]
+        cda = self.drag_area(X, main)
         with np.errstate(divide="ignore", invalid="ignore"):
             return np.sqrt(2 * self.mass * g / (rho * cda))
 
@@ -222,3 +287,401 @@ class RocketDescent(Model):
             t_fail,
         )
         return y
+
+
+class RocketDescentCdS(RocketDescent):
+    """:class:`RocketDescent` with the drag areas themselves as parameters (m²).
+
+    Parameters
+    ----------
+    mass : float
+        Descending mass, kg (default 16.881 kg, the Prometheus rocket as in
+        :class:`RocketDescent`; state the rocket's own: the steady descent rate scales with
+        sqrt(m)).
+    body_drag_area : float
+        Fixed drag area of the body C_D S, m² (default 0).
+    drag_convention : {"adds", "replaces"}
+        What the main's drag area means (see the module docstring); default ``"adds"``.
+
+    Notes
+    -----
+    Parameters: ``cds_drogue`` and ``cds_main``, m². With a canopy of nominal diameter D its
+    drag coefficient is C_D = C_D S / (π D² / 4).
+    """
+
+    name = "rocket-descent-cds"
+    parameters = (
+        Parameter("cds_drogue", 0.5, 0.01, 5.0, "m²", "drogue drag area C_D,d S_d"),
+        Parameter(
+            "cds_main", 5.0, 0.1, 50.0, "m²", "main drag area C_D,m S_m (see drag_convention)"
+        ),
+    )
+
+    def __init__(
+        self,
+        *,
+        mass: float = 13.9 + 2.981,
+        body_drag_area: float = 0.0,
+        drag_convention: str = "adds",
+    ) -> None:
+        self._set_common(mass, body_drag_area, drag_convention)
+        self.drogue_area = 1.0
+        self.main_area = 1.0
+
+
+# -- the data side: apogee, touchdown, trigger heights, noise -------------------------------------
+
+
+def _series(t, h, what: str = "altitude") -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    t = np.asarray(t, dtype=float).ravel()
+    h = np.asarray(h, dtype=float).ravel()
+    if t.shape != h.shape:
+        raise ValueError(f"{what}: t and h differ in length ({t.size} and {h.size})")
+    if t.size < 5:
+        raise ValueError(f"{what}: needs at least 5 samples, got {t.size}")
+    if not (np.all(np.isfinite(t)) and np.all(np.isfinite(h))):
+        raise ValueError(f"{what}: t and h must be finite (drop missing samples first)")
+    if np.any(np.diff(t) <= 0):
+        raise ValueError(f"{what}: t must be strictly increasing")
+    return t, h
+
+
+def _uniform(t, h, dt_max: float = 1.0):
+    """The series on a uniform grid at its median sample interval (clipped to [0.01, dt_max] s)."""
+    dt = float(np.clip(np.median(np.diff(t)), 0.01, dt_max))
+    n = int(np.floor((t[-1] - t[0]) / dt + 1e-9)) + 1
+    g = t[0] + dt * np.arange(n)
+    return g, np.interp(g, t, h), dt
+
+
+def _running_median(x: NDArray, n: int) -> NDArray:
+    from scipy.ndimage import median_filter
+
+    n = max(1, int(n)) | 1
+    return median_filter(x, size=n, mode="nearest") if n > 1 else x.copy()
+
+
+def _rate(s: NDArray, dt: float, half: int) -> NDArray:
+    """Rate of change (per s) of ``s`` by differences over ±``half`` samples (one-sided at the
+    ends)."""
+    n = s.size
+    idx = np.arange(n)
+    lo = np.clip(idx - half, 0, n - 1)
+    hi = np.clip(idx + half, 0, n - 1)
+    span = (hi - lo) * dt
+    return np.where(span > 0, (s[hi] - s[lo]) / np.where(span > 0, span, 1.0), 0.0)
+
+
+def detect_apogee(t, h, *, smooth: float = 1.0) -> tuple[float, float]:
+    """Apogee of an altitude series: the maximum of its running median.
+
+    Parameters
+    ----------
+    t, h : array_like
+        Times (s, strictly increasing) and altitudes (m).
+    smooth : float
+        Width of the running median, s (ejection spikes shorter than half of it are ignored).
+
+    Returns
+    -------
+    time, altitude : float
+        s and m.
+    """
+    t, h = _series(t, h)
+    g, hg, dt = _uniform(t, h)
+    s = _running_median(hg, round(smooth / dt))
+    i = int(np.argmax(s))
+    # a running median flattens the top of the curve: the vertex of a parabola through it
+    near = np.abs(g - g[i]) <= smooth
+    if near.sum() >= 5:
+        c = np.polyfit(g[near] - g[i], s[near], 2)
+        if c[0] < 0:
+            tv = -c[1] / (2 * c[0])
+            if abs(tv) <= smooth:
+                return float(g[i] + tv), float(s[i])
+    return float(g[i]), float(s[i])
+
+
+def crossing_time(t, h, level: float, *, after: float | None = None, smooth: float = 1.0):
+    """First time after ``after`` (default: the apogee) at which the altitude, smoothed by a
+    running median of ``smooth`` s, comes down through ``level`` (m). None if it never does.
+    """
+    t, h = _series(t, h)
+    if after is None:
+        after = detect_apogee(t, h, smooth=smooth)[0]
+    g, hg, dt = _uniform(t, h)
+    s = _running_median(hg, round(smooth / dt))
+    sel = np.flatnonzero(g >= after)
+    if sel.size < 2:
+        return None
+    below = np.flatnonzero(s[sel] <= level)
+    if below.size == 0:
+        return None
+    k = int(sel[below[0]])
+    if k == sel[0]:
+        return float(g[k])
+    h0, h1 = s[k - 1], s[k]
+    frac = 0.0 if h0 == h1 else (h0 - level) / (h0 - h1)
+    return float(g[k - 1] + frac * dt)
+
+
+def noise_floor(t, h, grid, *, span: float = 5.0) -> tuple[float, float]:
+    """What the altitude criteria of a descent come to when the model is perfect and only the
+    measurement noise is left.
+
+    The "perfect model" is the data's own local quadratic trend (Savitzky-Golay over ``span``
+    s): what varies faster than that is noise. Both the data and the trend are sampled on the
+    comparison ``grid`` (as the criteria sample the data), and the vertical speeds are
+    ``numpy.gradient`` over it (as the criterion ``vz_abs`` takes them).
+
+    Parameters
+    ----------
+    t, h : array_like
+        Times (s) and altitudes (m) covering the grid.
+    grid : array_like
+        Uniform comparison grid, s.
+    span : float
+        s.
+
+    Returns
+    -------
+    alt_rms, vz_mean_abs : float
+        RMS of the altitude residual (m) and mean absolute vertical-speed residual (m/s): the
+        noise floors of ``alt_sq`` (as an RMS) and of ``vz_abs`` (as a mean). A logger's own
+        filter makes its noise slower than the raw sensor's; what is slower than ``span`` is
+        not counted here (it is model discrepancy to the identification).
+    """
+    from scipy.signal import savgol_filter
+
+    t, h = _series(t, h)
+    grid = np.asarray(grid, dtype=float)
+    if grid.size < 3:
+        raise ValueError("noise_floor: the grid needs at least 3 points")
+    g, hg, dt = _uniform(t, h)
+    n = max(5, round(span / dt) | 1)
+    if n > g.size:
+        n = g.size if g.size % 2 else g.size - 1
+    if n < 5:
+        raise ValueError(f"noise_floor: needs at least 5 samples, got {g.size}")
+    trend = savgol_filter(hg, n, 2, mode="interp")
+    meas = np.interp(grid, t, h)
+    smooth = np.interp(grid, g, trend)
+    step = float(grid[1] - grid[0])
+    e_h = meas - smooth
+    e_v = np.gradient(meas, step) - np.gradient(smooth, step)
+    return float(np.sqrt(np.mean(e_h**2))), float(np.mean(np.abs(e_v)))
+
+
+@dataclass(frozen=True)
+class Touchdown:
+    """Where a descent ends on the ground, read from the altitude alone.
+
+    Attributes
+    ----------
+    time : float
+        Touchdown, s: where the descent line meets the ground level (a continuous two-segment
+        fit, descending then level, around the settling).
+    ground : float
+        Altitude the data read on the ground, m.
+    rate : float
+        Descent rate just before touchdown, m/s (the fit's slope).
+    settled : float
+        Time from which the vertical speed stays settled to the end of the data, s.
+    after : float
+        Seconds of data after touchdown.
+    """
+
+    time: float
+    ground: float
+    rate: float
+    settled: float
+    after: float
+
+
+def detect_touchdown(
+    t,
+    h,
+    *,
+    after: float | None = None,
+    smooth: float = 1.0,
+    settle_speed: float = 1.0,
+    settle_fraction: float = 0.25,
+    hold: float = 1.0,
+    fit_span: float = 8.0,
+) -> Touchdown | None:
+    """Touchdown of a descent from its altitude series: where altitude and vertical speed
+    settle, not where a logger's state machine says "landed" (often many seconds later).
+
+    The altitude is put on a uniform grid and smoothed by a running median of ``smooth`` s;
+    its vertical speed is the difference over ±``smooth`` s. The descent has *settled* at the
+    first time after ``after`` from which the speed stays below
+    ``max(settle_speed, settle_fraction × descent rate)`` to the end of the data (the descent
+    rate is the median over the 5 s before), with at least ``hold`` s of data left and a
+    descent rate above twice ``settle_speed`` before it. A continuous two-segment line
+    (descending, then level) fitted to the raw samples from ``fit_span`` s before to 3 s
+    after that time places the touchdown where the two meet.
+
+    Parameters
+    ----------
+    t, h : array_like
+        Times (s, strictly increasing) and altitudes (m) of the whole log or its descent.
+    after : float, optional
+        Search from this time, s (default: the apogee).
+    smooth, settle_speed, settle_fraction, hold, fit_span : float
+        As above (s, m/s, -, s, s).
+
+    Returns
+    -------
+    Touchdown or None
+        None when the data end before the descent settles (a log that stops in the air, or
+        one that stops less than about ``smooth + hold`` s after touchdown).
+    """
+    t, h = _series(t, h)
+    if after is None:
+        after = detect_apogee(t, h, smooth=smooth)[0]
+    g, hg, dt = _uniform(t, h)
+    s = _running_median(hg, round(smooth / dt))
+    v = _rate(s, dt, max(1, round(smooth / dt)))
+    start = int(np.searchsorted(g, after))
+    if g.size - start < 3:
+        return None
+    speed = np.abs(v)
+    # largest speed from each sample to the end of the data
+    tail_max = np.maximum.accumulate(speed[::-1])[::-1]
+    w = max(1, round(5.0 / dt))
+    gap = max(1, round(smooth / dt))
+    found = None
+    for i in range(start + gap, g.size):
+        if g[-1] - g[i] < hold:
+            break
+        before = -v[max(start, i - gap - w) : i - gap]
+        if before.size == 0:
+            continue
+        rate = float(np.median(before))
+        if rate < 2 * settle_speed:
+            continue
+        if tail_max[i] < max(settle_speed, settle_fraction * rate):
+            found = i
+            break
+    if found is None:
+        return None
+    t_set = float(g[found])
+    sel = (t >= t_set - fit_span) & (t <= min(t_set + 3.0, t[-1]))
+    ts, hs = t[sel], h[sel]
+    if ts.size < 5:
+        return None
+    # continuous hinge h = g0 + r * min(t - tau, 0): linear in (g0, r) for each tau
+    cand = ts[(ts > ts[0] + 0.5) & (ts <= t_set)]
+    if cand.size == 0:
+        return None
+    best = (np.inf, float(t_set), 0.0, 0.0)
+    for tau in cand:
+        A = np.stack([np.ones_like(ts), np.minimum(ts - tau, 0.0)], axis=1)
+        coef, *_ = np.linalg.lstsq(A, hs, rcond=None)
+        sse = float(np.sum((A @ coef - hs) ** 2))
+        if sse < best[0]:
+            best = (sse, float(tau), float(coef[0]), float(coef[1]))
+    _, tau, ground, slope = best
+    return Touchdown(time=tau, ground=ground, rate=slope, settled=t_set, after=float(t[-1] - tau))
+
+
+@dataclass(frozen=True)
+class RateChange:
+    """A change of drag area during a descent (a canopy opening, or losing one), read from the
+    altitude alone.
+
+    Attributes
+    ----------
+    time : float
+        Where the descent rate, scaled to one density, steps from one level to the other, s.
+    altitude : float
+        Altitude of the data there, m.
+    rate_before, rate_after : float
+        Steady descent rates (m/s, positive down) before and after, both scaled to the density
+        at ``altitude``.
+    """
+
+    time: float
+    altitude: float
+    rate_before: float
+    rate_after: float
+
+    @property
+    def drag_area_ratio(self) -> float:
+        """Drag area after the change over the drag area before, (v_before / v_after)² (the
+        steady descent rate at one density scales with 1/sqrt(C_D S))."""
+        return (self.rate_before / self.rate_after) ** 2
+
+
+def detect_rate_change(
+    t,
+    h,
+    t0: float,
+    t1: float,
+    *,
+    origin_altitude: float = 0.0,
+    margin: float = 2.0,
+    min_ratio: float = 1.2,
+) -> RateChange | None:
+    """The largest change of drag area between ``t0`` and ``t1`` (s).
+
+    The altitude is smoothed (running median of 1 s on a grid of at least 0.1 s), its descent
+    rate v (differences over ±1 s) is scaled to sea-level density, v sqrt(ρ(h) / ρ(0)) in ISA
+    air (constant for a constant drag area), and split into two constant levels where that
+    fits best (least squares; the split at least ``margin`` s from the ends).
+
+    Parameters
+    ----------
+    t, h : array_like
+        Times (s) and altitudes (m above ``origin_altitude``).
+    t0, t1 : float
+        Span searched, s.
+    origin_altitude : float
+        Altitude of the data's zero above mean sea level, m (for the density).
+    margin : float
+        s.
+    min_ratio : float
+        Smallest drag-area ratio (larger over smaller) reported as a change.
+
+    Returns
+    -------
+    RateChange or None
+        None when the drag areas of the two levels differ by less than ``min_ratio``, or the
+        span is too short.
+    """
+    from vectorid.models.atmosphere import ISA
+
+    t, h = _series(t, h)
+    sel = (t >= t0) & (t <= t1)
+    if sel.sum() < 10 or t1 - t0 < 3 * margin:
+        return None
+    g, hg, dt = _uniform(t[sel], h[sel], dt_max=1.0)
+    if dt < 0.1:
+        g2 = np.arange(g[0], g[-1], 0.1)
+        hg, g, dt = np.interp(g2, g, hg), g2, 0.1
+    s = _running_median(hg, round(1.0 / dt))
+    v = -_rate(s, dt, max(1, round(1.0 / dt)))
+    isa = ISA()
+    rho = isa.density(origin_altitude + s)
+    rho0 = float(isa.density(0.0))
+    veq = v * np.sqrt(rho / rho0)
+    n = veq.size
+    m = max(2, round(margin / dt))
+    if n < 2 * m + 2:
+        return None
+    c1 = np.cumsum(veq)
+    c2 = np.cumsum(veq**2)
+    k = np.arange(m, n - m)  # split before index k
+    n1, n2 = k.astype(float), (n - k).astype(float)
+    s1, s2 = c1[k - 1], c1[-1] - c1[k - 1]
+    q1, q2 = c2[k - 1], c2[-1] - c2[k - 1]
+    sse = (q1 - s1**2 / n1) + (q2 - s2**2 / n2)
+    j = int(np.argmin(sse))
+    kb = int(k[j])
+    a, b = s1[j] / n1[j], s2[j] / n2[j]
+    if min(a, b) <= 0 or max(a, b) ** 2 < min_ratio * min(a, b) ** 2:
+        return None
+    scale = float(np.sqrt(rho0 / rho[kb]))
+    return RateChange(
+        time=float(g[kb]), altitude=float(s[kb]), rate_before=a * scale, rate_after=b * scale
+    )

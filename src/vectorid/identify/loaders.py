@@ -95,6 +95,8 @@ _TOP_KEYS = {
     "duplicates",
     "check_units",
     "channels",
+    "first_line",
+    "last_line",
     *STANDARD_CHANNELS,
 }
 
@@ -108,6 +110,9 @@ def _fix(msg: str) -> FlightDataError:
 
 class _Table:
     """Columns of a file by name, with row labels for error messages."""
+
+    #: File line number of each row (CSV only; ``first_line`` / ``last_line`` cut on it).
+    lines: NDArray[Any] | None = None
 
     def __init__(
         self,
@@ -226,7 +231,44 @@ def _read_csv(path: Path, delimiter: str | None = None, comment: str | None = No
     def get(i: int) -> NDArray[Any]:
         return arr[:, i]
 
-    return _Table(source, names, get, len(rows), lambda i: f"line {linenos[i]}")
+    table = _Table(source, names, get, len(rows), lambda i: f"line {linenos[i]}")
+    table.lines = np.asarray(linenos)  # file line number of each row (first_line/last_line)
+    return table
+
+
+def _cut_lines(table: _Table, mapping: Mapping[str, Any]) -> _Table:
+    """The rows of a CSV table between ``first_line`` and ``last_line`` (file line numbers,
+    inclusive): a log whose file holds more than the flight (a repeated pre-launch buffer,
+    corrupt last rows) is read from the lines that hold it."""
+    first, last = mapping.get("first_line"), mapping.get("last_line")
+    if first is None and last is None:
+        return table
+    bounds = []
+    for key, v in (("first_line", first), ("last_line", last)):
+        if v is not None and (isinstance(v, bool) or not isinstance(v, int) or v < 1):
+            raise FlightDataError(
+                f"mapping[{key!r}] must be a line number of the file (an integer >= 1), got {v!r}"
+            )
+        bounds.append(v)
+    lines = table.lines
+    if lines is None:
+        raise FlightDataError("first_line / last_line apply to CSV files only")
+    lo = 1 if bounds[0] is None else bounds[0]
+    hi = int(lines[-1]) if bounds[1] is None else bounds[1]
+    keep = np.flatnonzero((lines >= lo) & (lines <= hi))
+    if keep.size == 0:
+        raise FlightDataError(
+            f"{table.source}: no data rows between line {lo} and line {hi} (data rows are on "
+            f"lines {int(lines[0])} to {int(lines[-1])}); fix first_line / last_line"
+        )
+    base = table
+
+    def get(i: int) -> NDArray[Any]:
+        return base._get(i)[keep]
+
+    out = _Table(base.source, base.names, get, keep.size, lambda i: base.row_label(keep[i]))
+    out.lines = lines[keep]
+    return out
 
 
 def _read_parquet(path: Path) -> _Table:
@@ -757,20 +799,23 @@ def _order_rows(table: _Table, t: Array, used: list[str], policy: str) -> NDArra
     return np.flatnonzero(keep)
 
 
-def _events(
-    table: _Table, mapping: Mapping[str, Any], t: Array, rows: NDArray[np.int64]
-) -> dict[str, float]:
+def _events(table: _Table, mapping: Mapping[str, Any], t_all: Array) -> dict[str, float]:
+    """Events of ``event_column`` (each new value at the time of its first row) and ``events``.
+
+    ``t_all`` is the time of every row of the file, before duplicate rows are dropped: a row
+    dropped as a repeated timestamp can still carry a change of the event column, and its time
+    is the time of the row it repeats.
+    """
     events: dict[str, float] = {}
     col = mapping.get("event_column")
     if col is not None:
         names_map = {str(k): str(v) for k, v in (mapping.get("event_names") or {}).items()}
         vals = table.strings(str(col), "event_column")
         prev = None
-        for r in rows:
-            v = vals[r]
+        for r, v in enumerate(vals):
             if v != prev and v != "":
                 label = names_map.get(v, v)
-                events.setdefault(label, float(t[r]))
+                events.setdefault(label, float(t_all[r]))
             prev = v
     given = mapping.get("events") or {}
     if not isinstance(given, Mapping):
@@ -852,7 +897,7 @@ def _build(table: _Table, mapping: Mapping[str, Any], name: str | None) -> Fligh
             )
         a = channels["altitude"]
         channels["altitude"] = Channel(a.name, a.t, a.values - origin[2], a.components, a.unit)
-    events = _events(table, mapping, t, rows)
+    events = _events(table, mapping, t_all)
     lo = min(float(c.t[0]) for c in channels.values())
     hi = max(float(c.t[-1]) for c in channels.values())
     for k, v in events.items():
@@ -902,7 +947,7 @@ def load_csv(path: str | os.PathLike[str], mapping: Mapping[str, Any]) -> Flight
     """
     p = Path(path)
     table = _read_csv(p, mapping.get("delimiter"), mapping.get("comment"))
-    return _build(table, mapping, p.stem)
+    return _build(_cut_lines(table, mapping), mapping, p.stem)
 
 
 def load_parquet(path: str | os.PathLike[str], mapping: Mapping[str, Any]) -> FlightData:
@@ -912,7 +957,7 @@ def load_parquet(path: str | os.PathLike[str], mapping: Mapping[str, Any]) -> Fl
     timestamp-typed time column is converted to seconds from its first row.
     """
     p = Path(path)
-    return _build(_read_parquet(p), mapping, p.stem)
+    return _build(_cut_lines(_read_parquet(p), mapping), mapping, p.stem)
 
 
 _TELEMEGA_STATES = ("boost", "fast", "coast", "drogue", "main", "landed")

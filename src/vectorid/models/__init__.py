@@ -51,6 +51,7 @@ _REGISTRY: dict[str, str] = {
     "parafoil8dof": "vectorid.models.parafoil8dof:Parafoil8DoF",
     "parafoil6dof": "vectorid.models.parafoil6dof:Parafoil6DoF",
     "rocket-descent": "vectorid.identify.descent:RocketDescent",
+    "rocket-descent-cds": "vectorid.identify.descent:RocketDescentCdS",
 }
 
 

@@ -1,0 +1,271 @@
+"""The ``vectorid descent`` verb (loaded by :mod:`vectorid.cli`)::
+
+    vectorid descent LOG --mass KG [--columns time=COL,altitude=COL[,event=COL]]
+                     [--time-unit s|ms] [--altitude-unit m|ft] [--altitude-reference pad|msl]
+                     [--pad-altitude M] [--first-line N] [--last-line N] [--max-gap S]
+                     [--drogue-cds M2 | --drogue-diameter LEN [--drogue-cd CD] | --drogue]
+                     [--main-cds M2 | --main-diameter LEN [--main-cd CD] | --main]
+                     [--convention adds|replaces] [--main-at EVENT|TIME|HEIGHT|detect]
+                     [--main-lag S] [--start TIME|EVENT] [--end S]
+                     [--drogue-window START END] [--main-window START END]
+                     [--drogue-settle S] [--main-settle S] [--allowance M]
+                     [--allowance-fraction F] [--vz-allowance M/S] [--vz-allowance-fraction F]
+                     [--trials N] [--seed N] [--out DIR] [--json]
+
+Identifies the drag area C_D S of each parachute of a rocket's recovery descent from an
+altimeter log (and C_D where a canopy's diameter is given), phase by phase, with a verdict per
+phase; see :mod:`vectorid.identify.descent_study`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from typing import Any
+
+from .cli import positive_int
+
+__all__ = ["COMMANDS", "add_parsers"]
+
+
+def _number(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not math.isfinite(v):
+        raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
+    return v
+
+
+def _positive(text: str) -> float:
+    v = _number(text)
+    if v <= 0:
+        raise argparse.ArgumentTypeError(f"expected a number > 0, got {text!r}")
+    return v
+
+
+def _time_or_event(text: str) -> float | str:
+    try:
+        return float(text)
+    except ValueError:
+        return text
+
+
+def add_parsers(sub: Any) -> None:
+    """Add ``descent`` to the ``vectorid`` sub-parsers."""
+    d = sub.add_parser(
+        "descent",
+        help="identify the parachutes' drag areas of a rocket descent from an altimeter log",
+        description="Identify the drag area C_D S (m²) of each parachute of a rocket's recovery "
+        "descent from an altimeter log, phase by phase (drogue, main), with the feasible and "
+        "Pareto ranges and a verdict against the stated values. Touchdown is read from the "
+        "data. Each phase is a study store in --out.",
+    )
+    d.add_argument("log", help="the altimeter log (CSV, Parquet, TeleMega CSV, ULog)")
+    d.add_argument("--format", choices=["csv", "parquet", "telemega", "ulog"])
+    d.add_argument(
+        "--columns",
+        metavar="time=COL,altitude=COL[,event=COL]",
+        help="column names of the time, the altitude and (optional) a flight-state column "
+        "whose changes are events (needed for CSV and Parquet; a TeleMega log is recognised)",
+    )
+    d.add_argument("--time-unit", default="s", help="s (default), ms, us, ns, min, iso")
+    d.add_argument("--altitude-unit", default="m", help="m (default), ft, km")
+    d.add_argument(
+        "--altitude-reference",
+        choices=["pad", "msl"],
+        default="pad",
+        help="the altitude is above the pad (default) or above mean sea level",
+    )
+    d.add_argument(
+        "--pad-altitude",
+        type=_number,
+        metavar="M",
+        help="pad altitude above sea level, m (the air density depends on it; a TeleMega "
+        "log's comes from its pad pressure)",
+    )
+    d.add_argument("--first-line", type=positive_int, help="first line of the file to read")
+    d.add_argument("--last-line", type=positive_int, help="last line of the file to read")
+    d.add_argument("--max-gap", type=_positive, metavar="S", help="longest gap in the altitude, s")
+    d.add_argument("--mass", type=_positive, required=True, help="descending mass, kg")
+    for c in ("drogue", "main"):
+        g = d.add_argument_group(f"{c} parachute")
+        g.add_argument(f"--{c}-cds", type=_positive, metavar="M2", help="stated drag area, m²")
+        g.add_argument(
+            f"--{c}-diameter",
+            metavar="LEN",
+            help="nominal diameter, with a unit: 24in, 0.61m, 2ft (C_D is then reported)",
+        )
+        g.add_argument(f"--{c}-cd", type=_positive, metavar="CD", help="stated C_D on π D²/4")
+        g.add_argument(
+            f"--{c}", action="store_true", help=f"a {c} was flown, its drag area not stated"
+        )
+    d.add_argument(
+        "--convention",
+        choices=["adds", "replaces"],
+        help="with two parachutes (required then): the main's drag adds to the drogue's (the "
+        "drogue stays attached) or replaces it (the stated main C_D S is the whole drag area "
+        "under it, as RocketPy states it)",
+    )
+    d.add_argument(
+        "--main-at",
+        metavar="EVENT|TIME|HEIGHT|detect",
+        help="when the main is triggered: an event of the log (default 'main'), a time in s, "
+        "a height above the pad (870m, 550ft), or 'detect' (the change of descent rate)",
+    )
+    d.add_argument("--main-lag", type=_number, default=0.0, metavar="S", help="trigger to open, s")
+    d.add_argument(
+        "--start",
+        type=_time_or_event,
+        metavar="TIME|EVENT",
+        help="start of the descent (default: the log's drogue event, else the apogee)",
+    )
+    d.add_argument("--end", type=_number, metavar="S", help="ignore the log after this time, s")
+    for c in ("drogue", "main"):
+        d.add_argument(
+            f"--{c}-window",
+            nargs=2,
+            metavar=("START", "END"),
+            help=f"the {c} phase's window: times in s or events (apogee, touchdown, main, "
+            "main_trigger, the log's) with +/- offsets, e.g. 40 touchdown-1",
+        )
+    d.add_argument("--drogue-settle", type=_number, default=5.0, metavar="S")
+    d.add_argument("--main-settle", type=_number, default=6.0, metavar="S")
+    d.add_argument(
+        "--allowance",
+        type=_number,
+        default=3.0,
+        metavar="M",
+        help="model-discrepancy allowance on the altitude, m (default 3)",
+    )
+    d.add_argument(
+        "--allowance-fraction",
+        type=_number,
+        default=0.005,
+        metavar="F",
+        help="plus this fraction of the phase's altitude loss (default 0.005)",
+    )
+    d.add_argument("--vz-allowance", type=_number, default=1.0, metavar="M/S")
+    d.add_argument("--vz-allowance-fraction", type=_number, default=0.1, metavar="F")
+    d.add_argument("--trials", type=positive_int, default=1024, help="trials per phase")
+    d.add_argument("--seed", type=int, default=1)
+    d.add_argument("--out", default="vectorid-descent", help="folder of the phases' stores")
+    d.add_argument("--json", action="store_true")
+
+
+def _canopy(args: argparse.Namespace, c: str):
+    from .identify.descent_study import Canopy, parse_length
+
+    cds = getattr(args, f"{c}_cds")
+    diam = getattr(args, f"{c}_diameter")
+    cd = getattr(args, f"{c}_cd")
+    flown = getattr(args, c)
+    if cds is None and diam is None and cd is None and not flown:
+        return None
+    d = None if diam is None else parse_length(diam, f"--{c}-diameter")
+    if cd is not None and d is None:
+        from .errors import StudyDefinitionError
+
+        raise StudyDefinitionError(
+            f"--{c}-cd", "a drag coefficient needs the canopy's diameter", f"add --{c}-diameter"
+        )
+    return Canopy(cds=cds, diameter=d, cd=cd)
+
+
+def _mapping(args: argparse.Namespace) -> dict[str, Any] | None:
+    from .errors import StudyDefinitionError
+
+    extra = {
+        k: v
+        for k, v in (
+            ("first_line", args.first_line),
+            ("last_line", args.last_line),
+            ("max_gap", args.max_gap),
+        )
+        if v is not None
+    }
+    if args.columns is None:
+        if extra:
+            raise StudyDefinitionError(
+                "--columns",
+                "--first-line, --last-line and --max-gap apply to a CSV read by its columns",
+                "give --columns time=COL,altitude=COL",
+            )
+        return None
+    cols: dict[str, str] = {}
+    for part in args.columns.split(","):
+        key, sep, col = part.partition("=")
+        key = key.strip()
+        if not sep or key not in ("time", "altitude", "event") or not col.strip():
+            raise StudyDefinitionError(
+                "--columns",
+                f"cannot read {part!r}",
+                "write time=COL,altitude=COL (and event=COL for a flight-state column)",
+            )
+        cols[key] = col.strip()
+    for key in ("time", "altitude"):
+        if key not in cols:
+            raise StudyDefinitionError(
+                "--columns", f"no {key} column given", f"add {key}=COLUMN to --columns"
+            )
+    mapping: dict[str, Any] = {
+        "time": cols["time"],
+        "time_unit": args.time_unit,
+        "altitude": {"column": cols["altitude"], "unit": args.altitude_unit},
+        **extra,
+    }
+    if "event" in cols:
+        mapping["event_column"] = cols["event"]
+    return mapping
+
+
+def _cmd_descent(args: argparse.Namespace) -> int:
+    from .cli import _print_json
+    from .errors import StudyDefinitionError, VectoridError
+    from .identify.descent_study import DescentPlan, identify_descent
+
+    windows = {}
+    for c in ("drogue", "main"):
+        w = getattr(args, f"{c}_window")
+        if w is not None:
+            windows[c] = [_time_or_event(x) for x in w]
+    plan = DescentPlan(
+        file=args.log,
+        mass=args.mass,
+        drogue=_canopy(args, "drogue"),
+        main=_canopy(args, "main"),
+        convention=args.convention,
+        format=args.format,
+        mapping=_mapping(args),
+        pad_altitude=args.pad_altitude,
+        altitude_reference=args.altitude_reference,
+        main_at=None if args.main_at is None else _time_or_event(args.main_at),
+        main_lag=args.main_lag,
+        start=args.start,
+        end=args.end,
+        windows=windows,
+        drogue_settle=args.drogue_settle,
+        main_settle=args.main_settle,
+        allowance=args.allowance,
+        allowance_fraction=args.allowance_fraction,
+        vz_allowance=args.vz_allowance,
+        vz_allowance_fraction=args.vz_allowance_fraction,
+        trials=args.trials,
+        seed=args.seed,
+    )
+    try:
+        result = identify_descent(plan, args.out)
+    except VectoridError:
+        raise
+    except ValueError as exc:  # a log too short or too odd for the detectors
+        raise StudyDefinitionError("log", str(exc), "check the log and the columns") from None
+    if args.json:
+        _print_json(result.to_dict())
+    else:
+        sys.stdout.write(result.format_text() + "\n")
+    return 0
+
+
+COMMANDS = {"descent": _cmd_descent}
