@@ -41,6 +41,7 @@ _DROP_KEYS = {
     "inputs": "constant or event-step model inputs",
     "origin_altitude": "altitude of the NED origin, m",
     "interpolation": "control interpolation: previous | linear",
+    "noise": "this drop's measurement noise (overrides [identification] noise key by key)",
 }
 _OFFSET = re.compile(r"^\s*(.+?)\s*([+-])\s*(\d+(?:\.\d*)?|\.\d+)\s*$")
 
@@ -142,6 +143,8 @@ class Drop:
     origin_altitude: float
     grid: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
     span: tuple[float, float] | None = None
+    #: s of data fitted (least-squares lines) for the initial state at a window start
+    init_span: float = 1.0
     starter: Callable[[float, float], tuple[InitialState, ControlSchedule | None]] | None = field(
         default=None, repr=False
     )
@@ -340,6 +343,7 @@ def build_drop(
         grid,
         span=(t0 + ext_lo, t1 + ext_hi),
         starter=starter,
+        init_span=init_span,
     )
 
 

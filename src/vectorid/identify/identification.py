@@ -177,6 +177,13 @@ _TABLE_KEYS = {
     "seed": "seed of the wind realisations",
     "init_span": "seconds of data fitted for the initial state",
     "window_step": "rounding step of window_start offsets, s (default output_dt)",
+    "noise": "measurement noise per channel, or \"estimate\" (vectorid.identify.noise)",
+    "limits": "\"noise\": every criterion without a number gets its noise floor",
+    "noise_quantile": "per-criterion quantile of the noise floor (default: joint coverage)",
+    "noise_coverage": "joint coverage of the noise floors (default 0.95)",
+    "noise_draws": "Monte Carlo draws of the noise floor (default 2000)",
+    "noise_seed": "seed of the noise-floor draws (default 0)",
+    "discrepancy": "model-discrepancy allowance: noise keys or criterion names",
 }
 _CRIT_KEYS = {"use", "drops", "operator"}
 _DROPOUT_KEYS = {"channel", "components", "band", "drops"}
@@ -667,6 +674,7 @@ class Identification:
         variables may move each drop's window, so that enough data is kept around it.
         """
         _check_keys("(table)", table, _TABLE_KEYS)
+        _check_noise(table, criteria)
         base = Path(base_dir) if base_dir is not None else Path.cwd()
         model_name = table.get("model", default_model)
         if not isinstance(model_name, str):
@@ -820,6 +828,24 @@ class Identification:
             base_dir=spec.base_dir,
             default_model=model,
             window_bounds=bounds,
+        )
+
+
+def _check_noise(table: Mapping[str, Any], criteria: Sequence[str]) -> None:
+    """Validate the noise statements early (their use is in :mod:`vectorid.identify.noise`)."""
+    from vectorid.identify import noise
+
+    if table.get("noise") is not None:
+        noise.parse_noise(table["noise"], "noise")
+    for i, d in enumerate(table.get("drops") or ()):
+        if isinstance(d, Mapping) and d.get("noise") is not None:
+            noise.parse_noise(d["noise"], f"drops[{i}].noise")
+    noise.parse_discrepancy(table.get("discrepancy"), criteria)
+    if table.get("limits") not in (None, "noise"):
+        raise _err(
+            "limits",
+            f'expected "noise", got {table["limits"]!r}',
+            'write limits = "noise", or give each [[criteria]] its own limit',
         )
 
 
