@@ -62,7 +62,7 @@ def test_demo_end_to_end_reduced(tmp_path, capsys):
             assert "feasible [" in ln or "box [" in ln, ln
     # step 1's x6 (drag) is the identifiable one: identified, and its final box holds the
     # generator's truth or the demo says why not (which limit the truth itself exceeds)
-    block = text.split("x6 = C_D base value")[1].split("x8 = ")[0]
+    block = text.split("x6 = C_D base value (eq. 11) [dimensionless]")[1].split("x8 = ")[0]
     verdict = block.split()[0]
     assert verdict == "identified", block
     assert "holds it" in block or "why: the truth itself is outside D" in block, block

@@ -169,7 +169,8 @@ def identifiability(
         Variable name -> the range it was first given (e.g. step 1's box for a variable whose
         box step 2 inherited narrowed): widths and edges are judged against it, and where D
         reaches an edge of the narrower study box, "earlier step's box" is among the
-        constraints that cut the range.
+        constraints that cut the range. Default: the study's ``[x-identifiability]
+        reference`` table (the two-step writes it into step 2's study).
 
     Returns
     -------
@@ -178,6 +179,9 @@ def identifiability(
     """
     meanings = dict(meanings or {})
     hints = dict(hints or {})
+    if reference is None:  # a study that inherited narrowed boxes says where they came from
+        ref = a.spec.extra.get("x-identifiability", {})
+        reference = ref.get("reference") if isinstance(ref, Mapping) else None
     space = a.spec.space
     X = a.trials.X
     bounds = a.active_bounds()

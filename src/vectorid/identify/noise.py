@@ -1089,8 +1089,9 @@ def noise_limits(
         criteria=targets,
     )
     out = floor.limits(targets, quantile=q, coverage=float(cov))
-    noise_text = "; ".join(f"{k}: {v}" for k, v in floor.noise.items())
-    return {n: (v, f"{note} (noise {noise_text})") for n, (v, note) in out.items()}
+    # The stated noise is in the study file; an estimated one is only here, so say it.
+    est = "; ".join(f"{k}: {v}" for k, v in floor.noise.items() if v.startswith("estimated"))
+    return {n: (v, f"{note} ({est})" if est else note) for n, (v, note) in out.items()}
 
 
 def _reference(spec, ident, params) -> dict[str, float]:

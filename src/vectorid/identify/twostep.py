@@ -404,7 +404,17 @@ def step2_spec(step2: StudySpec, step1: StepResult, control: StepResult | None =
             new_vars.append(Continuous(v.name, b.low, b.high, nominal, v.unit))
         else:
             new_vars.append(v)
-    return replace(step2, space=Space(new_vars))
+    # the boxes the inherited variables were first given, for the verdicts (kept in the store)
+    ref = {
+        v.name: [float(v.low), float(v.high)]
+        for v in step1.spec.space
+        if v.name in boxes and hasattr(v, "low")
+    }
+    if control is not None:
+        ref.update({v.name: [float(v.low), float(v.high)] for v in control.spec.space})
+    extra = dict(step2.extra)
+    extra["x-identifiability"] = {"reference": ref}
+    return replace(step2, space=Space(new_vars), extra=extra)
 
 
 def run_two_step(
@@ -513,7 +523,6 @@ def run_two_step(
         progress=progress,
         name="step 2 (controlled drop)",
         hints=hints,
-        reference={v.name: (float(v.low), float(v.high)) for v in step1.space if hasattr(v, "low")},
     )
     return TwoStepResult(r1, r2, s2, notes, rc)
 
