@@ -27,7 +27,9 @@ is north-east-down relative to the landing-zone origin at 1200 m above mean sea 
 Files written (small CSVs, one per sensor and drop, plus the wind files and the truth):
 ``<drop>_gps.csv``, ``<drop>_imu.csv``, ``<drop>_controls.csv`` (controlled drop only),
 ``<drop>_wind.csv`` and ``truth.json`` (the event time ``canopy_deployed_s`` is there; the
-demo's study files put it in the GPS mapping's ``events``).
+demo's study files put it in the GPS mapping's ``events``; ``sensor_noise`` states the noise
+added here as an ``[identification] noise`` table, which the demo's criteria constraints are
+computed from).
 """
 
 from __future__ import annotations
@@ -50,6 +52,30 @@ T_CANOPY = 3.0  # s, canopy fully deployed
 INERTIA_FACTOR = 1.25  # truth inertia / model inertia
 COMMAND_DELAY = 0.6  # s, actuator transport delay of the truth
 W20 = 6.0  # m/s, turbulence intensity reference
+GPS_POSITION_SIGMA = (1.5, 1.5, 2.5)  # m, Gauss-Markov position error (north, east, down)
+GPS_POSITION_TAU = 20.0  # s, its correlation time
+GPS_POSITION_WHITE = 0.2  # m, white position noise on top
+GPS_VELOCITY_SIGMA = 0.15  # m/s
+IMU_EULER_SIGMA_DEG = 0.3  # deg
+IMU_RATES_SIGMA = 0.01  # rad/s
+
+#: The sensor noise added below, as an ``[identification] noise`` table (units of the keys:
+#: m, m/s, deg, rad/s): what a study of these data states as its measurement noise.
+SENSOR_NOISE = {
+    "position_h": {
+        "sigma": GPS_POSITION_SIGMA[0],
+        "correlation_time": GPS_POSITION_TAU,
+        "white": GPS_POSITION_WHITE,
+    },
+    "position_v": {
+        "sigma": GPS_POSITION_SIGMA[2],
+        "correlation_time": GPS_POSITION_TAU,
+        "white": GPS_POSITION_WHITE,
+    },
+    "velocity": GPS_VELOCITY_SIGMA,
+    "euler_deg": IMU_EULER_SIGMA_DEG,
+    "rates": IMU_RATES_SIGMA,
+}
 
 #: The TRUE parameter values (the demo identifies x6, x8, x11, x14 and then x13, x15).
 TRUTH = {
@@ -193,9 +219,11 @@ def _write_csv(path: Path, header: list[str], cols: list[list[str]]) -> None:
 def write_drop(kind: str, truth: dict[str, np.ndarray], rng: np.random.Generator) -> None:
     t = truth["t"]
     g = _every(t, 4.0)
-    pos = truth["position"][g] + _gauss_markov(rng, g.size, 0.25, 20.0, [1.5, 1.5, 2.5])
-    pos += rng.normal(0.0, 0.2, (g.size, 3))
-    vel = truth["velocity"][g] + rng.normal(0.0, 0.15, (g.size, 3))
+    pos = truth["position"][g] + _gauss_markov(
+        rng, g.size, 0.25, GPS_POSITION_TAU, list(GPS_POSITION_SIGMA)
+    )
+    pos += rng.normal(0.0, GPS_POSITION_WHITE, (g.size, 3))
+    vel = truth["velocity"][g] + rng.normal(0.0, GPS_VELOCITY_SIGMA, (g.size, 3))
     _write_csv(
         OUT / f"{kind}_gps.csv",
         ["time_s", "north_m", "east_m", "down_m", "v_north_ms", "v_east_ms", "v_down_ms"],
@@ -204,9 +232,11 @@ def write_drop(kind: str, truth: dict[str, np.ndarray], rng: np.random.Generator
         + [_fmt(vel[:, j], 3) for j in range(3)],
     )
     i = _every(t, 50.0)
-    eul = np.rad2deg(truth["euler"][i] + rng.normal(0.0, np.deg2rad(0.3), (i.size, 3)))
+    eul = np.rad2deg(
+        truth["euler"][i] + rng.normal(0.0, np.deg2rad(IMU_EULER_SIGMA_DEG), (i.size, 3))
+    )
     eul[:, 2] = np.mod(eul[:, 2], 360.0)  # the IMU logs heading in [0, 360)
-    rat = truth["rates"][i] + rng.normal(0.0, 0.01, (i.size, 3))
+    rat = truth["rates"][i] + rng.normal(0.0, IMU_RATES_SIGMA, (i.size, 3))
     _write_csv(
         OUT / f"{kind}_imu.csv",
         ["time_s", "roll_deg", "pitch_deg", "yaw_deg", "p_rads", "q_rads", "r_rads"],
@@ -252,6 +282,7 @@ def main() -> None:
                 "w20_ms": W20,
                 "origin_altitude_m": ORIGIN_ALTITUDE,
                 "canopy_deployed_s": T_CANOPY,
+                "sensor_noise": SENSOR_NOISE,
             },
             indent=1,
         )

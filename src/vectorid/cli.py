@@ -382,8 +382,8 @@ def _cmd_info(args: argparse.Namespace) -> int:
             print(f"  {v.name:<16} {v.kind:<10} [{_fmt(v.low)}, {_fmt(v.high)}]{unit}{nom}")
         print("criteria")
         for c in spec.criteria:
-            lim = "" if c.limit is None else f"  limit {_fmt(c.limit)}"
-            print(f"  {c.name:<16} {c.sense:<4} {c.role:<7}{lim}")
+            lim = c.describe_limit()  # the limit, its unit and where it came from
+            print(f"  {c.name:<16} {c.sense:<4} {c.role:<7}{'  limit ' + lim if lim else ''}")
         if spec.constraints:
             print("constraints")
             for c in spec.constraints:
@@ -425,8 +425,9 @@ def _cmd_table(args: argparse.Namespace) -> int:
         f"N = {a.n}   ND = {a.n_feasible}   NP = {a.n_pareto}   (failed {a.n_failed}, "
         f"meeting functional constraints {a.n_functional})"
     )
+    crit = {c.name: c for c in a.criteria}
     for b in a.active_bounds():
-        print(f"  constraint {b}")
+        print(f"  constraint {b}{_source(crit.get(b.name), b.value)}")
     width = 26
     for g in range(0, len(tables), 4):
         group = tables[g : g + 4]
@@ -453,6 +454,16 @@ def _cmd_table(args: argparse.Namespace) -> int:
             print("".join(cells))
     print("\n(x: outside the feasible set D under the constraints above)")
     return 0
+
+
+def _source(c: Any, value: float) -> str:
+    """Where a criterion's bound in force came from, for the table header."""
+    if c is None:
+        return ""
+    unit = f" {c.unit}" if c.unit else ""
+    if c.limit is None or not math.isclose(c.limit, value):
+        return f"{unit}  (this analysis, --limit)"
+    return f"{unit}  ({c.source}{': ' + c.limit_note if c.limit_note else ''})"
 
 
 def _cmd_pareto(args: argparse.Namespace) -> int:

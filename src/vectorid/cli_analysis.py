@@ -11,6 +11,7 @@
     vectorid sensitivity STORE [--limit ...]
     vectorid hist STORE [--limit ...] [--param NAME ...] [--bins N] [--by-stage] [--out FIG.html]
     vectorid plot STORE (--x A --y B | --matrix | --vs-params CRIT | --spread ID ...) --out FIG.html
+    vectorid identifiability STORE [--limit ...] [--json]
 
 Every data verb takes ``--json``; ``--out`` writes a standalone figure (needs plotly).
 Errors in input exit with status 2 and say what was expected, what came and how to fix it.
@@ -108,6 +109,15 @@ def add_parsers(sub: Any) -> None:
     h.add_argument("--by-stage", action="store_true", help="one histogram per sample stage")
     h.add_argument("--out", help="write the figure to this .html file")
     h.add_argument("--json", action="store_true")
+
+    i = sub.add_parser(
+        "identifiability", help="which variables the data determine, and within what range"
+    )
+    i.add_argument("store")
+    add_limit_options(i)
+    i.add_argument("--identified", type=float, default=0.25, help="width share (0.25)")
+    i.add_argument("--weak", type=float, default=0.6, help="width share (0.6)")
+    i.add_argument("--json", action="store_true")
 
     g = sub.add_parser("plot", help="write one figure: pair, matrix, vs-params or spread")
     g.add_argument("store")
@@ -477,6 +487,64 @@ def _cmd_plot(args: argparse.Namespace) -> int:
     return 0
 
 
+def _span(p: tuple[float, float] | None, unit: str = "") -> str:
+    return "-" if p is None else f"[{_fmt(p[0])}, {_fmt(p[1])}]{unit}"
+
+
+def _cmd_identifiability(args: argparse.Namespace) -> int:
+    from .analysis.identifiability import identifiability, verdicts_json
+
+    if not (0 < args.identified <= args.weak <= 1):
+        raise StudyDefinitionError(
+            "--identified/--weak",
+            f"expected 0 < identified <= weak <= 1, got {args.identified} and {args.weak}",
+            "e.g. --identified 0.25 --weak 0.6",
+        )
+    study = _open(args.store)
+    with study:
+        a = _analysis(study, args)
+        spec = study.spec
+        meanings = {}
+        if "identification" in spec.extra:  # the model's parameter meanings (lazy import)
+            from .identify.twostep import parameter_meanings
+
+            meanings = parameter_meanings(spec)
+        verdicts = identifiability(a, identified=args.identified, weak=args.weak, meanings=meanings)
+    if args.json:
+        out = verdicts_json(verdicts)
+        out["n"], out["n_feasible"], out["n_pareto"] = a.n, a.n_feasible, a.n_pareto
+        out["constraints_in_force"] = [str(b) for b in a.active_bounds()]
+        _json(out)
+        return 0
+    print(f"N = {a.n}   ND = {a.n_feasible}   NP = {a.n_pareto}")
+    crit = {c.name: c for c in spec.criteria}
+    for b in a.active_bounds():
+        c = crit.get(b.name)
+        src = ""
+        if c is not None and c.limit is not None and math.isclose(c.limit, b.value):
+            src = f"   ({c.source}{': ' + c.limit_note if c.limit_note else ''})"
+        elif c is not None:
+            src = "   (--limit)"
+        unit = f" {c.unit}" if c is not None and c.unit else ""
+        print(f"  constraint {b}{unit}{src}")
+    print()
+    for v in verdicts:
+        print(f"{v.label()}")
+        print(f"  verdict      {v.verdict}: {v.reason}")
+        u = f" {v.unit}" if v.unit and v.unit != "-" else ""
+        print(f"  feasible     {_span(v.feasible, u)}")
+        print(f"  pareto       {_span(v.pareto, u)}")
+        print(f"  box          {_span(v.box, u)}")
+        print(f"  constrained by {', '.join(v.constrained_by) or '-'}")
+        if v.suggestion:
+            print(f"  to identify it: {v.suggestion}")
+    print(
+        "\n(identified: D spans <= "
+        f"{args.identified:.0%} of the box, off its edges; not identified: > {args.weak:.0%})"
+    )
+    return 0
+
+
 COMMANDS = {
     "section": _cmd_section,
     "refine": _cmd_refine,
@@ -486,4 +554,5 @@ COMMANDS = {
     "sensitivity": _cmd_sensitivity,
     "hist": _cmd_hist,
     "plot": _cmd_plot,
+    "identifiability": _cmd_identifiability,
 }

@@ -30,6 +30,7 @@ from .errors import StudyDefinitionError
 
 __all__ = [
     "FAILED",
+    "LIMIT_SOURCES",
     "OK",
     "Criterion",
     "EvalResult",
@@ -41,6 +42,9 @@ __all__ = [
 
 OK = 0
 FAILED = 1
+
+#: Where a criteria constraint came from (:attr:`Criterion.limit_source`).
+LIMIT_SOURCES = ("", "expert", "noise", "quantile")
 
 BatchModel = Callable[[np.ndarray], Any]
 
@@ -90,6 +94,16 @@ class Criterion:
         a lower bound for ``max``).
     unit : str, optional
         Physical unit, for display.
+    limit_source : {"", "expert", "noise", "quantile"}
+        Where the limit came from: the expert (a number in the study file, or ``--limit ...
+        --save``), the noise floor of an identification (``limit = "noise"``, see
+        :mod:`vectorid.identify.noise`) or the quantile stand-in
+        (:func:`vectorid.identify.twostep.auto_limits`). A limit given without a source is
+        the expert's (:attr:`source`). ``limit = "noise"`` not yet computed is
+        ``limit=None, limit_source="noise"``.
+    limit_note : str
+        A short note on how the limit was obtained, for people (e.g. "noise floor q=0.99 +
+        2 m discrepancy").
     """
 
     name: str
@@ -97,6 +111,8 @@ class Criterion:
     role: str = "pure"
     limit: float | None = None
     unit: str = ""
+    limit_source: str = ""
+    limit_note: str = ""
 
     def __post_init__(self) -> None:
         _check_name("criteria", self.name)
@@ -113,6 +129,36 @@ class Criterion:
                 'write role = "pure" (enters the Pareto set) or role = "pseudo"',
             )
         object.__setattr__(self, "limit", _opt_finite(f"criteria.{self.name}.limit", self.limit))
+        if self.limit_source not in LIMIT_SOURCES:
+            raise StudyDefinitionError(
+                f"criteria.{self.name}.limit_source",
+                f"expected one of {list(LIMIT_SOURCES)}, got {self.limit_source!r}",
+                'leave it out (a number in limit is the expert\'s), or write limit = "noise"',
+            )
+        if not isinstance(self.limit_note, str):
+            raise StudyDefinitionError(
+                f"criteria.{self.name}.limit_note",
+                f"expected text, got {self.limit_note!r}",
+                'write limit_note = "..."',
+            )
+
+    @property
+    def source(self) -> str:
+        """Where the limit came from: ``"expert"``, ``"noise"``, ``"quantile"``, or ``""``
+        when there is no limit (a limit without a stated source is the expert's)."""
+        if self.limit is None:
+            return self.limit_source if self.limit_source == "noise" else ""
+        return self.limit_source or "expert"
+
+    def describe_limit(self) -> str:
+        """The limit and its source in words, e.g. ``"<= 812.3 m·s (noise: noise floor ...)"``;
+        empty when there is none."""
+        if self.limit is None:
+            return "noise floor (not computed yet)" if self.limit_source == "noise" else ""
+        side = "<=" if self.sense == "min" else ">="
+        unit = f" {self.unit}" if self.unit else ""
+        note = f": {self.limit_note}" if self.limit_note else ""
+        return f"{side} {self.limit:.6g}{unit} ({self.source}{note})"
 
     def to_dict(self) -> dict[str, Any]:
         out: dict[str, Any] = {"name": self.name, "sense": self.sense, "role": self.role}
@@ -120,6 +166,10 @@ class Criterion:
             out["limit"] = self.limit
         if self.unit:
             out["unit"] = self.unit
+        if self.limit_source and (self.limit_source != "expert" or self.limit_note):
+            out["limit_source"] = self.limit_source
+        if self.limit_note:
+            out["limit_note"] = self.limit_note
         return out
 
 

@@ -17,7 +17,8 @@ A study file::
     name = "f1"
     sense = "min"                      # "min" | "max"
     role = "pure"                      # "pure" | "pseudo"; pure by default
-    limit = 40.0                       # optional criteria constraint Φ**
+    limit = 40.0                       # optional criteria constraint Φ** (the expert's);
+                                       # "noise" in an identification study: its noise floor
 
     [[constraints]]
     name = "g1"
@@ -65,7 +66,9 @@ _STUDY_KEYS = {
 }
 _TOP_KEYS = {"study", "variables", "criteria", "constraints", "limits"}
 _VARIABLE_KEYS = {"name", "type", "low", "high", "nominal", "unit", "values", "description"}
-_CRITERION_KEYS = {"name", "sense", "role", "limit", "unit", "description"}
+_CRITERION_KEYS = {
+    "name", "sense", "role", "limit", "unit", "description", "limit_source", "limit_note"
+}  # fmt: skip
 _CONSTRAINT_KEYS = {"name", "low", "high", "unit", "description"}
 _VARIABLE_TYPES = ("continuous", "integer", "choice")
 EXECUTORS = ("serial", "processes", "dask")
@@ -288,7 +291,10 @@ class StudySpec:
                     f"limits.{key}", f"limit on unknown criterion {key!r}", suggest(key, names)
                 )
         crit = tuple(
-            replace(c, limit=limits[c.name]) if c.name in limits else c for c in self.criteria
+            replace(c, limit=limits[c.name], limit_source="", limit_note="")
+            if c.name in limits
+            else c
+            for c in self.criteria
         )
         return replace(self, criteria=crit)
 
@@ -460,12 +466,23 @@ def _parse_criterion(where: str, item: Mapping[str, Any]) -> Criterion:
     _check_keys(where, item, _CRITERION_KEYS)
     if "name" not in item:
         raise StudyDefinitionError(f"{where}.name", "missing name", 'add name = "f1"')
+    limit, source = item.get("limit"), item.get("limit_source", "")
+    if isinstance(limit, str):  # limit = "noise": the identification's noise floor
+        if limit != "noise":
+            raise StudyDefinitionError(
+                f"criteria.{item['name']}.limit",
+                f'expected a number or "noise", got {limit!r}',
+                'write limit = 40.0, or limit = "noise" in an identification study',
+            )
+        limit, source = None, "noise"
     return Criterion(
         item["name"],
         item.get("sense", "min"),
         item.get("role", "pure"),
-        item.get("limit"),
+        limit,
         item.get("unit", ""),
+        source,
+        item.get("limit_note", ""),
     )
 
 

@@ -44,9 +44,16 @@ class Study:
 
     @classmethod
     def create(cls, spec: StudySpec | str | Path, store: str | Path) -> Study:
-        """Create the store for ``spec`` (a spec or a study file path)."""
+        """Create the store for ``spec`` (a spec or a study file path).
+
+        An identification study's noise-floor limits (``limit = "noise"``, see
+        :mod:`vectorid.identify.noise`) are computed here, once, and kept with the study."""
         if not isinstance(spec, StudySpec):
             spec = load_study(spec)
+        if "identification" in spec.extra:
+            from .identify.noise import resolve_noise_limits
+
+            spec = resolve_noise_limits(spec)
         return cls(Store.create(store, spec))
 
     @classmethod

@@ -150,3 +150,26 @@ def test_two_step_with_control_step_initialises_step2_from_its_box(tmp_path):
     assert ident["parameters"]["x6"] == r.step1.chosen["x6"]
     # x15 of step 2 within 10 % (a 1 % error of step 1's x6 moves the control step's x15)
     assert abs(r.step2.chosen["x15"] - TRUE["x15"]) < 0.1 * TRUE["x15"]
+
+
+def test_quantile_stand_in_spares_pseudo_criteria_and_names_itself(tmp_path):
+    import tomllib
+
+    from vectorid.demo import study_toml
+    from vectorid.identify.twostep import auto_limits, run_step
+
+    data = tomllib.loads(study_toml("binh-korn", trials=128))
+    data["criteria"][1]["role"] = "pseudo"
+    spec = StudySpec.from_dict(data)
+    r = run_step(spec, tmp_path / "bk.db", trials=128, coarse=32)
+    assert set(r.limits) == {"f1"}  # never the pseudo criterion unless asked
+    src, note = r.sources["f1"]
+    assert src == "quantile" and "quantile stand-in" in note
+    assert "(quantile: quantile stand-in" in r.describe()
+    assert set(auto_limits(r.analysis)) == {"f1"}
+    assert set(auto_limits(r.analysis, pseudo=True)) == {"f1", "f2"}  # when asked
+    # the chosen vector prints a value only for an identified variable
+    for v in r.verdicts:
+        text = r.chosen_text(v.name)
+        want = f"{r.chosen[v.name]:.4g}" if v.identified else "feasible ["
+        assert text.startswith(want) if v.identified else want in text

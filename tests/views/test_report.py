@@ -80,6 +80,15 @@ def test_report_contents(report):
     # decimated point clouds say so, in the figure and in the report's notes
     assert res.notes and all("decimated for display" in n for n in res.notes)
     assert "Decimation</h2>" in text
+    # identifiability: a verdict per variable, and where each limit in force came from
+    from vectorid.analysis import identifiability
+
+    assert ">Identifiability</h2>" in text and "Criteria constraints and their sources" in text
+    assert "this analysis (--limit)" in text  # f1 <= 60 was given to this report only
+    for v in identifiability(a):
+        assert f"<b>{v.name}</b>" in text and v.verdict in text
+        if not v.identified:  # the chosen-vector table shows its range, not a value
+            assert v.value_text() in text.replace("&#x27;", "'")
 
 
 def _driver(tmpdir):

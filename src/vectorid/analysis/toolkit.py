@@ -9,6 +9,7 @@ from .choice import best_per_criterion, suggest_choice
 from .classes import CLASS_COLOURS, PointClasses, point_classes, subsample
 from .correlation import CorrelationResult, Spread, correlation, correlation_of, parameter_spread
 from .histograms import Histogram, default_bins, histogram, histograms, stage_histograms
+from .identifiability import ParameterVerdict, identifiability, verdicts_json
 from .refine import RefineProposal, apply_refine, propose_refine, refine_history
 from .robustness import (
     ChosenTable,
@@ -28,6 +29,7 @@ __all__ = [
     "ChosenTable",
     "CorrelationResult",
     "Histogram",
+    "ParameterVerdict",
     "PointClasses",
     "RefineProposal",
     "Robustness",
@@ -44,6 +46,7 @@ __all__ = [
     "envelope",
     "histogram",
     "histograms",
+    "identifiability",
     "ks_filtering",
     "load_robustness",
     "load_sections",
@@ -63,4 +66,5 @@ __all__ = [
     "subsample",
     "suggest_choice",
     "uniform",
+    "verdicts_json",
 ]

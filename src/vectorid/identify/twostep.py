@@ -38,6 +38,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vectorid.analysis.choice import suggest_choice
+from vectorid.analysis.identifiability import ParameterVerdict, identifiability
 from vectorid.analysis.refine import RefineProposal, apply_refine, propose_refine
 from vectorid.analysis.results import Analysis
 from vectorid.errors import StudyDefinitionError
@@ -73,12 +74,18 @@ def _simulate_uncontrolled(ident, P: np.ndarray, d, wind) -> Any:
     )
 
 
-def auto_limits(a: Analysis, quantile: float = 0.3, min_feasible: int = 20) -> dict[str, float]:
-    """Criteria constraints Φ** at a quantile of each criterion over the successful trials.
+def auto_limits(
+    a: Analysis, quantile: float = 0.3, min_feasible: int = 20, *, pseudo: bool = False
+) -> dict[str, float]:
+    """The quantile stand-in for the expert's criteria constraints Φ**: each criterion
+    without a limit gets the ``quantile`` of its values over the successful trials.
 
-    Criteria that already have a limit keep it. The quantile is raised (by steps of 0.05, up
-    to 1) until the feasible set D holds at least ``min_feasible`` trials (or every
-    successful trial).
+    It is a ranking, not a statement about the data (noise-grounded limits are,
+    :mod:`vectorid.identify.noise`). Criteria that already have a limit keep it; pseudo
+    criteria get none unless ``pseudo`` (a pseudo criterion constrains without entering the
+    Pareto set, and a quantile of it would cut the truth as often as not). The quantile is
+    raised (by steps of 0.05, up to 1) until the feasible set D holds at least
+    ``min_feasible`` trials (or every successful trial).
 
     Returns
     -------
@@ -96,7 +103,7 @@ def auto_limits(a: Analysis, quantile: float = 0.3, min_feasible: int = 20) -> d
     while True:
         limits: dict[str, float] = {}
         for j, c in enumerate(a.criteria):
-            if c.limit is not None:
+            if c.limit is not None or (c.role == "pseudo" and not pseudo):
                 continue
             col = a.trials.F[ok, j]
             limits[c.name] = float(np.quantile(col, q if c.sense == "min" else 1.0 - q))
@@ -108,7 +115,16 @@ def auto_limits(a: Analysis, quantile: float = 0.3, min_feasible: int = 20) -> d
 
 @dataclass
 class StepResult:
-    """One identification step: its store, analysis, refine proposal and chosen vector."""
+    """One identification step: its store, analysis, refine proposal, chosen vector and the
+    identifiability verdict of each variable.
+
+    ``limits`` are the criteria constraints in force (name -> value) and ``sources`` where
+    each came from (name -> (source, note): "noise", "expert" or "quantile", see
+    :class:`~vectorid.problem.Criterion`). ``verdicts`` say which variables the data
+    determine (:func:`vectorid.analysis.identifiability.identifiability`); ``chosen`` holds
+    every variable's value in the chosen trial, but only an identified variable's value
+    means anything: print them with :meth:`chosen_text`.
+    """
 
     name: str
     store: Path
@@ -122,15 +138,40 @@ class StepResult:
     criteria: dict[str, float]
     trials: int
     elapsed: float
+    sources: dict[str, tuple[str, str]] = field(default_factory=dict)
+    verdicts: list[ParameterVerdict] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+
+    def verdict(self, name: str) -> ParameterVerdict | None:
+        return next((v for v in self.verdicts if v.name == name), None)
+
+    def chosen_text(self, name: str) -> str:
+        """The chosen value of an identified variable, else its range and verdict."""
+        v = self.verdict(name)
+        value = self.chosen.get(name)
+        if v is None:
+            return "-" if value is None else f"{value:.4g}"
+        return v.value_text(value)
 
     def describe(self) -> str:
         a = self.analysis
         lines = [
             f"{self.name}: N = {a.n}   ND = {a.n_feasible}   NP = {a.n_pareto}   "
             f"({self.trials} trials in {self.elapsed:.1f} s)",
-            "  criteria constraints: "
-            + ", ".join(f"{k} <= {v:.4g}" for k, v in self.limits.items()),
+            "  criteria constraints:",
         ]
+        units = {c.name: c.unit for c in a.criteria}
+        for k, v in self.limits.items():
+            src, note = self.sources.get(k, ("expert", ""))
+            u = f" {units.get(k)}" if units.get(k) else ""
+            lines.append(f"    {k} <= {v:.4g}{u}  ({src}{': ' + note if note else ''})")
+        if self.verdicts:
+            lines.append(f"  chosen vector {self.chosen_id} and identifiability:")
+            for v in self.verdicts:
+                lines.append(f"    {v.label()}: {self.chosen_text(v.name)}")
+                if v.suggestion:
+                    lines.append(f"      to identify it: {v.suggestion}")
+        lines += [f"  note: {n}" for n in self.notes]
         return "\n".join(lines)
 
 
@@ -149,6 +190,35 @@ def _run_to(study: Study, total: int, executor: str, progress) -> None:
     study.run(trials=total, executor=executor, progress=progress)
 
 
+def noise_refine(
+    a: Analysis,
+    stages,
+    reference: Mapping[str, tuple[float, float]] | None = None,
+    **kwargs: Any,
+) -> RefineProposal:
+    """Double tuning under noise-grounded limits: narrow only what the data identify.
+
+    A variable identified by the run so far (:func:`identifiability`) gets D's whole range
+    (no quantile trimmed: every vector in D is consistent with the data) widened on each side
+    by half its width and at least 5 % of the box (the run samples D sparsely, so its true
+    edges lie further out); every other variable keeps its current box, so a weakly
+    identified range is never cut by the sampling. ``kwargs`` go to
+    :func:`~vectorid.analysis.refine.propose_refine` (explicit ``bounds`` win)."""
+    from vectorid.analysis.refine import _current_box
+
+    current, _, _ = _current_box(stages, a.spec.space)
+    bounds: dict[str, tuple[float, float]] = {}
+    for v, var in zip(identifiability(a, stages=stages, reference=reference), current):
+        lo, hi = float(var.low), float(var.high)
+        if v.identified and v.feasible is not None:
+            m = max(0.5 * (v.feasible[1] - v.feasible[0]), 0.05 * (v.box[1] - v.box[0]))
+            lo, hi = max(lo, v.feasible[0] - m), min(hi, v.feasible[1] + m)
+        bounds[v.name] = (lo, hi)
+    bounds.update(dict(kwargs.pop("bounds", None) or {}))
+    kwargs.setdefault("quantile", 0.0)
+    return propose_refine(a, stages, bounds=bounds, **kwargs)
+
+
 def run_step(
     spec: StudySpec,
     store: str | Path,
@@ -156,18 +226,25 @@ def run_step(
     trials: int,
     coarse: int | None = None,
     executor: str = "serial",
-    auto_quantile: float = 0.3,
+    auto_quantile: float | None = 0.3,
     min_feasible: int = 20,
     refine: Mapping[str, Any] | None = None,
     progress: bool | TextIO = False,
     name: str = "step",
+    auto_pseudo: bool = False,
+    meanings: Mapping[str, str] | None = None,
+    hints: Mapping[str, str] | None = None,
+    reference: Mapping[str, tuple[float, float]] | None = None,
 ) -> StepResult:
     """One identification step with double tuning.
 
     Parameters
     ----------
     spec : StudySpec
-        The step's study (an identification study, or any study).
+        The step's study (an identification study, or any study). Its criteria constraints
+        are used as they are: the expert's numbers, and the noise floors of
+        ``limit = "noise"`` / ``[identification] limits = "noise"`` (computed when the
+        store is created, :mod:`vectorid.identify.noise`).
     store : path
         SQLite store (created, or resumed when it holds the same study).
     trials : int
@@ -177,44 +254,98 @@ def run_step(
         tuning).
     executor : str
         ``"serial"`` (one process; the compiled models use every core) or ``"processes"``.
-    auto_quantile, min_feasible : float, int
-        Criteria constraints where the study sets none (see :func:`auto_limits`).
+    auto_quantile, min_feasible : float or None, int
+        The quantile stand-in (:func:`auto_limits`) for the pure criteria that have no limit
+        (None: leave them unconstrained). ``auto_pseudo`` extends it to pseudo criteria.
     refine : mapping, optional
         Keyword arguments of :func:`~vectorid.analysis.refine.propose_refine`
-        (``basis``, ``quantile``, ``margin``, ``bounds``).
+        (``basis``, ``quantile``, ``margin``, ``bounds``); default: the refine rule's own
+        defaults, or :func:`noise_refine` when the limits are noise floors.
+    meanings, hints, reference : mapping, optional
+        Passed to :func:`~vectorid.analysis.identifiability.identifiability` (default
+        meanings: the model's parameter meanings; ``reference``: the boxes variables were
+        first given, when this step inherits narrowed ones).
+
+    A feasible set D that comes out empty does not stop the step: the double tuning is
+    skipped (the main run stays in the initial box), ``chosen`` is empty, the verdicts say
+    "not identified" and ``notes`` say which constraint empties D.
     """
     import time
 
     coarse = max(1, trials // 4) if coarse is None else int(coarse)
     t0 = time.perf_counter()
     proposal = None
+    notes: list[str] = []
     with Study.create_or_open(spec, store) as study:
+        held = study.spec  # with the noise floors computed at creation
+        noisy = any(c.source == "noise" for c in held.criteria)
+        rule = dict(refine or {})
+
+        def propose(a: Analysis) -> RefineProposal:
+            if noisy and refine is None:
+                return noise_refine(a, study.store.stages(), reference)
+            return propose_refine(a, study.store.stages(), **rule)
+
+        def limits_of(a: Analysis) -> dict[str, float]:
+            if auto_quantile is None:
+                return {}
+            return auto_limits(a, auto_quantile, min_feasible, pseudo=auto_pseudo)
+
         stages = [s for s in study.store.stages() if s.kind == "sample"]
         if coarse > 0 and len(stages) == 1:
             _run_to(study, coarse, executor, progress)
             a = study.analysis()
-            limits = auto_limits(a, auto_quantile, min_feasible)
-            a = study.analysis(limits)
-            proposal = propose_refine(a, study.store.stages(), **dict(refine or {}))
-            apply_refine(study.store, proposal)
+            a = study.analysis(limits_of(a))
+            if a.n_feasible >= 5:
+                proposal = propose(a)
+                apply_refine(study.store, proposal)
+            elif a.n_feasible:
+                notes.append(
+                    f"the coarse run's feasible set holds {a.n_feasible} trials, too few to "
+                    "refine the box from: the main run stays in the initial box"
+                )
+            else:
+                notes.append(
+                    "the coarse run's feasible set is empty, so the box was not refined: "
+                    + a.diagnose_empty().describe().replace("\n", " ")
+                )
         _run_to(study, coarse + trials, executor, progress)
         a = study.analysis()
-        limits = auto_limits(a, auto_quantile, min_feasible)
-        a = study.analysis(limits)
-        # The expert's stand-in constraints are saved with the study, so table, pareto,
-        # report and the UI start from them.
-        study.store.set_limits(limits)
-        final = propose_refine(a, study.store.stages(), **dict(refine or {})).new
+        auto = limits_of(a)
+        a = study.analysis(auto)
+        # The stand-in constraints are saved with the study (named as such), so table,
+        # pareto, report and the UI start from them.
+        if auto:
+            note = f"quantile stand-in: q={auto_quantile:g} of {a.n} trials (not the expert's)"
+            study.store.set_limits(auto, sources={k: ("quantile", note) for k in auto})
+        spec_now = study.spec
+        limits = {c.name: c.limit for c in spec_now.criteria if c.limit is not None}
+        limits.update(auto)
+        sources = {
+            c.name: (c.source, c.limit_note) for c in spec_now.criteria if c.limit is not None
+        }
+        if a.n_feasible:
+            final = propose(a).new
+        else:
+            final = spec_now.space
+            notes.append(a.diagnose_empty().describe().replace("\n", " "))
         cid = suggest_choice(a)
         chosen, crit = {}, {}
         if cid is not None:
             i = int(np.flatnonzero(a.trials.id == cid)[0])
             chosen = {n: float(v) for n, v in zip(a.spec.space.names, a.trials.X[i])}
             crit = {n: float(v) for n, v in zip(a.crit_names, a.trials.F[i])}
+        verdicts = identifiability(
+            a,
+            meanings=meanings if meanings is not None else parameter_meanings(spec_now),
+            hints=hints,
+            stages=study.store.stages(),
+            reference=reference,
+        )
         out = StepResult(
             name=name,
             store=Path(store),
-            spec=study.spec,
+            spec=spec_now,
             analysis=a,
             limits=limits,
             proposal=proposal,
@@ -224,7 +355,34 @@ def run_step(
             criteria=crit,
             trials=a.n,
             elapsed=time.perf_counter() - t0,
+            sources=sources,
+            verdicts=verdicts,
+            notes=notes,
         )
+    return out
+
+
+def parameter_meanings(spec: StudySpec) -> dict[str, str]:
+    """What each design variable of an identification study is: the model parameter's
+    meaning (e.g. ``x6`` -> "C_D base value (eq. 11)"); window variables are described too."""
+    from vectorid import models
+    from vectorid.identify.identification import window_variable
+
+    table = spec.extra.get("identification", {})
+    name = table.get("model", spec.model) if isinstance(table, Mapping) else spec.model
+    out: dict[str, str] = {}
+    try:
+        model = models.get(name) if isinstance(name, str) else None
+    except Exception:  # not a registered model: no meanings
+        model = None
+    params = {p.name: p for p in getattr(model, "parameters", ())}
+    for v in spec.space:
+        if v.name in params and params[v.name].meaning:
+            out[v.name] = params[v.name].meaning
+        elif window_variable(v.name) is not None:
+            out[v.name] = "offset of the comparison window's " + (
+                "start, s" if v.name.startswith("window_start") else "end, s"
+            )
     return out
 
 
@@ -246,7 +404,17 @@ def step2_spec(step2: StudySpec, step1: StepResult, control: StepResult | None =
             new_vars.append(Continuous(v.name, b.low, b.high, nominal, v.unit))
         else:
             new_vars.append(v)
-    return replace(step2, space=Space(new_vars))
+    # the boxes the inherited variables were first given, for the verdicts (kept in the store)
+    ref = {
+        v.name: [float(v.low), float(v.high)]
+        for v in step1.spec.space
+        if v.name in boxes and hasattr(v, "low")
+    }
+    if control is not None:
+        ref.update({v.name: [float(v.low), float(v.high)] for v in control.spec.space})
+    extra = dict(step2.extra)
+    extra["x-identifiability"] = {"reference": ref}
+    return replace(step2, space=Space(new_vars), extra=extra)
 
 
 def run_two_step(
@@ -265,6 +433,7 @@ def run_two_step(
     control_variables: tuple[str, ...] = ("x15",),
     control_trials: int | None = None,
     control_box: bool = True,
+    hints: Mapping[str, str] | None = None,
 ) -> TwoStepResult:
     """Seed 001 §VI: identify on the uncontrolled drop, then on the controlled drop.
 
@@ -288,6 +457,8 @@ def run_two_step(
         Whether the control step's refined box initialises step 2 (the seed's procedure;
         default). False runs the control step for its own result only, and step 2 keeps its
         own box for the control variables.
+    hints : mapping, optional
+        Variable name -> what would excite it, for the identifiability suggestions.
     """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -309,12 +480,14 @@ def run_two_step(
         refine=refine,
         progress=progress,
         name="step 1 (uncontrolled drop)",
+        hints=hints,
     )
     if not r1.chosen:
+        why = " ".join(r1.notes[-1:])
         raise StudyDefinitionError(
             "step 1",
-            "the Pareto set of step 1 is empty, so step 2 has no starting box",
-            "loosen the criteria constraints or widen the box of step 1",
+            f"the Pareto set of step 1 is empty, so step 2 has no starting box ({why})",
+            "loosen the criteria constraints (a discrepancy allowance) or widen the box of step 1",
         )
     rc = None
     if control_step:
@@ -329,6 +502,7 @@ def run_two_step(
             auto_quantile=auto_quantile,
             min_feasible=min_feasible,
             progress=progress,
+            hints=hints,
         )
         if not rc.step.chosen:
             raise StudyDefinitionError(
@@ -348,6 +522,7 @@ def run_two_step(
         refine=refine,
         progress=progress,
         name="step 2 (controlled drop)",
+        hints=hints,
     )
     return TwoStepResult(r1, r2, s2, notes, rc)
 
@@ -632,9 +807,32 @@ def control_step_spec(
             drop_t[key] = src_drop[key]
     ident_t: dict[str, Any] = {
         k: src[k]
-        for k in ("model", "model_options", "atmosphere", "dt", "output_dt", "init_span")
+        for k in (
+            "model",
+            "model_options",
+            "atmosphere",
+            "dt",
+            "output_dt",
+            "init_span",
+            "noise",
+            "limits",
+            "noise_quantile",
+            "noise_coverage",
+            "noise_draws",
+            "noise_seed",
+        )
         if k in src
     }
+    # The measured position keeps its noise (the subtracted simulations are noiseless);
+    # channel allowances carry over, criterion-named ones only for these criteria.
+    if isinstance(src.get("discrepancy"), Mapping):
+        from vectorid.identify.noise import NOISE_KEYS
+
+        disc = {k: v for k, v in src["discrepancy"].items() if k in NOISE_KEYS or k in criteria}
+        if disc:
+            ident_t["discrepancy"] = disc
+    if "noise" in src_drop:
+        drop_t["noise"] = src_drop["noise"]
     base_fixed = {k: float(v) for k, v in dict(src.get("parameters", {})).items()}
     base_fixed.update({k: float(v) for k, v in fixed.items() if k in pnames})
     if base_fixed:
@@ -690,6 +888,7 @@ def run_control_step(
     refine: Mapping[str, Any] | None = None,
     progress: bool | TextIO = False,
     drop: str | None = None,
+    hints: Mapping[str, str] | None = None,
 ) -> ControlStepResult:
     """Seed 001 §VI.C: identify x15 alone by PSI on the control contribution.
 
@@ -737,6 +936,7 @@ def run_control_step(
         min_feasible=min_feasible,
         refine={**CONTROL_REFINE, **dict(refine or {})},
         progress=progress,
+        hints=hints,
         name="control step (x15 on the control contribution)"
         if tuple(variables) == ("x15",)
         else f"control step ({', '.join(variables)} on the control contribution)",

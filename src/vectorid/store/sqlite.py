@@ -453,6 +453,7 @@ class Store:
         self,
         criteria: Mapping[str, float | None] | None = None,
         constraints: Mapping[str, tuple[float | None, float | None]] | None = None,
+        sources: Mapping[str, tuple[str, str]] | None = None,
     ) -> None:
         """Save criteria constraints Φ** (and functional constraint bounds) in the study.
 
@@ -465,6 +466,10 @@ class Store:
             ``name -> limit`` (the worst accepted value; None removes the limit).
         constraints : mapping, optional
             ``name -> (low, high)`` of functional constraints (None for no bound).
+        sources : mapping, optional
+            ``name -> (limit_source, limit_note)`` of the criteria limits set here (see
+            :class:`~vectorid.problem.Criterion`). A limit set without one is the expert's,
+            except that a limit saved again unchanged keeps its source and note.
         """
         self._require_write()
         spec = self.spec.to_dict()
@@ -477,10 +482,25 @@ class Store:
                 raise StudyDefinitionError(
                     "limits", f"unknown criterion {name!r}", suggest(name, list(crit))
                 )
+            old = crit[name].get("limit")
             if value is None or not np.isfinite(value):
                 crit[name].pop("limit", None)
+                for key in ("limit_source", "limit_note"):
+                    crit[name].pop(key, None)
             else:
                 crit[name]["limit"] = float(value)
+                if sources and name in sources:
+                    src, note = sources[name]
+                elif old is not None and float(old) == float(value):
+                    continue  # saved again unchanged: keep its source
+                else:
+                    src, note = "expert", ""
+                crit[name].pop("limit_source", None)
+                crit[name].pop("limit_note", None)
+                if src and (src != "expert" or note):
+                    crit[name]["limit_source"] = src
+                if note:
+                    crit[name]["limit_note"] = note
         for name, (lo, hi) in (constraints or {}).items():
             if name not in cons:
                 raise StudyDefinitionError(

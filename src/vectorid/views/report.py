@@ -211,13 +211,15 @@ def _definition(page: _Page, a: Analysis, store: Store) -> None:
     page.add("<h3>Criteria</h3>")
     page.add(
         _table(
-            ["name", "sense", "role", "limit in force"],
+            ["name", "sense", "role", "limit in force", "unit", "limit's source"],
             [
                 [
                     _e(c.name),
                     a.senses[j],
                     a.roles[j],
                     _f(a.bounds[c.name][1] if a.senses[j] == "min" else a.bounds[c.name][0]),
+                    _e(c.unit),
+                    _e(c.source + (f": {c.limit_note}" if c.limit_note else "")),
                 ]
                 for j, c in enumerate(spec.criteria)
             ],
@@ -309,7 +311,9 @@ def _pareto_table(page: _Page, a: Analysis, limit: int = 100) -> None:
     )
 
 
-def _chosen(page: _Page, a: Analysis, chosen: Sequence[int]) -> list[int]:
+def _chosen(
+    page: _Page, a: Analysis, chosen: Sequence[int], verdicts: Sequence[Any] = ()
+) -> list[int]:
     page.h2("Chosen vector")
     best = best_per_criterion(a)
     ids: list[int] = []
@@ -345,10 +349,16 @@ def _chosen(page: _Page, a: Analysis, chosen: Sequence[int]) -> list[int]:
     page.add(_table(["trial", "why", *tab.crit_names], rows, left=2))
     page.add("<h3>Parameters</h3>")
     names = a.spec.space.names
+    ver = {v.name: v for v in verdicts}  # a variable the data do not identify has no value
+
+    def cell(n: str, x: float) -> str:
+        v = ver.get(n)
+        return _f(x) if v is None or v.identified else _e(v.value_text())
+
     page.add(
         _table(
             ["parameter", *[f"№{i}" for i in tab.ids]],
-            [[_e(n), *[_f(x) for x in tab.X[:, j]]] for j, n in enumerate(names)],
+            [[_e(n), *[cell(n, x) for x in tab.X[:, j]]] for j, n in enumerate(names)],
         )
     )
     space = a.spec.space
@@ -543,7 +553,12 @@ def build_report(
     _history(page, store)
     _test_tables(page, a, top)
     _pareto_table(page, a)
-    _chosen(page, a, chosen)
+    from .identifiability import report_section, verdicts_for_report
+
+    verdicts = verdicts_for_report(a, store)
+    ids = _chosen(page, a, chosen, verdicts)
+    page.h2("Identifiability")
+    page.add(report_section(a, verdicts, ids))
 
     drawable = a.ok.any()
     names = list(a.crit_names)

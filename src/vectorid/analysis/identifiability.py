@@ -1,0 +1,359 @@
+"""Identifiability verdicts: which design variables the data determine, and within what range.
+
+For each design variable, from the stored trials and the constraints in force (nothing is
+re-run):
+
+- **feasible** — its range [min, max] over the feasible set D; **pareto** — over the
+  Edgeworth–Pareto set (a subset of D, so never wider); **box** — the study box Π (widened to
+  any trial drawn outside it by a later stage);
+- **constrained_by** — the constraints whose limit cuts its range: a criterion (or functional
+  constraint) is listed when the variable's range over the trials that meet every *other*
+  constraint is wider than over D by more than a quarter of D's width and 2 % of the box
+  (removing that limit would let the variable spread); "earlier step's box" when D reaches
+  an edge of a box inherited narrowed from an earlier step (``reference``);
+- **verdict**, from the relative width w = width(feasible) / width(box):
+
+  ============== ===========================================================================
+  identified     w <= 0.25, D holds at least ``min_feasible`` trials (5), and D stays off
+                 both box edges (a range that touches the box may continue beyond it)
+  weak           0.25 < w <= 0.6; or w <= 0.25 but D touches a box edge (of the study
+                 box, or of a refined stage's box that cut the range: the sampling, not the
+                 data, ends it there) or is too small to show its spread
+  not identified w > 0.6 (D covers most of the box), no criteria constraint is in force (D
+                 is then every trial: nothing was asked of the data), or D is empty
+  ============== ===========================================================================
+
+The thresholds are arguments (``identified``, ``weak``). With noise-grounded limits
+(:mod:`vectorid.identify.noise`) D is the set of vectors the data cannot tell from the truth,
+so its spread is the answer's uncertainty; with the quantile stand-in it is only a ranking.
+Each verdict carries a suggestion of what would identify the variable (another criterion, a
+drop that excites it, a longer window, a wider box, more trials) and :meth:`value_text`, the
+way every "chosen vector" prints it: a value only for an identified variable, otherwise its
+feasible range with the verdict.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .results import Analysis
+
+__all__ = ["VERDICTS", "ParameterVerdict", "identifiability", "verdicts_json"]
+
+#: The verdicts, from best to worst.
+VERDICTS = ("identified", "weak", "not identified")
+
+
+def _g(v: float) -> str:
+    return f"{v:.4g}"
+
+
+@dataclass
+class ParameterVerdict:
+    """What the data say about one design variable (see the module docstring).
+
+    Attributes
+    ----------
+    name : str
+    verdict : {"identified", "weak", "not identified"}
+    feasible, pareto : (float, float) or None
+        Range over D and over the Pareto set (None when the set is empty).
+    box : (float, float)
+    constrained_by : list of str
+        Constraints (criteria or functional) whose limit cuts the range.
+    suggestion : str
+        What would identify it (empty for an identified variable).
+    reason : str
+        Why this verdict, in words.
+    unit, meaning : str
+        For people: the variable's unit and what it is (e.g. "C_D base value (eq. 11)").
+    width : float
+        width(feasible) / width(box) (NaN when D is empty).
+    n_feasible : int
+    """
+
+    name: str
+    verdict: str
+    feasible: tuple[float, float] | None
+    pareto: tuple[float, float] | None
+    box: tuple[float, float]
+    constrained_by: list[str] = field(default_factory=list)
+    suggestion: str = ""
+    reason: str = ""
+    unit: str = ""
+    meaning: str = ""
+    width: float = math.nan
+    n_feasible: int = 0
+
+    @property
+    def identified(self) -> bool:
+        return self.verdict == "identified"
+
+    def label(self) -> str:
+        """``"x6 (C_D base value (eq. 11))"`` — the name with its meaning."""
+        return f"{self.name} ({self.meaning})" if self.meaning else self.name
+
+    def value_text(self, value: float | None = None, digits: int = 4) -> str:
+        """How a chosen vector shows this variable: the value (with the feasible range) when
+        identified; otherwise the feasible range (or the box) and the verdict, never a value
+        alone."""
+        u = f" {self.unit}" if self.unit and self.unit != "-" else ""
+        rng = self.feasible if self.feasible is not None else self.box
+        span = f"[{rng[0]:.{digits}g}, {rng[1]:.{digits}g}]{u}"
+        if self.identified and value is not None:
+            return f"{value:.{digits}g}{u} (feasible {span})"
+        where = "feasible" if self.feasible is not None else "box"
+        return f"{where} {span} ({self.verdict})"
+
+    def to_dict(self) -> dict[str, Any]:
+        def pair(p: tuple[float, float] | None) -> list[float] | None:
+            return None if p is None else [float(p[0]), float(p[1])]
+
+        return {
+            "name": self.name,
+            "verdict": self.verdict,
+            "feasible": pair(self.feasible),
+            "pareto": pair(self.pareto),
+            "box": pair(self.box),
+            "constrained_by": list(self.constrained_by),
+            "width": None if math.isnan(self.width) else float(self.width),
+            "n_feasible": int(self.n_feasible),
+            "reason": self.reason,
+            "suggestion": self.suggestion,
+            "unit": self.unit,
+            "meaning": self.meaning,
+        }
+
+
+def _range(x: np.ndarray) -> tuple[float, float] | None:
+    x = x[np.isfinite(x)]
+    return (float(x.min()), float(x.max())) if x.size else None
+
+
+def identifiability(
+    a: Analysis,
+    *,
+    identified: float = 0.25,
+    weak: float = 0.6,
+    min_feasible: int = 5,
+    meanings: Mapping[str, str] | None = None,
+    hints: Mapping[str, str] | None = None,
+    stages: Sequence[Any] | None = None,
+    reference: Mapping[str, tuple[float, float]] | None = None,
+) -> list[ParameterVerdict]:
+    """A verdict per design variable of ``a``'s study (see the module docstring).
+
+    Parameters
+    ----------
+    a : Analysis
+        Trials and the constraints in force.
+    identified, weak : float
+        Thresholds on width(feasible) / width(box).
+    min_feasible : int
+        Fewer trials in D cannot show its spread: at best "weak".
+    meanings : mapping, optional
+        Variable name -> what it is (shown beside the name).
+    hints : mapping, optional
+        Variable name -> what would excite it (e.g. "a controlled drop"), used in the
+        suggestion of a variable that is not identified.
+    stages : sequence of Stage, optional
+        ``Store.stages()``: a refined stage whose box edge cuts D's range (D's trials of that
+        stage reach an edge that lies inside the study box) makes the range the sampling's,
+        not the data's: at best "weak". Without it only the study box's edges are checked.
+    reference : mapping, optional
+        Variable name -> the range it was first given (e.g. step 1's box for a variable whose
+        box step 2 inherited narrowed): widths and edges are judged against it, and where D
+        reaches an edge of the narrower study box, "earlier step's box" is among the
+        constraints that cut the range. Default: the study's ``[x-identifiability]
+        reference`` table (the two-step writes it into step 2's study).
+
+    Returns
+    -------
+    list of ParameterVerdict
+        In the order of the study's variables.
+    """
+    meanings = dict(meanings or {})
+    hints = dict(hints or {})
+    if reference is None:  # a study that inherited narrowed boxes says where they came from
+        ref = a.spec.extra.get("x-identifiability", {})
+        reference = ref.get("reference") if isinstance(ref, Mapping) else None
+    space = a.spec.space
+    X = a.trials.X
+    bounds = a.active_bounds()
+    crit_bounds = [b for b in bounds if b.name in a.crit_names]
+    masks = {(b.name, b.side): a._bound_mask(b.name, b.side) for b in bounds}
+    others = {}  # trials meeting every constraint but one
+    for b in bounds:
+        m = a.ok.copy()
+        for key, mk in masks.items():
+            if key != (b.name, b.side):
+                m &= mk
+        others[(b.name, b.side)] = m
+    out = []
+    for j, v in enumerate(space):
+        col = X[:, j] if len(X) else np.zeros(0)
+        lo = float(getattr(v, "low", np.nanmin(col) if col.size else 0.0))
+        hi = float(getattr(v, "high", np.nanmax(col) if col.size else 1.0))
+        if col.size:
+            lo, hi = min(lo, float(np.nanmin(col))), max(hi, float(np.nanmax(col)))
+        study = (lo, hi)
+        if reference and v.name in reference:
+            lo = min(lo, float(reference[v.name][0]))
+            hi = max(hi, float(reference[v.name][1]))
+        W = hi - lo if hi > lo else 1.0
+        feas = _range(col[a.feasible]) if a.n_feasible else None
+        par = _range(col[a.pareto]) if a.n_pareto else None
+        width = math.nan if feas is None else (feas[1] - feas[0]) / W
+        cut = []
+        if feas is not None:
+            wD = feas[1] - feas[0]
+            for b in bounds:
+                r = _range(col[others[(b.name, b.side)]])
+                if r is not None and (r[1] - r[0]) - wD > max(0.25 * wD, 0.02 * W):
+                    if b.name not in cut:
+                        cut.append(b.name)
+            ws = study[1] - study[0]
+            inherited = (study[0] > lo + 1e-9 * W and feas[0] - study[0] <= 0.02 * ws) or (
+                study[1] < hi - 1e-9 * W and study[1] - feas[1] <= 0.02 * ws
+            )
+            if inherited:
+                cut.append("earlier step's box")
+        clipped = _clipped(a, j, stages, study) if feas is not None else ""
+        verdict, reason, suggestion = _judge(
+            v.name,
+            width,
+            feas,
+            (lo, hi),
+            a.n_feasible,
+            bool(crit_bounds),
+            cut,
+            identified,
+            weak,
+            min_feasible,
+            hints.get(v.name, ""),
+            clipped,
+        )
+        out.append(
+            ParameterVerdict(
+                name=v.name,
+                verdict=verdict,
+                feasible=feas,
+                pareto=par,
+                box=(lo, hi),
+                constrained_by=cut,
+                suggestion=suggestion,
+                reason=reason,
+                unit=getattr(v, "unit", "") or "",
+                meaning=meanings.get(v.name, ""),
+                width=width,
+                n_feasible=a.n_feasible,
+            )
+        )
+    return out
+
+
+def _judge(
+    name: str,
+    width: float,
+    feas: tuple[float, float] | None,
+    box: tuple[float, float],
+    nd: int,
+    limited: bool,
+    cut: list[str],
+    t_id: float,
+    t_weak: float,
+    min_feasible: int,
+    hint: str,
+    clipped: str = "",
+) -> tuple[str, str, str]:
+    excite = hint or "a drop or manoeuvre that excites it (e.g. a controlled drop)"
+    more = (
+        f"add a criterion sensitive to {name}, {excite}, or a longer window "
+        "(more of the motion it shapes)"
+    )
+    if feas is None:
+        return (
+            "not identified",
+            "the feasible set D is empty: no trial meets every constraint",
+            "see which constraint empties D (`vectorid pareto STORE`): the model or the "
+            "limits do not fit the data (loosen a limit or grant a discrepancy allowance)",
+        )
+    if not limited:
+        return (
+            "not identified",
+            "no criteria constraint is in force, so D is every trial and says nothing",
+            'state criteria constraints (limits = "noise" in [identification], or --limit)',
+        )
+    W = box[1] - box[0]
+    edge = []
+    if feas[0] - box[0] <= 0.02 * W:
+        edge.append("low")
+    if box[1] - feas[1] <= 0.02 * W:
+        edge.append("high")
+    pct = f"{width:.0%} of the box"
+    by = f"; cut by {', '.join(cut)}" if cut else "; no single constraint's limit cuts it"
+    if width > t_weak:
+        return "not identified", f"D spans {pct}{by}", more
+    if width <= t_weak and clipped:
+        return (
+            "weak",
+            f"D spans {pct} but reaches the {clipped} edge of a refined stage's box: the "
+            "sampling, not the data, ends the range there",
+            f"widen the refined box of {name} (or run more trials in the study box)",
+        )
+    if width <= t_id and nd >= min_feasible and not edge:
+        return "identified", f"D spans {pct}{by}", ""
+    if width <= t_id and edge:
+        side = " and ".join(edge)
+        return (
+            "weak",
+            f"D spans {pct} but reaches the box's {side} edge: the data may allow values beyond it",
+            f"widen the box of {name} on its {side} side and run again",
+        )
+    if width <= t_id:
+        return (
+            "weak",
+            f"D spans {pct} but holds only {nd} trials, too few to show its spread",
+            "refine the box (double tuning) and run more trials",
+        )
+    return "weak", f"D spans {pct}{by}", f"partly determined: {more}"
+
+
+def _clipped(a: Analysis, j: int, stages: Sequence[Any] | None, box: tuple[float, float]) -> str:
+    """ "low"/"high"/"low and high" when D's trials of a refined sample stage reach that
+    stage's box edge for variable j while the edge lies inside the study box; else ""."""
+    if not stages:
+        return ""
+    W = box[1] - box[0] if box[1] > box[0] else 1.0
+    sides: list[str] = []
+    for st in stages:
+        if getattr(st, "kind", "sample") != "sample":
+            continue
+        var = list(st.space)[j]
+        if not hasattr(var, "low") or (
+            abs(float(var.low) - box[0]) <= 1e-12 * W and abs(float(var.high) - box[1]) <= 1e-12 * W
+        ):
+            continue  # the study box itself: its edges are judged as the box's
+        m = a.feasible & (a.trials.stage == st.stage)
+        if not m.any():
+            continue
+        x = a.trials.X[m, j]
+        w = float(var.high) - float(var.low)
+        if w <= 0:
+            continue
+        if float(var.low) > box[0] + 1e-9 * W and x.min() - float(var.low) <= 0.02 * w:
+            sides.append("low")
+        if float(var.high) < box[1] - 1e-9 * W and float(var.high) - x.max() <= 0.02 * w:
+            sides.append("high")
+    sides = sorted(set(sides), key=["low", "high"].index)
+    return " and ".join(sides)
+
+
+def verdicts_json(verdicts: list[ParameterVerdict]) -> dict[str, Any]:
+    """The ``vectorid identifiability --json`` document: ``{"parameters": [...]}``."""
+    return {"parameters": [v.to_dict() for v in verdicts]}

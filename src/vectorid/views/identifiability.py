@@ -1,0 +1,132 @@
+"""The "Identifiability" section of the HTML report (and, later, of the UI): which design
+variables the data determine, within what range, and where each criteria constraint came from.
+
+:func:`identifiability_html` returns an HTML fragment (tables, no figure); the report calls
+it with the analysis it already holds. Numbers come from
+:func:`vectorid.analysis.identifiability.identifiability`.
+"""
+
+from __future__ import annotations
+
+import html
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+from ..analysis.identifiability import ParameterVerdict, identifiability
+from ..analysis.results import Analysis
+
+__all__ = ["identifiability_html", "limits_html", "report_section", "verdicts_for_report"]
+
+_COLOURS = {"identified": "#2ca02c", "weak": "#ff7f0e", "not identified": "#d62728"}
+
+
+def _e(x: Any) -> str:
+    return html.escape(str(x))
+
+
+def _g(v: float) -> str:
+    return f"{v:.4g}"
+
+
+def _span(p: tuple[float, float] | None) -> str:
+    return "-" if p is None else f"[{_g(p[0])}, {_g(p[1])}]"
+
+
+def limits_html(a: Analysis) -> str:
+    """A table of the criteria constraints in force: value, unit and where each came from."""
+    rows = []
+    for j, c in enumerate(a.criteria):
+        lo, hi = a.bounds[c.name]
+        v = hi if a.senses[j] == "min" else lo
+        if abs(v) == float("inf"):
+            continue
+        same = c.limit is not None and abs(c.limit - v) <= 1e-12 * max(1.0, abs(v))
+        src = c.source if same else "this analysis (--limit)"
+        note = c.limit_note if same else ""
+        side = "<=" if a.senses[j] == "min" else ">="
+        rows.append(
+            f"<tr><td class=l>{_e(c.name)}</td><td class=l>{_e(a.roles[j])}</td>"
+            f"<td>{side} {_g(v)}</td><td class=l>{_e(c.unit)}</td>"
+            f"<td class=l>{_e(src)}</td><td class=l>{_e(note)}</td></tr>"
+        )
+    if not rows:
+        return "<p>No criteria constraint is in force.</p>"
+    head = "".join(
+        f"<th class=l>{h}</th>" for h in ("criterion", "role", "limit", "unit", "source", "note")
+    )
+    return f"<table><tr>{head}</tr>{''.join(rows)}</table>"
+
+
+def identifiability_html(
+    a: Analysis,
+    *,
+    verdicts: Sequence[ParameterVerdict] | None = None,
+    chosen: Mapping[str, float] | None = None,
+    meanings: Mapping[str, str] | None = None,
+    stages: Sequence[Any] | None = None,
+) -> str:
+    """The section's HTML: the limits and their sources, then one row per design variable
+    (verdict, feasible and Pareto ranges, box, the constraints that cut it, the chosen value
+    only where identified, and what would identify it)."""
+    vs = (
+        list(verdicts)
+        if verdicts is not None
+        else identifiability(a, meanings=meanings, stages=stages)
+    )
+    parts = [
+        "<p class=muted>Verdict from the spread of the feasible set D relative to the box "
+        "(identified: D spans at most 25 % of it, off its edges; not identified: more than "
+        "60 %) and from which constraints' limits cut each range (vectorid.analysis."
+        "identifiability). A variable that is not identified has no value: only its range.</p>",
+        "<h3>Criteria constraints and their sources</h3>",
+        limits_html(a),
+        "<h3>Design variables</h3>",
+    ]
+    head = ("variable", "verdict", "chosen", "feasible", "Pareto", "box", "cut by", "why / to do")
+    rows = []
+    for v in vs:
+        colour = _COLOURS.get(v.verdict, "#222")
+        value = (chosen or {}).get(v.name)
+        shown = v.value_text(value) if value is not None and v.identified else "-"
+        todo = v.reason + (f"; to identify it: {v.suggestion}" if v.suggestion else "")
+        rows.append(
+            f"<tr><td class=l><b>{_e(v.name)}</b> {_e(v.meaning)}"
+            f"{' [' + _e(v.unit) + ']' if v.unit and v.unit != '-' else ''}</td>"
+            f"<td class=l style='color:{colour}'><b>{_e(v.verdict)}</b></td>"
+            f"<td>{_e(shown)}</td><td>{_span(v.feasible)}</td><td>{_span(v.pareto)}</td>"
+            f"<td>{_span(v.box)}</td><td class=l>{_e(', '.join(v.constrained_by) or '-')}</td>"
+            f"<td class=l>{_e(todo)}</td></tr>"
+        )
+    parts.append(
+        "<table><tr>"
+        + "".join(f"<th class=l>{h}</th>" for h in head)
+        + "</tr>"
+        + "".join(rows)
+        + "</table>"
+    )
+    return "\n".join(parts)
+
+
+def verdicts_for_report(a: Analysis, store: Any) -> list[ParameterVerdict]:
+    """The verdicts of a stored study, with the model's parameter meanings when it is an
+    identification study and the stages' boxes (a refined edge that cuts a range)."""
+    meanings: dict[str, str] = {}
+    if "identification" in a.spec.extra:
+        from ..identify.twostep import parameter_meanings
+
+        meanings = parameter_meanings(a.spec)
+    return identifiability(a, meanings=meanings, stages=store.stages())
+
+
+def report_section(
+    a: Analysis, verdicts: Sequence[ParameterVerdict], chosen_ids: Sequence[int]
+) -> str:
+    """The report's "Identifiability" section (HTML) for the first chosen trial."""
+    import numpy as np
+
+    chosen: dict[str, float] = {}
+    if chosen_ids:
+        hit = np.flatnonzero(a.trials.id == int(chosen_ids[0]))
+        if hit.size:
+            chosen = dict(zip(a.spec.space.names, map(float, a.trials.X[hit[0]])))
+    return identifiability_html(a, verdicts=verdicts, chosen=chosen)
