@@ -163,3 +163,17 @@ def test_spectral_criteria_with_a_band_on_batches():
         get_criterion("pos_h_abs@0.1-1")
     with pytest.raises(CriterionError, match="empty"):
         evaluate_criteria(["peak_yaw@3-4"], {"rates": sim[:1]}, {"rates": meas}, t)
+
+
+@pytest.mark.parametrize("detrend", ["linear", "constant", False])
+@pytest.mark.parametrize(("T", "seg", "nfft"), [(750, 300, 1200), (101, 40, 256), (200, 80, 321)])
+def test_batched_welch_equals_scipy(detrend, T, seg, nfft):
+    from scipy import signal
+
+    from vectorid.identify.spectral import _welch
+
+    rng = np.random.default_rng(8)
+    x = rng.standard_normal((6, T)) + np.linspace(0.0, 3.0, T)
+    _, ref = signal.welch(x, fs=FS, window="hann", nperseg=seg, noverlap=seg // 2, nfft=nfft,
+                          detrend=detrend, axis=-1)  # fmt: skip
+    np.testing.assert_allclose(_welch(x, FS, seg, nfft, detrend), ref, rtol=1e-12, atol=1e-15)
