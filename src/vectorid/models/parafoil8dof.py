@@ -7,7 +7,7 @@ model approach the rigid :mod:`vectorid.models.parafoil6dof`). The aerodynamics 
 factors c1..c33 of the seed's Figure 12 (:data:`vectorid.models.parafoil_aero.GAINS`); the
 mass-inertia matrix includes the Lissaman-Brown apparent masses.
 
-Equations as implemented (``docs/models_parafoil.md`` derives them and records how the scanned
+Equations as implemented (``docs/models.md`` derives them and records how the scanned
 eq. (1) is read)::
 
     A(q) dV*/dt = {F; M_c; M_p} - Sigma(V*) A V*          (1)  Kirchhoff/Kane form
@@ -659,7 +659,7 @@ class ParafoilModelBase(Model):
 class Parafoil8DoF(ParafoilModelBase):
     """8-DoF parafoil-payload model (seed 000 eq. 1-3): canopy 6-DoF + payload relative pitch/yaw.
 
-    See :class:`ParafoilModelBase` for the options and ``docs/models_parafoil.md`` for the
+    See :class:`ParafoilModelBase` for the options and ``docs/models.md`` for the
     equations, frames, constants and sources.
     """
 

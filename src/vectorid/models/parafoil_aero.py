@@ -13,7 +13,7 @@ This module holds everything the 8-DoF (:mod:`vectorid.models.parafoil8dof`) and
   kinematics, the canopy aerodynamic force and moment, and the generalised mass matrix and
   right-hand side of the two-body (canopy + payload) system (:func:`system_matrices`).
 
-Frames and conventions (see ``docs/models_parafoil.md``):
+Frames and conventions (see ``docs/models.md``):
 
 * inertial frame: local north-east-down (NED), z down, altitude ``h = h0 - z``;
 * canopy body frame ``c``: origin at the payload joint (confluence point) J, x forward, y right,
