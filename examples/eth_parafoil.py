@@ -27,7 +27,8 @@ Identified, from the four flights together (each criterion is the mean over the 
 the seed's "several experiments"):
 
 * glide: the gains of CD0 and CLalpha (the sink rate and the airspeed);
-* turn control: the gains of CnDanom (yaw per unit asymmetric brake) and Cnr (yaw damping);
+* turn control: the gains of CnDanom (yaw per unit asymmetric brake) and Cnr (yaw damping),
+  which these short flights turn out not to determine (the script measures and says so);
 * per flight, the unknown uniform wind (north, east): nuisance parameters (the seed's k_U), so
   that the glide gains do not absorb the wind.
 
@@ -285,6 +286,17 @@ def identify(folder: str | Path, out: str | Path, trials: int = 4096) -> dict:
     r = run(full, boxes, out / "eth-glide-turn.db", trials, "eth-glide-turn")
     x_w = np.array([rw.chosen[v] for v in wind_only.variables])
     x_id = np.array([r.chosen[v] for v in full.variables])
+    a = r.analysis
+    Xd = a.trials.X[a.feasible]
+    col = {v: Xd[:, a.spec.space.names.index(v)] for v in names}
+
+    def log_width(v: np.ndarray) -> float:
+        """Width of the 5-95 % range of ln(v) over D (0.69: a factor of two)."""
+        q = np.quantile(np.log(v), [0.05, 0.95]) if v.size >= 5 else (np.nan, np.nan)
+        return float(q[1] - q[0])
+
+    widths = {v: log_width(col[v]) for v in names}
+    widths["CnDanom/Cnr"] = log_width(col["CnDanom"] / col["Cnr"])
     return {
         "flights": flights,
         "model": full.idents[FLIGHTS[0]].model,
@@ -294,6 +306,7 @@ def identify(folder: str | Path, out: str | Path, trials: int = 4096) -> dict:
         "rms_stated_calm": full.horizontal_rms(stated),
         "rms_stated_wind": wind_only.horizontal_rms(x_w),
         "rms_identified": full.horizontal_rms(x_id),
+        "log_widths": widths,
     }
 
 
@@ -366,17 +379,29 @@ def main(argv: list[str] | None = None) -> int:
     print()
     print("What these flights cannot determine:")
     wide = [rr.name for rr in rows if rr.verdict == "wide"]
+    glide_wide = [g for g in GLIDE if by_name[g].verdict == "wide"]
+    glide_kept = [g for g in GLIDE if by_name[g].verdict != "wide"]
     print(
         "  - the along-track wind and the airspeed separately: no airspeed was logged and every "
-        "flight\n    heads the same way (course 14-41 deg), so a faster canopy in less tailwind "
-        "fits as well;\n    the glide gains trade against the winds (their ranges above)"
+        "flight\n    heads about the same way (course over ground 14-41 deg), so a faster canopy "
+        "in less tailwind\n    fits as well"
+        + (f"; here {', '.join(glide_wide)} stays wide" if glide_wide else "")
+        + (f" while {', '.join(glide_kept)} is narrowed (the sink rate)" if glide_kept else "")
     )
     if wide:
         print(f"  - not pinned by the data here (range, not value): {', '.join(wide)}")
-    print(
-        "  - the turn gains apart from each other: 11-17 s of small brake inputs fix the turn "
-        "rate they give,\n    CnDanom / Cnr, better than either one"
-    )
+    w = res["log_widths"]
+    box = np.log(GAIN_BOX[1] / GAIN_BOX[0])
+    turn = ", ".join(f"{k} {w[k]:.2f}" for k in ("CnDanom", "Cnr", "CnDanom/Cnr"))
+    if max(w["CnDanom"], w["Cnr"], w["CnDanom/Cnr"]) > 0.5 * box:
+        print(
+            "  - the turn-control gains: neither CnDanom, nor Cnr, nor the turn rate's ratio "
+            "CnDanom/Cnr is narrowed\n    much by these flights (5-95 % widths of ln over D: "
+            f"{turn}; the box is {box:.2f}): 11-17 s of\n    small brake inputs "
+            "(|delta_a| <= 0.24) under an unknown wind do not determine them"
+        )
+    else:
+        print(f"  - turn-control gains, 5-95 % widths of ln over D: {turn} (box {box:.2f})")
     return 0
 
 

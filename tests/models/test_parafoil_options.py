@@ -178,3 +178,23 @@ def test_model_options_from_a_study_file_and_one_line_errors(tmp_path):
              "drops": [{"file": "x.csv"}]},
             variables=["CD0"], criteria=["pos_h_abs"], base_dir=tmp_path,
         )  # fmt: skip
+
+
+def test_vectorid_run_refuses_bad_model_options_in_one_line(tmp_path, capsys):
+    from vectorid.cli import main
+
+    study = tmp_path / "s.toml"
+    study.write_text(
+        '[study]\nname = "s"\nmodel = "parafoil8dof"\ntrials = 4\n\n'
+        '[[variables]]\nname = "CD0"\nlow = 0.5\nhigh = 1.5\n\n'
+        '[[criteria]]\nname = "pos_h_abs"\n\n'
+        "[identification]\n"
+        "model_options = { geometry = { area = -1.5 } }\n\n"
+        '[[identification.drops]]\nfile = "drop.csv"\n',
+        encoding="utf-8",
+    )
+    assert main(["run", str(study), "--executor", "serial"]) == 2
+    err = capsys.readouterr().err.strip()
+    last = err.splitlines()[-1]  # after the run's header and progress bar: one error line
+    assert "identification.model_options" in last and "area must be > 0" in last
+    assert "Traceback" not in err
