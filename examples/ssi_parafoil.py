@@ -43,7 +43,7 @@ ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_DATA = ROOT.parent / "shared" / "data" / "ssi-parafoil"
 DROPS = (1, 2)
 BOXES = {"payload_mass": (0.5, 30.0), "CD0": (0.3, 10.0)}
-WIND_BOX = (-10.0, 10.0)
+WIND_BOX = (-15.0, 15.0)
 
 
 def _eth():
@@ -208,7 +208,7 @@ def main(argv: list[str] | None = None) -> int:
         + ", ".join(f"{k} <= {v:.3g} m·s" for k, v in r.limits.items())
     )
     print()
-    print_chosen_values(a, r.chosen)
+    rows = print_chosen_values(a, r.chosen)
     print()
     print("Chosen vector against the drops (RMS over each drop):")
     for n, (eh, ep, dur) in res["errors"].items():
@@ -216,18 +216,22 @@ def main(argv: list[str] | None = None) -> int:
     lo, hi = res["wing_loading"]
     print()
     print("What the data determine and what they do not:")
-    ridge = abs(res["ridge_corr"]) >= 0.5
-    trade = (
-        "mass and drag trade along a ridge"
-        if ridge
-        else "over D, mass and drag correlate only weakly"
-    )
-    print(
-        f"  - wing loading over D: {lo:.0f}-{hi:.0f} N/m² for this stand-in canopy; it is not "
-        f"determined alone:\n    {trade} (log-log slope {res['ridge_slope']:.2f}, "
-        f"r = {res['ridge_corr']:+.2f}): the sink rate fixes a combination of the two, and the "
-        "ranges above\n    are what the data allow"
-    )
+    mass = next(rr for rr in rows if rr.name == "payload_mass")
+    cd0 = next(rr for rr in rows if rr.name == "CD0")
+    if mass.verdict != "wide":
+        print(
+            f"  - for the stand-in canopy's lift and drag, the sink rate pins the wing loading at "
+            f"{lo:.0f}-{hi:.0f} N/m²\n    (payload "
+            f"{mass.feasible[0]:.1f}-{mass.feasible[1]:.1f} kg on {res['area']} m²). That is a "
+            "statement about the stand-in's polar, not the real canopy:\n    another canopy "
+            "(area, lift, drag) gives another wing loading"
+            + (" (CD0 stays wide here)" if cd0.verdict == "wide" else "")
+        )
+    else:
+        print(
+            f"  - the wing loading is not pinned even for the stand-in canopy: {lo:.0f}-{hi:.0f} "
+            f"N/m² over D (mass and drag: r = {res['ridge_corr']:+.2f} in log-log)"
+        )
     print(
         "  - the payload mass and the canopy area separately: only W/S enters the glide, and "
         "neither is stated"
