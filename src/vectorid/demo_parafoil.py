@@ -422,7 +422,6 @@ def run_parafoil_demo(
     trials: int = 16_384,
     stage1_trials: int | None = None,
     stage3_trials: int | None = None,
-    six_dof_trials: int | None = None,
     progress: bool = True,
     report: bool = True,
 ) -> int:
@@ -437,9 +436,9 @@ def run_parafoil_demo(
     stage1_trials : int, optional
         Stage-1 trials in the refined box (default ``trials // 8``, at most 2048; the coarse
         run adds a quarter of it).
-    stage3_trials, six_dof_trials : int, optional
-        Trials of stage 3 (default ``trials // 2``) and of the 6-DoF comparison (default
-        ``trials // 4``).
+    stage3_trials : int, optional
+        Trials of stage 3 in its refined box (default ``trials // 4``; its coarse run adds a
+        quarter of it). The 6-DoF comparison runs the same schedule.
     progress : bool
         Progress bars.
     report : bool
@@ -464,8 +463,8 @@ def run_parafoil_demo(
     true = truth["parameters"]
     if stage1_trials is None:
         stage1_trials = min(2048, max(64, trials // 8))
-    stage3_trials = max(64, trials // 2) if stage3_trials is None else int(stage3_trials)
-    six_dof_trials = max(64, trials // 4) if six_dof_trials is None else int(six_dof_trials)
+    stage3_trials = max(64, trials // 4) if stage3_trials is None else int(stage3_trials)
+    coarse3 = max(16, stage3_trials // 4)
     model = models.get("parafoil8dof", **MODEL_OPTIONS)
     names = list(model.parameter_names)
 
@@ -651,9 +650,13 @@ def run_parafoil_demo(
         encoding="utf-8",
     )  # fmt: skip
     spec3 = load_study(f3)
-    r3 = run_step(spec3, out / "parafoil-stage3.db", trials=stage3_trials, coarse=0,
+    r3 = run_step(spec3, out / "parafoil-stage3.db", trials=stage3_trials, coarse=coarse3,
                   progress=progress, name="stage 3")  # fmt: skip
-    _step_header(r3, f"Stage 3: the reduced set, {len(v3)} gains ({stage3_trials} trials)")
+    _step_header(
+        r3,
+        f"Stage 3: the reduced set, {len(v3)} gains ({coarse3} coarse + {stage3_trials} trials, "
+        "double tuning)",
+    )
     a3 = r3.analysis
     ident3 = Identification.from_spec(spec3)
     cost3 = _cost(a3.trials.F, a3.pure, scale)
@@ -681,15 +684,17 @@ def run_parafoil_demo(
     # ---- 6-DoF against 8-DoF ------------------------------------------------------------
     f6 = out / "parafoil-6dof.toml"
     f6.write_text(
-        stage_toml("parafoil-6dof", v3, truth=truth, trials=six_dof_trials, fixed=fixed,
+        stage_toml("parafoil-6dof", v3, truth=truth, trials=stage3_trials, fixed=fixed,
                    model="parafoil6dof", limits=False,
                    comment="the rigid 6-DoF model on the same data, criteria and reduced set"),
         encoding="utf-8",
     )  # fmt: skip
     spec6 = load_study(f6)
-    r6 = run_step(spec6, out / "parafoil-6dof.db", trials=six_dof_trials, coarse=0,
+    r6 = run_step(spec6, out / "parafoil-6dof.db", trials=stage3_trials, coarse=coarse3,
                   progress=progress, name="6-DoF")  # fmt: skip
-    _step_header(r6, f"6-DoF model, the reduced set ({six_dof_trials} trials)")
+    _step_header(
+        r6, f"6-DoF model, the reduced set, stage 3's schedule ({coarse3} + {stage3_trials} trials)"
+    )
     a6 = r6.analysis
     x6c = Identification.from_spec(spec6).parameters(np.array([[r6.chosen[v[0]] for v in v3]]))[0]
     table6 = {k: v for k, v in spec6.extra["identification"].items() if k != "parameters"}
@@ -705,7 +710,8 @@ def run_parafoil_demo(
     p6 = _spectral_peaks(ident6, x6c)
     n6 = min(len(a6.trials.F[a6.ok]), len(a3.trials.F[a3.ok]))
     print(
-        f"  best criteria over the first {n6} successful trials of each, 8-DoF (stage 3) vs "
+        f"  best criteria over the first {n6} successful trials of each (same schedule), 8-DoF "
+        "(stage 3) vs "
         "6-DoF, and how many meet"
     )
     print("  the spectral tolerances of the 8-DoF studies:")

@@ -20,7 +20,10 @@ a drop with the model's. A drop gives a window of one to a few minutes with sens
   attitude spectra are dominated below ~0.15 Hz by the turns themselves, so an oscillation mode
   is looked for in a band above them (e.g. 0.25–1.5 Hz for a parafoil's payload modes).
   :func:`peak_prominence` says how far the peak stands above the band's median power (a
-  peak of pure noise stands ~3–5× above it; a real mode much more).
+  peak of pure noise stands ~3–8× above it; a real mode much more). ``whiten=True`` looks for
+  the peak in the spectrum of the derivative, (2πf)² P(f): steps and ramps (power ∝ 1/f²)
+  become flat there, so a mode above the turns' frequencies is not buried under their tail
+  (the spectral criteria use it).
 * **Band powers** (:func:`band_powers`, :func:`spectrum_distance`): the power in contiguous
   sub-bands, and the distance between two spectra's *shapes* — the mean absolute difference of
   the log of each sub-band's share of the band's power. Shares make it insensitive to the
