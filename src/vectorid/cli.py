@@ -10,7 +10,7 @@ Verbs (a contract; more may be added)::
     vectorid pareto STORE [--limit 'NAME<=VALUE' | 'NAME>=VALUE' ...] [--role NAME=pseudo] [--json]
     vectorid export STORE [--format csv|json|parquet] [--out PATH]
     vectorid init PROBLEM [--out FILE] [--trials N]
-    vectorid demo [--out DIR] [--trials N] [--analytic]
+    vectorid demo [g12|parafoil] [--out DIR] [--trials N] [--analytic]
     vectorid descent LOG --mass KG [--columns time=COL,altitude=COL] [...] [--json]
 
 Errors in user input print one line saying what was expected, what came and how to fix it,
@@ -143,12 +143,17 @@ def _parser() -> argparse.ArgumentParser:
     d = sub.add_parser(
         "demo", help="run the two-step identification demo (or --analytic) and print its results"
     )
+    d.add_argument(
+        "which", nargs="?", default="g12", choices=("g12", "parafoil"),
+        help="g12 (default): the G-12 parachute of seed 001; parafoil: seed 000's parafoil",
+    )  # fmt: skip
     d.add_argument("--out", default="vectorid-demo", help="folder for the stores and files")
     d.add_argument(
         "--trials",
         type=positive_int,
-        default=2048,
-        help="trials per identification step in its refined box (default 2048)",
+        default=None,
+        help="trials per identification step in its refined box (default 2048; parafoil: "
+        "stage-2 trials, default 16384)",
     )
     d.add_argument("--analytic", action="store_true", help="the analytic Binh–Korn demo instead")
     d.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -528,8 +533,14 @@ def _cmd_init(args: argparse.Namespace) -> int:
 def _cmd_demo(args: argparse.Namespace) -> int:
     from .demo import run_demo
 
+    if args.which == "parafoil":
+        from .demo_parafoil import run_parafoil_demo
+
+        return run_parafoil_demo(
+            Path(args.out), trials=args.trials or 16_384, progress=not args.quiet
+        )
     return run_demo(
-        Path(args.out), trials=args.trials, progress=not args.quiet, analytic=args.analytic
+        Path(args.out), trials=args.trials or 2048, progress=not args.quiet, analytic=args.analytic
     )
 
 

@@ -237,8 +237,8 @@ def test_wind_drifts_with_the_air(model):
 
 
 def test_bad_options_raise():
-    with pytest.raises(TypeError, match="ParafoilGeometry"):
-        models.get("parafoil8dof", geometry={"area": 90})
+    with pytest.raises(ValueError, match="ParafoilGeometry or a table"):
+        models.get("parafoil8dof", geometry=90.0)
     with pytest.raises(ValueError, match="joint_stiffness"):
         models.get("parafoil8dof", joint_stiffness=(1.0, 2.0, 3.0))
     with pytest.raises(ValueError, match="payload_mass"):

@@ -27,10 +27,16 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vectorid.errors import VectoridError, suggest
-from vectorid.identify.spectral import eigenfrequencies, resample_uniform
+from vectorid.identify.spectral import (
+    eigenfrequencies,
+    resample_uniform,
+    spectral_peak,
+    spectrum_distance,
+)
 
 __all__ = [
     "CRITERIA",
+    "DEFAULT_SPECTRAL_BAND",
     "HEADING_MIN_SPEED",
     "INDICES",
     "OPERATORS",
@@ -253,6 +259,110 @@ INDICES: dict[str, IndexDef] = {
 }  # fmt: skip
 
 
+# --------------------------------------------------------------------------- spectral criteria
+# Seed 000 §VII: "three criteria relating to the adequacy of the natural eigenvalues (power
+# spectrum) for all channels (roll, pitch and yaw)". Two forms on each channel, from the robust
+# estimates of vectorid.identify.spectral (Hann-windowed Welch segments, linear detrending,
+# zero padding): the peak frequency inside a band, and the distance between the spectral
+# shapes (band-power shares) inside it. Roll, pitch and yaw read the body rates p, q, r (free of
+# the turns' ramps); phi, theta, psi the Euler angles (yaw unwrapped). A band is given as a
+# suffix of the name: "peak_yaw@0.25-1.5" searches 0.25-1.5 Hz.
+
+#: Band (Hz) of the spectral criteria when the name gives none: 0.05 Hz (below it a drop's
+#: window holds too few cycles) up to the Nyquist frequency of the comparison grid.
+DEFAULT_SPECTRAL_BAND = (0.05, None)
+
+_SPECTRAL_CHANNELS = {
+    "roll": ("rates", 0, False, "body roll rate p"),
+    "pitch": ("rates", 1, False, "body pitch rate q"),
+    "yaw": ("rates", 2, False, "body yaw rate r"),
+    "phi": ("euler", 0, False, "roll angle φ"),
+    "theta": ("euler", 1, False, "pitch angle θ"),
+    "psi": ("euler", 2, True, "unwrapped yaw angle ψ"),
+}
+
+
+def _parse_band(name: str) -> tuple[str, tuple[float, float | None] | None]:
+    """``"base@lo-hi"`` -> (base, (lo, hi)); a name without ``@`` -> (name, None)."""
+    if "@" not in name:
+        return name, None
+    base, _, spec = name.partition("@")
+    parts = spec.split("-")
+    try:
+        if len(parts) != 2:
+            raise ValueError
+        lo, hi = float(parts[0]), float(parts[1])
+    except ValueError:
+        raise CriterionError(
+            f"criterion {name!r}: the band after '@' must be 'low-high' in Hz, e.g. "
+            f"'{base}@0.25-1.5'"
+        ) from None
+    if not (0 <= lo < hi):
+        raise CriterionError(f"criterion {name!r}: the band needs 0 <= low < high Hz")
+    return base, (lo, hi)
+
+
+def _signal(x: Array, t: Array, col: int, unwrap: bool) -> tuple[Array, float]:
+    s = x[:, :, col]
+    if unwrap:
+        s = np.unwrap(s, axis=1)
+    _, su, fs = resample_uniform(t, s)
+    return su, fs
+
+
+def _band_for(band: tuple[float, float | None] | None, fs: float) -> tuple[float, float]:
+    lo, hi = band if band is not None else DEFAULT_SPECTRAL_BAND
+    nyq = fs / 2
+    hi = nyq if hi is None else min(float(hi), nyq)
+    if not lo < hi:
+        raise CriterionError(
+            f"spectral band [{lo:g}, {hi:g}] Hz is empty at a comparison rate of {fs:g} Hz "
+            f"(Nyquist {nyq:g} Hz); lower the band or the output_dt"
+        )
+    return float(lo), float(hi)
+
+
+def _peak_index(kind: str, band=None) -> Callable[[Array, Array], Array]:
+    _, col, unwrap, _ = _SPECTRAL_CHANNELS[kind]
+
+    def fn(x: Array, t: Array) -> Array:
+        s, fs = _signal(x, t, col, unwrap)
+        return spectral_peak(s, fs, band=_band_for(band, fs), whiten=True)
+
+    return fn
+
+
+def _shape_criterion(kind: str, band=None) -> Callable[[Array, Array, Array], Array]:
+    _, col, unwrap, _ = _SPECTRAL_CHANNELS[kind]
+
+    def fn(sim: Array, meas: Array, t: Array) -> Array:
+        s, fs = _signal(sim, t, col, unwrap)
+        m, _ = _signal(meas[None], t, col, unwrap)
+        return spectrum_distance(s, m[0], fs, band=_band_for(band, fs))
+
+    return fn
+
+
+def _spectral_defs(name: str) -> tuple[IndexDef | None, CriterionDef | None]:
+    """The index and criterion of a spectral name (with an optional band), or (None, None)."""
+    base, band = _parse_band(name)
+    form, _, kind = base.partition("_")
+    if form not in ("peak", "band") or kind not in _SPECTRAL_CHANNELS:
+        return None, None
+    channel, _, _, what = _SPECTRAL_CHANNELS[kind]
+    where = "in the band {:g}-{:g} Hz".format(*band) if band else "above 0.05 Hz (default band)"
+    if form == "peak":
+        idx = IndexDef(name, channel, f"peak frequency of the {what} spectrum {where}", "Hz",
+                       _peak_index(kind, band))  # fmt: skip
+        meaning = f"|f_peak - f̂_peak| of the {what} (whitened Welch PSD peak {where})"
+        crit = CriterionDef(name, channel, meaning, "Hz", _index_absdiff(idx.fn))
+        return idx, crit
+    crit = CriterionDef(name, channel,
+                        f"spectral shape distance of the {what} {where}: mean |Δ ln share| over "
+                        "6 log-spaced sub-bands", "1", _shape_criterion(kind, band))  # fmt: skip
+    return None, crit
+
+
 CRITERIA: dict[str, CriterionDef] = {
     d.name: d
     for d in [
@@ -301,6 +411,12 @@ CRITERIA: dict[str, CriterionDef] = {
                      "m", _landing_error),
     ]
 }  # fmt: skip
+
+for _kind in _SPECTRAL_CHANNELS:
+    _i, _c = _spectral_defs(f"peak_{_kind}")
+    INDICES[_i.name] = _i
+    CRITERIA[_c.name] = _c
+    CRITERIA[f"band_{_kind}"] = _spectral_defs(f"band_{_kind}")[1]
 
 _MIN_COLS = {
     "position": 3,
@@ -360,11 +476,15 @@ def make_index_criterion(index: str, operator: str = "absdiff") -> CriterionDef:
 
     Its name is ``"index:operator"``; ``evaluate_criteria`` accepts such names directly.
     """
-    if index not in INDICES:
+    if index not in INDICES and "@" in index and _spectral_defs(index)[0] is not None:
+        idx_def = _spectral_defs(index)[0]
+    elif index not in INDICES:
         raise CriterionError(f"unknown index {index!r}; {suggest(index, INDICES)}")
+    else:
+        idx_def = INDICES[index]
     if operator not in OPERATORS:
         raise CriterionError(f"unknown operator {operator!r}; {suggest(operator, OPERATORS)}")
-    idx = INDICES[index]
+    idx = idx_def
     op = OPERATORS[operator]
 
     def fn(sim: Array, meas: Array, t: Array) -> Array:
@@ -378,6 +498,16 @@ def get_criterion(name: str) -> CriterionDef:
     """A criterion by registry name or ``"index:operator"``."""
     if name in CRITERIA:
         return CRITERIA[name]
+    if "@" in name and ":" not in name:
+        crit = _spectral_defs(name)[1]
+        if crit is None:
+            base = name.partition("@")[0]
+            spectral = [c for c in CRITERIA if c.startswith(("peak_", "band_"))]
+            raise CriterionError(
+                f"unknown criterion {name!r}: a band suffix '@low-high' applies to the spectral "
+                f"criteria only ({suggest(base, spectral)})"
+            )
+        return crit
     if ":" in name:
         index, operator = name.split(":", 1)
         return make_index_criterion(index, operator)

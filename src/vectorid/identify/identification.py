@@ -687,7 +687,7 @@ class Identification:
             model = models.get(model_name, **dict(table.get("model_options", {})))
         except KeyError as exc:
             raise _err("model", str(exc).strip("'\""), "use a registered model name") from None
-        except TypeError as exc:
+        except (TypeError, ValueError) as exc:
             raise _err("model_options", str(exc), "see the model's constructor options") from None
         output_dt = _positive("output_dt", table.get("output_dt", 0.5))
         dt = _positive("dt", table.get("dt", 0.05))

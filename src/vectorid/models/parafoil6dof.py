@@ -23,7 +23,7 @@ from vectorid.models._parafoil_core import parafoil_observe, parafoil_rhs
 from vectorid.models.base import BASE_CHANNELS, Channel
 from vectorid.models.integrate import env_at, rk4_trial
 from vectorid.models.parafoil8dof import ParafoilModelBase
-from vectorid.models.parafoil_aero import NPROP
+from vectorid.models.parafoil_aero import I_WE, I_WN, NPROP
 
 __all__ = ["Parafoil6DoF"]
 
@@ -31,13 +31,13 @@ __all__ = ["Parafoil6DoF"]
 @njit(cache=True, inline="always")
 def _rhs(t, x, p, u, atm, gust, dx):  # pragma: no cover - compiled
     rho, g, wn, we, wd = env_at(atm, gust, t, -x[2])
-    parafoil_rhs(p, x, rho, g, wn, we, wd, u[0], u[1], True, dx, p[NPROP:])
+    parafoil_rhs(p, x, rho, g, wn + p[I_WN], we + p[I_WE], wd, u[0], u[1], True, dx, p[NPROP:])
 
 
 @njit(cache=True)
 def _observe(t, x, p, u, atm, gust, y):  # pragma: no cover - compiled
     rho, g, wn, we, wd = env_at(atm, gust, t, -x[2])
-    parafoil_observe(p, x, wn, we, wd, True, y, p[NPROP:])
+    parafoil_observe(p, x, wn + p[I_WN], we + p[I_WE], wd, True, y, p[NPROP:])
 
 
 @njit(parallel=True, cache=True)

@@ -7,7 +7,7 @@ model approach the rigid :mod:`vectorid.models.parafoil6dof`). The aerodynamics 
 factors c1..c33 of the seed's Figure 12 (:data:`vectorid.models.parafoil_aero.GAINS`); the
 mass-inertia matrix includes the Lissaman-Brown apparent masses.
 
-Equations as implemented (``docs/models_parafoil.md`` derives them and records how the scanned
+Equations as implemented (``docs/models.md`` derives them and records how the scanned
 eq. (1) is read)::
 
     A(q) dV*/dt = {F; M_c; M_p} - Sigma(V*) A V*          (1)  Kirchhoff/Kane form
@@ -27,13 +27,14 @@ then ``payload_phi``, ``payload_theta``, ``payload_psi`` (rad), ``payload_p``, `
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any, ClassVar
 
 import numpy as np
 from numba import njit, prange
 from numpy.typing import ArrayLike, NDArray
 
+from vectorid.errors import suggest
 from vectorid.models._parafoil_core import (
     NWORK,
     NX6,
@@ -55,39 +56,69 @@ from vectorid.models.integrate import (
     rk4_trial,
 )
 from vectorid.models.parafoil_aero import (
+    EXTRA_COEFFICIENTS,
+    GAIN_NAMES,
     GAINS,
     I_MAM,
+    I_MP,
     I_MRB,
     I_RP,
+    I_WE,
+    I_WN,
+    NGAIN,
     NPROP,
     ParafoilGeometry,
+    ParafoilOptionError,
     build_properties,
     dcm_body_to_ned,
     nominal_gains,
+    reference_coefficients,
 )
 from vectorid.models.wind import Wind, WindProfile
 
-__all__ = ["Parafoil8DoF", "ParafoilModelBase"]
+__all__ = ["EXTRA_PARAMETERS", "Parafoil8DoF", "ParafoilModelBase"]
 
 #: Highest air density the mass-matrix check assumes (cold day at sea level), kg/m^3.
 RHO_MAX = 1.5
 
 
-def _parameters() -> tuple[Parameter, ...]:
+#: Parameters a model option may add after the 33 gains (``extra_parameters = [...]``):
+#: name -> (unit, meaning). ``payload_mass`` makes the wing loading a design variable;
+#: ``wind_north`` / ``wind_east`` a uniform wind added to the drop's profile (the seed's
+#: uncertain-wind parameters k_U, for flights without a wind measurement).
+EXTRA_PARAMETERS: dict[str, tuple[str, str]] = {
+    "payload_mass": ("kg", "payload mass (wing loading = (m_c + payload_mass) g / S)"),
+    "wind_north": ("m/s", "uniform wind added to the profile, towards north (velocity of the air)"),
+    "wind_east": ("m/s", "uniform wind added to the profile, towards east (velocity of the air)"),
+}
+
+
+def _parameters(
+    reference: np.ndarray | None = None,
+    extra: tuple[str, ...] = (),
+    geometry: ParafoilGeometry | None = None,
+) -> tuple[Parameter, ...]:
+    ref = [g.reference for g in GAINS] if reference is None else list(reference)
     out = []
-    for g in GAINS:
+    for g, r in zip(GAINS, ref):
         if g.additive:
             meaning = (
-                f"c{g.index}: additive gain, {g.name} = {g.reference:g} + c{g.index} "
+                f"c{g.index}: additive gain, {g.name} = {r:g} + c{g.index} "
                 f"[{g.coef_unit}]; {g.meaning}"
             )
             out.append(Parameter(g.name, 0.0, g.lower, g.upper, g.coef_unit, meaning))
         else:
-            meaning = (
-                f"c{g.index}: gain, {g.name} = {g.reference:g} {g.coef_unit} * c{g.index}; "
-                f"{g.meaning}"
-            )
+            meaning = f"c{g.index}: gain, {g.name} = {r:g} {g.coef_unit} * c{g.index}; {g.meaning}"
+            if r == 0.0:
+                meaning += " (reference 0: this gain has no effect)"
             out.append(Parameter(g.name, 1.0, g.lower, g.upper, "-", meaning))
+    for name in extra:
+        unit, meaning = EXTRA_PARAMETERS[name]
+        if name == "payload_mass":
+            m = (geometry or ParafoilGeometry()).payload_mass
+            out.append(Parameter(name, m, 0.25 * m, 4.0 * m, unit, meaning))
+        else:
+            out.append(Parameter(name, 0.0, -10.0, 10.0, unit, meaning))
     return tuple(out)
 
 
@@ -126,11 +157,13 @@ def _initial_states(
     n = pc.shape[0]
     nx = x0.shape[1]
     vo = 6 if rigid else 8
-    rho, g, wn, we, wd = env_at(atm, gust, 0.0, h0)
+    rho, g, wn0, we0, wd = env_at(atm, gust, 0.0, h0)
     rmat = np.zeros((3, 3))
     for i in range(n):
         k = pc[i, :NPROP]
         work = pc[i, NPROP:]
+        wn = wn0 + k[I_WN]
+        we = we0 + k[I_WE]
         x = x0[i]
         for j in range(nx):
             x[j] = 0.0
@@ -173,13 +206,13 @@ def _initial_states(
 @njit(cache=True, inline="always")
 def _rhs(t, x, p, u, atm, gust, dx):  # pragma: no cover - compiled
     rho, g, wn, we, wd = env_at(atm, gust, t, -x[2])
-    parafoil_rhs(p, x, rho, g, wn, we, wd, u[0], u[1], False, dx, p[NPROP:])
+    parafoil_rhs(p, x, rho, g, wn + p[I_WN], we + p[I_WE], wd, u[0], u[1], False, dx, p[NPROP:])
 
 
 @njit(cache=True)
 def _observe(t, x, p, u, atm, gust, y):  # pragma: no cover - compiled
     rho, g, wn, we, wd = env_at(atm, gust, t, -x[2])
-    parafoil_observe(p, x, wn, we, wd, False, y, p[NPROP:])
+    parafoil_observe(p, x, wn + p[I_WN], we + p[I_WE], wd, False, y, p[NPROP:])
 
 
 @njit(parallel=True, cache=True)
@@ -195,20 +228,72 @@ def _kernel(
         )  # fmt: skip
 
 
+_CANOPY_CHANNELS = (
+    Channel("canopy_phi", "rad", "canopy roll angle (3-2-1 Euler)"),
+    Channel("canopy_theta", "rad", "canopy pitch angle (3-2-1 Euler)"),
+    Channel("canopy_psi", "rad", "canopy yaw angle (3-2-1 Euler), not wrapped"),
+    Channel("canopy_p", "rad/s", "canopy body roll rate"),
+    Channel("canopy_q", "rad/s", "canopy body pitch rate"),
+    Channel("canopy_r", "rad/s", "canopy body yaw rate"),
+)
+_OPTIONS = {
+    "geometry": "mass and geometry: a ParafoilGeometry or a table of its fields",
+    "coefficients": "reference (nominal) coefficients replacing Set 0, by name",
+    "extra_parameters": f"parameters after the 33 gains, any of {', '.join(EXTRA_PARAMETERS)}",
+    "attitude": '"canopy" (default) or "payload": whose attitude the euler/rates channels give',
+    "aerodynamics": "false switches aerodynamic forces off (energy tests)",
+    "munk_in_static_data": "whether the static Cm, Cn data contain the steady Munk moment",
+    "joint_stiffness": "[pitch, yaw] payload joint stiffness, N m/rad",
+    "joint_damping": "[pitch, yaw] payload joint damping, N m s/rad",
+}
+
+
+def _number_option(where: str, value: Any) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
+        raise ParafoilOptionError(
+            f"model option {where}: expected a number, got {value!r}; write a plain number"
+        )
+    if not math.isfinite(float(value)):
+        raise ParafoilOptionError(f"model option {where}: expected a finite number, got {value!r}")
+    return float(value)
+
+
+def option_names() -> dict[str, str]:
+    """The parafoil models' constructor options (name -> meaning), for error messages."""
+    return dict(_OPTIONS)
+
+
 class ParafoilModelBase(Model):
     """Shared configuration and bookkeeping of the parafoil models (8-DoF and rigid 6-DoF).
 
+    Every option can be given from a study file as ``[identification] model_options = {...}``
+    (tables and arrays for the structured ones); invalid values raise
+    :class:`~vectorid.models.parafoil_aero.ParafoilOptionError` with a one-line message.
+
     Parameters
     ----------
-    geometry : ParafoilGeometry, optional
-        Mass and geometry; default: the reference 2,200-lb-class system (see
-        :class:`~vectorid.models.parafoil_aero.ParafoilGeometry`).
+    geometry : ParafoilGeometry or mapping, optional
+        Mass, inertia, geometry and rigging; default: the reference 2,200-lb-class system (see
+        :class:`~vectorid.models.parafoil_aero.ParafoilGeometry`). A mapping gives the fields
+        to change from that default (``{"area": 1.5, "span": 1.88, ...}``).
+    coefficients : mapping of str to float, optional
+        The nominal coefficient set of another canopy: reference values (in each coefficient's
+        unit, see :data:`~vectorid.models.parafoil_aero.GAINS`) replacing Set 0, so that the
+        gains c1..c33 multiply (or are added to) them; plus ``Cmalpha`` (1/deg) and
+        ``CDalpha2`` (1/deg^2), two terms Set 0 does not have (default 0).
+    extra_parameters : sequence of str, optional
+        Parameters appended after the 33 gains: ``payload_mass`` (kg), ``wind_north``,
+        ``wind_east`` (m/s, a uniform wind added to the profile); see :data:`EXTRA_PARAMETERS`.
+    attitude : {"canopy", "payload"}
+        Whose attitude the ``euler`` and ``rates`` output channels give (8-DoF only; the rigid
+        model has one attitude). ``"payload"`` matches an IMU on the payload, as in a drop's
+        GPS/IMU unit; the canopy's then appear as ``canopy_phi`` ... ``canopy_r``.
     aerodynamics : bool
         ``False`` switches aerodynamic forces and moments off (apparent masses stay): for
         energy-conservation checks.
     munk_in_static_data : bool
         ``True`` (default): the steady apparent-mass (Munk) moment is taken as already contained
-        in the static moment coefficients and is not added again (see ``docs/models_parafoil.md``).
+        in the static moment coefficients and is not added again (see ``docs/models.md``).
     joint_stiffness, joint_damping : tuple of float, optional
         Relative pitch and yaw stiffness (N m/rad) and damping (N m s/rad) of the payload joint;
         override ``geometry`` (8-DoF only).
@@ -229,33 +314,105 @@ class ParafoilModelBase(Model):
     def __init__(
         self,
         *,
-        geometry: ParafoilGeometry | None = None,
+        geometry: ParafoilGeometry | Mapping[str, Any] | None = None,
+        coefficients: Mapping[str, Any] | None = None,
+        extra_parameters: Sequence[str] = (),
+        attitude: str = "canopy",
         aerodynamics: bool = True,
         munk_in_static_data: bool = True,
         joint_stiffness: tuple[float, float] | None = None,
         joint_damping: tuple[float, float] | None = None,
     ) -> None:
-        geometry = ParafoilGeometry() if geometry is None else geometry
-        if not isinstance(geometry, ParafoilGeometry):
-            raise TypeError(f"geometry must be a ParafoilGeometry, got {type(geometry).__name__}")
+        if geometry is None:
+            geometry = ParafoilGeometry()
+        elif isinstance(geometry, Mapping):
+            geometry = ParafoilGeometry.from_options(geometry)
+        elif not isinstance(geometry, ParafoilGeometry):
+            raise ParafoilOptionError(
+                f"model option geometry: expected a ParafoilGeometry or a table of its fields, "
+                f"got {type(geometry).__name__}"
+            )
         changes: dict[str, Any] = {}
-        if joint_stiffness is not None:
-            changes["joint_stiffness"] = tuple(float(v) for v in joint_stiffness)
-        if joint_damping is not None:
-            changes["joint_damping"] = tuple(float(v) for v in joint_damping)
+        for name, value in (("joint_stiffness", joint_stiffness), ("joint_damping", joint_damping)):
+            if value is not None:
+                changes[name] = value
         if changes:
-            from dataclasses import replace
-
-            geometry = replace(geometry, **changes)
-        for name in ("joint_stiffness", "joint_damping"):
-            if len(getattr(geometry, name)) != 2:
-                raise ValueError(
-                    f"{name} must be two numbers (pitch, yaw), got {getattr(geometry, name)!r}"
-                )
+            geometry = ParafoilGeometry.from_options(changes, base=geometry)
         geometry.validate()
         self.geometry = geometry
+        if coefficients is not None and not isinstance(coefficients, Mapping):
+            raise ParafoilOptionError(
+                f"model option coefficients: expected a table name -> value, got "
+                f"{coefficients!r}; write coefficients = {{ CD0 = 0.12, Cnr = -0.27 }}"
+            )
+        coefficients = dict(coefficients or {})
+        self.extra_coefficients = {
+            k: float(_number_option(f"coefficients.{k}", coefficients.pop(k)))
+            for k in list(coefficients)
+            if k in EXTRA_COEFFICIENTS
+        }
+        self.reference = reference_coefficients(coefficients)
+        self.coefficients = dict(zip(GAIN_NAMES, self.reference.tolist()))
+        self.coefficients.update(self.extra_coefficients)
+        if isinstance(extra_parameters, str) or not isinstance(extra_parameters, Sequence):
+            raise ParafoilOptionError(
+                f"model option extra_parameters: expected a list of names, got "
+                f'{extra_parameters!r}; write extra_parameters = ["payload_mass"]'
+            )
+        extra = tuple(str(e) for e in extra_parameters)
+        for e in extra:
+            if e not in EXTRA_PARAMETERS:
+                raise ParafoilOptionError(
+                    f"model option extra_parameters: unknown parameter {e!r}; "
+                    f"{suggest(e, EXTRA_PARAMETERS)}"
+                )
+            if extra.count(e) > 1:
+                raise ParafoilOptionError(
+                    f"model option extra_parameters: {e!r} is listed twice; list it once"
+                )
+        self.extra_parameters = extra
+        if attitude not in ("canopy", "payload"):
+            raise ParafoilOptionError(
+                f'model option attitude: expected "canopy" or "payload", got {attitude!r}'
+            )
+        if attitude == "payload" and self.rigid:
+            attitude = "canopy"  # one rigid body: the payload's attitude is the canopy's
+        self.attitude = attitude
         self.aerodynamics = bool(aerodynamics)
         self.munk_in_static_data = bool(munk_in_static_data)
+        self.parameters = _parameters(self.reference, extra, geometry)
+        self.presets = {"set0": self.nominal}
+        if attitude == "payload":
+            self.outputs = BASE_CHANNELS + _CANOPY_CHANNELS + _PAYLOAD_CHANNELS[6:]
+
+    def _split(
+        self, X: NDArray[np.float64]
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64] | None, NDArray[np.float64] | None]:
+        """Gains (n, 33), payload masses (n,) or None, wind offsets (n, 2) or None."""
+        gains = X[:, :NGAIN]
+        mass = wind = None
+        names = self.extra_parameters
+        if "payload_mass" in names:
+            mass = X[:, NGAIN + names.index("payload_mass")]
+        if "wind_north" in names or "wind_east" in names:
+            wind = np.zeros((X.shape[0], 2))
+            for j, key in enumerate(("wind_north", "wind_east")):
+                if key in names:
+                    wind[:, j] = X[:, NGAIN + names.index(key)]
+        return gains, mass, wind
+
+    def _properties(self, X: NDArray[np.float64]) -> NDArray[np.float64]:
+        gains, mass, wind = self._split(X)
+        return build_properties(
+            gains,
+            self.geometry,
+            aero=self.aerodynamics,
+            munk_in_static_data=self.munk_in_static_data,
+            reference=self.reference,
+            extra_coefficients=self.extra_coefficients,
+            payload_mass=mass,
+            wind_offset=wind,
+        )
 
     # ---- model quantities -------------------------------------------------------------------
     def constants(self, X: ArrayLike) -> NDArray[np.float64]:
@@ -266,12 +423,7 @@ class ParafoilModelBase(Model):
         ndarray, shape (n, NPROP)
         """
         X = self._validate_params(X)
-        return build_properties(
-            X,
-            self.geometry,
-            aero=self.aerodynamics,
-            munk_in_static_data=self.munk_in_static_data,
-        )
+        return self._properties(X)
 
     def apparent_mass(self, X: ArrayLike, rho: float = 1.225) -> NDArray[np.float64]:
         """Apparent-mass matrix about the joint J in canopy axes, (n, 6, 6), at density ``rho``."""
@@ -364,6 +516,8 @@ class ParafoilModelBase(Model):
             rho = np.interp(h, h_grid, atm[1:, 0])
             g = np.interp(h, h_grid, atm[1:, 1])
             w = np.array([np.interp(h, h_grid, atm[1:, c]) for c in (2, 3, 4)])
+            w[0] += k[I_WN]
+            w[1] += k[I_WE]
             if n_g > 1:
                 w += [np.interp(t, t_grid, gust[1:, c]) for c in range(3)]
             dl, dr = controls(t)
@@ -402,9 +556,7 @@ class ParafoilModelBase(Model):
     # ---- hooks --------------------------------------------------------------------------------
     def _pack(self, X: NDArray[np.float64]) -> NDArray[np.float64]:
         pc = np.zeros((X.shape[0], NPROP + NWORK))
-        pc[:, :NPROP] = build_properties(
-            X, self.geometry, aero=self.aerodynamics, munk_in_static_data=self.munk_in_static_data
-        )
+        pc[:, :NPROP] = self._properties(X)
         return pc
 
     def _initial(
@@ -462,13 +614,15 @@ class ParafoilModelBase(Model):
         )
 
     def _check_parameters(self, X: NDArray[np.float64]) -> NDArray[np.int64]:
-        """Reject (status 4) gain vectors whose canopy mass matrix is not positive definite."""
-        k = build_properties(X, self.geometry)
+        """Reject (status 4) gain vectors whose canopy mass matrix is not positive definite,
+        and payload masses that are not > 0."""
+        k = self._properties(np.where(np.isfinite(X), X, 1.0))
         m = k[:, I_MRB : I_MRB + 36].reshape(-1, 6, 6) + RHO_MAX * k[:, I_MAM : I_MAM + 36].reshape(
             -1, 6, 6
         )
         lam = np.linalg.eigvalsh(0.5 * (m + np.transpose(m, (0, 2, 1))))
         bad = ~(lam[:, 0] > 1e-9 * np.maximum(1.0, lam[:, -1]))
+        bad |= ~(k[:, I_MP] > 0.0)
         return np.where(bad, STATUS_REJECTED, 0).astype(np.int64)
 
     def _simulate(self, X, status, t_fail, *, dt, n_steps, stride, controls, env, initial):
@@ -491,6 +645,11 @@ class ParafoilModelBase(Model):
             status,
             t_fail,
         )
+        if self.attitude == "payload":  # base euler/rates <- payload's, canopy's after the base
+            nb = len(BASE_CHANNELS)
+            canopy = y[:, :, 6:12].copy()
+            y[:, :, 6:12] = y[:, :, nb : nb + 6]
+            y[:, :, nb : nb + 6] = canopy
         return y
 
     def _run_kernel(self, *args: Any) -> None:
@@ -500,7 +659,7 @@ class ParafoilModelBase(Model):
 class Parafoil8DoF(ParafoilModelBase):
     """8-DoF parafoil-payload model (seed 000 eq. 1-3): canopy 6-DoF + payload relative pitch/yaw.
 
-    See :class:`ParafoilModelBase` for the options and ``docs/models_parafoil.md`` for the
+    See :class:`ParafoilModelBase` for the options and ``docs/models.md`` for the
     equations, frames, constants and sources.
     """
 

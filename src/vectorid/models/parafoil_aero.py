@@ -13,7 +13,7 @@ This module holds everything the 8-DoF (:mod:`vectorid.models.parafoil8dof`) and
   kinematics, the canopy aerodynamic force and moment, and the generalised mass matrix and
   right-hand side of the two-body (canopy + payload) system (:func:`system_matrices`).
 
-Frames and conventions (see ``docs/models_parafoil.md``):
+Frames and conventions (see ``docs/models.md``):
 
 * inertial frame: local north-east-down (NED), z down, altitude ``h = h0 - z``;
 * canopy body frame ``c``: origin at the payload joint (confluence point) J, x forward, y right,
@@ -32,18 +32,23 @@ exactly as the Set 0 values imply.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, fields
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numba as nb
 import numpy as np
 
+from vectorid.errors import VectoridError, suggest
+
 __all__ = [
+    "EXTRA_COEFFICIENTS",
     "GAINS",
     "GAIN_NAMES",
     "NPROP",
     "GainSpec",
     "ParafoilGeometry",
+    "ParafoilOptionError",
     "apparent_mass_matrix",
     "build_properties",
     "canopy_aero",
@@ -52,8 +57,16 @@ __all__ = [
     "euler_rates",
     "gains_to_coefficients",
     "nominal_gains",
+    "reference_coefficients",
     "system_matrices",
 ]
+
+
+class ParafoilOptionError(VectoridError, ValueError):
+    """A parafoil model option (geometry, mass, coefficients, ...) is invalid.
+
+    The message is one line: which option, what was expected, what came and how to fix it.
+    """
 
 
 class GainSpec(NamedTuple):
@@ -224,16 +237,81 @@ I_SRIG = 129  # sin(Rig)
 I_AERO = 130  # 1.0: aerodynamic forces and moments on, 0.0: off (energy tests)
 I_RAM = 131  # 131..133 joint -> canopy centre (mid-chord; mass and apparent-mass centre), m
 I_MUNK = 134  # 1.0: the steady Munk moment is taken as contained in the static Cm, Cn data
-NPROP = 135
+I_CMA = 135  # Cmalpha: pitching moment per degree of chord angle of attack, 1/deg (default 0)
+I_CDA2 = 136  # CDalpha2: drag per squared degree of chord angle of attack, 1/deg^2 (default 0)
+I_WN = 137  # uniform wind added to the environment's, north, m/s (per-trial parameter)
+I_WE = 138  # uniform wind added to the environment's, east, m/s (per-trial parameter)
+NPROP = 139
+
+#: Coefficients outside the 33 gains that a model option may set (name -> (unit, meaning)).
+#: Both default to 0 (the seed's Set 0 has neither); they let a canopy whose data are stated in
+#: these forms (e.g. ``CD = CD0 + CDa2 alpha^2``, ``Cm = Cm0 + Cma alpha + Cmq q^``) be entered.
+EXTRA_COEFFICIENTS: dict[str, tuple[str, str]] = {
+    "Cmalpha": ("1/deg", "pitching moment slope per degree of chord angle of attack alpha_c"),
+    "CDalpha2": ("1/deg^2", "drag per squared degree of alpha_c: CD += CDalpha2*alpha_c**2"),
+}
+
+
+#: Units and meanings of the geometry fields, for option errors and documentation.
+GEOMETRY_FIELDS: dict[str, tuple[str, str]] = {
+    "area": ("m^2", "canopy reference (planform) area S"),
+    "span": ("m", "canopy span b"),
+    "thickness_ratio": ("-", "airfoil thickness over chord t/c"),
+    "arc_ratio": ("-", "canopy arc height over span a/b"),
+    "line_length": ("m", "joint J to canopy quarter chord, along canopy z (rigging)"),
+    "canopy_ahead": ("m", "canopy quarter chord ahead of the joint J along canopy x (rigging)"),
+    "canopy_mass": ("kg", "canopy fabric and suspension-line mass"),
+    "payload_mass": ("kg", "payload mass"),
+    "payload_size": ("m", "payload box length, width, height [x, y, z]"),
+    "payload_cd": ("-", "payload drag coefficient on its frontal area width*height"),
+    "riser_length": ("m", "joint J down to the top of the payload"),
+    "joint_stiffness": ("N m/rad", "payload joint stiffness [pitch, yaw] (8-DoF)"),
+    "joint_damping": ("N m s/rad", "payload joint damping [pitch, yaw] (8-DoF)"),
+    "gravity": ("m/s^2", "gravitational acceleration"),
+    "canopy_inertia": (
+        "kg m^2",
+        "principal inertia [Ixx, Iyy, Izz] of canopy and lines about their mass centre, canopy "
+        "axes (default: thin plate of the canopy's mass and size)",
+    ),
+    "payload_inertia": (
+        "kg m^2",
+        "principal inertia [Ixx, Iyy, Izz] of the payload about its mass centre (default: solid "
+        "box of payload_mass and payload_size)",
+    ),
+}
+_TUPLE_LENGTHS = {
+    "payload_size": 3,
+    "joint_stiffness": 2,
+    "joint_damping": 2,
+    "canopy_inertia": 3,
+    "payload_inertia": 3,
+}
+
+
+def _option_number(where: str, value: Any, unit: str) -> float:
+    unit = "(dimensionless)" if unit == "-" else f"in {unit}"
+    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
+        raise ParafoilOptionError(
+            f"model option {where}: expected a number {unit}, got {value!r}; "
+            "write a plain number (e.g. 1.5)"
+        )
+    v = float(value)
+    if not math.isfinite(v):
+        raise ParafoilOptionError(
+            f"model option {where}: expected a finite number {unit}, got {value!r}"
+        )
+    return v
 
 
 @dataclass(frozen=True)
 class ParafoilGeometry:
-    """Mass and geometry of the reference 2,200-lb-class cargo parafoil-payload system.
+    """Mass and geometry of a parafoil-payload system (default: the reference cargo system).
 
     Defaults describe a generic ram-air cargo parafoil of the 2,200-lb (1,000-kg) class (the
     class of the Pegasus system of the seed's reference 5 and of the FireFly family): see
-    ``docs/models_parafoil.md`` for every value and where it comes from.
+    ``docs/models.md`` for every value and where it comes from. Any other canopy is described
+    by changing the fields (in a study file: ``model_options = { geometry = { ... } }``, see
+    :meth:`from_options`).
 
     Attributes
     ----------
@@ -267,6 +345,13 @@ class ParafoilGeometry:
         Relative pitch and yaw damping of the payload joint, N m s/rad (8-DoF only).
     gravity : float
         Gravitational acceleration, m/s^2.
+    canopy_inertia : tuple of float or None
+        Principal moments of inertia (Ixx, Iyy, Izz) of canopy and lines about their mass
+        centre in canopy axes, kg m^2; ``None``: a thin plate of ``canopy_mass`` with the
+        canopy's span, chord and thickness.
+    payload_inertia : tuple of float or None
+        Principal moments of inertia of the payload about its mass centre, payload axes,
+        kg m^2; ``None``: a solid box of ``payload_mass`` and ``payload_size``.
     """
 
     area: float = 90.0
@@ -283,6 +368,8 @@ class ParafoilGeometry:
     joint_stiffness: tuple[float, float] = (0.0, 2000.0)
     joint_damping: tuple[float, float] = (2000.0, 700.0)
     gravity: float = 9.80665
+    canopy_inertia: tuple[float, float, float] | None = None
+    payload_inertia: tuple[float, float, float] | None = None
 
     @property
     def chord(self) -> float:
@@ -294,14 +381,75 @@ class ParafoilGeometry:
         """Aspect ratio b^2/S, -."""
         return self.span**2 / self.area
 
+    @property
+    def wing_loading(self) -> float:
+        """Weight over canopy area (m_c + m_p) g / S, N/m^2."""
+        return (self.canopy_mass + self.payload_mass) * self.gravity / self.area
+
+    @classmethod
+    def from_options(
+        cls, options: Mapping[str, Any], base: ParafoilGeometry | None = None
+    ) -> ParafoilGeometry:
+        """A geometry from a mapping of field values (a study file's ``geometry = {...}``).
+
+        Fields not given keep the values of ``base`` (default: the reference cargo system).
+        Raises :class:`ParafoilOptionError` with a one-line message for an unknown field, a
+        value of the wrong kind or length, or a non-physical value.
+        """
+        if not isinstance(options, Mapping):
+            raise ParafoilOptionError(
+                f"model option geometry: expected a table of fields, got {options!r}; write "
+                "geometry = { area = 1.5, span = 1.88, ... }"
+            )
+        values: dict[str, Any] = {}
+        for key, value in options.items():
+            if key not in GEOMETRY_FIELDS:
+                hint = suggest(str(key), GEOMETRY_FIELDS)
+                raise ParafoilOptionError(f"model option geometry.{key}: unknown field; {hint}")
+            unit = GEOMETRY_FIELDS[key][0]
+            length = _TUPLE_LENGTHS.get(key)
+            if length is None:
+                values[key] = _option_number(f"geometry.{key}", value, unit)
+                continue
+            if value is None and key in ("canopy_inertia", "payload_inertia"):
+                values[key] = None
+                continue
+            if isinstance(value, str | bytes) or not isinstance(value, Sequence | np.ndarray):
+                raise ParafoilOptionError(
+                    f"model option geometry.{key}: expected {length} numbers in {unit}, got "
+                    f"{value!r}; write {key} = [{', '.join(['1.0'] * length)}]"
+                )
+            if len(value) != length:
+                raise ParafoilOptionError(
+                    f"model option geometry.{key}: expected {length} numbers in {unit}, got "
+                    f"{len(value)} ({list(value)!r})"
+                )
+            values[key] = tuple(
+                _option_number(f"geometry.{key}[{i}]", v, unit) for i, v in enumerate(value)
+            )
+        from dataclasses import replace
+
+        geo = replace(base or cls(), **values)
+        geo.validate()
+        return geo
+
     def validate(self) -> None:
-        """Raise ``ValueError`` naming the field when a value is not physical."""
+        """Raise :class:`ParafoilOptionError` naming the field when a value is not physical."""
         for f in fields(self):
             value = getattr(self, f.name)
+            if value is None and f.name in ("canopy_inertia", "payload_inertia"):
+                continue
             values = value if isinstance(value, tuple) else (value,)
+            length = _TUPLE_LENGTHS.get(f.name)
+            if length is not None and len(values) != length:
+                raise ParafoilOptionError(
+                    f"ParafoilGeometry.{f.name} must be {length} numbers, got {value!r}."
+                )
             for v in values:
                 if not np.isfinite(v):
-                    raise ValueError(f"ParafoilGeometry.{f.name} must be finite, got {value!r}.")
+                    raise ParafoilOptionError(
+                        f"ParafoilGeometry.{f.name} must be finite, got {value!r}."
+                    )
         positive = (
             "area",
             "span",
@@ -314,25 +462,37 @@ class ParafoilGeometry:
         )
         for name in positive:
             if getattr(self, name) <= 0.0:
-                raise ValueError(
+                raise ParafoilOptionError(
                     f"ParafoilGeometry.{name} must be > 0, got {getattr(self, name)!r}; "
-                    "use a positive value in SI units."
+                    f"use a positive value in {GEOMETRY_FIELDS[name][0]} "
+                    f"({GEOMETRY_FIELDS[name][1]})."
                 )
         if min(self.payload_size) <= 0.0:
-            raise ValueError(
+            raise ParafoilOptionError(
                 f"ParafoilGeometry.payload_size must be three positive lengths in m, "
                 f"got {self.payload_size!r}."
             )
         if self.arc_ratio < 0.0 or self.riser_length < 0.0:
-            raise ValueError(
+            raise ParafoilOptionError(
                 "ParafoilGeometry.arc_ratio and riser_length must be >= 0, "
                 f"got {self.arc_ratio!r} and {self.riser_length!r}."
             )
         if min(self.joint_stiffness) < 0.0 or min(self.joint_damping) < 0.0:
-            raise ValueError(
+            raise ParafoilOptionError(
                 "ParafoilGeometry.joint_stiffness and joint_damping must be >= 0, got "
                 f"{self.joint_stiffness!r} and {self.joint_damping!r}."
             )
+        for name in ("canopy_inertia", "payload_inertia"):
+            inertia = getattr(self, name)
+            if inertia is None:
+                continue
+            a, b, c = sorted(inertia)
+            if a <= 0.0 or a + b < c * (1.0 - 1e-9):
+                raise ParafoilOptionError(
+                    f"ParafoilGeometry.{name} must be three positive principal moments in kg m^2 "
+                    f"that satisfy the triangle inequality (each <= the sum of the other two), "
+                    f"got {inertia!r}."
+                )
 
 
 def nominal_gains() -> np.ndarray:
@@ -340,13 +500,41 @@ def nominal_gains() -> np.ndarray:
     return np.where(_ADD, 0.0, 1.0)
 
 
-def gains_to_coefficients(gains: np.ndarray) -> np.ndarray:
+def reference_coefficients(overrides: Mapping[str, Any] | None = None) -> np.ndarray:
+    """The Set-0 reference coefficients (33,) with some replaced: another canopy's nominal set.
+
+    Parameters
+    ----------
+    overrides : mapping of str to float, optional
+        Coefficient name (:data:`GAIN_NAMES`) -> reference value in the coefficient's unit
+        (:attr:`GainSpec.coef_unit`). The gains then multiply (or are added to) these values.
+
+    Raises
+    ------
+    ParafoilOptionError
+        Unknown name or a value that is not a finite number.
+    """
+    ref = _REF.copy()
+    for key, value in dict(overrides or {}).items():
+        if key not in GAIN_NAMES:
+            raise ParafoilOptionError(
+                f"model option coefficients.{key}: unknown coefficient; "
+                f"{suggest(str(key), [*GAIN_NAMES, *EXTRA_COEFFICIENTS])}"
+            )
+        g = GAINS[GAIN_NAMES.index(key)]
+        ref[g.index - 1] = _option_number(f"coefficients.{key}", value, g.coef_unit)
+    return ref
+
+
+def gains_to_coefficients(gains: np.ndarray, reference: np.ndarray | None = None) -> np.ndarray:
     """Effective coefficients from gains: ``ref*gain`` (multiplicative) or ``ref+gain`` (additive).
 
     Parameters
     ----------
     gains : ndarray, shape (n, 33)
         Gain factors c1..c33 in the order of :data:`GAINS`.
+    reference : ndarray, shape (33,), optional
+        Reference coefficients (default: the seed's Set 0; see :func:`reference_coefficients`).
 
     Returns
     -------
@@ -359,7 +547,8 @@ def gains_to_coefficients(gains: np.ndarray) -> np.ndarray:
             f"gains must have shape (n, {NGAIN}) (one row of c1..c{NGAIN} per trial), "
             f"got shape {g.shape}; reshape with gains.reshape(-1, {NGAIN})."
         )
-    return np.where(_ADD, _REF + g, _REF * g)
+    ref = _REF if reference is None else np.asarray(reference, dtype=float)
+    return np.where(_ADD, ref + g, ref * g)
 
 
 def _skew(r: np.ndarray) -> np.ndarray:
@@ -481,6 +670,10 @@ def build_properties(
     *,
     aero: bool = True,
     munk_in_static_data: bool = True,
+    reference: np.ndarray | None = None,
+    extra_coefficients: Mapping[str, float] | None = None,
+    payload_mass: np.ndarray | None = None,
+    wind_offset: np.ndarray | None = None,
 ) -> np.ndarray:
     """Per-trial property rows for the compiled kernels.
 
@@ -498,6 +691,16 @@ def build_properties(
         ``v_rel x (M_11 v_rel)``, is taken as already contained in the static moment
         coefficients (they come from steady wind-tunnel and flight data) and is removed from
         the Kirchhoff terms, so that it is not counted twice. Only applies with ``aero=True``.
+    reference : ndarray, shape (33,), optional
+        Reference coefficients the gains apply to (default: Set 0).
+    extra_coefficients : mapping, optional
+        Values of :data:`EXTRA_COEFFICIENTS` (``Cmalpha`` 1/deg, ``CDalpha2`` 1/deg^2;
+        default 0).
+    payload_mass : ndarray, shape (n,), optional
+        Per-trial payload mass, kg (default: ``geometry.payload_mass``); a box payload's
+        inertia scales with it, a stated ``payload_inertia`` is scaled by the mass ratio.
+    wind_offset : ndarray, shape (n, 2), optional
+        Per-trial uniform wind (north, east) added to the environment's wind, m/s.
 
     Returns
     -------
@@ -506,7 +709,7 @@ def build_properties(
     """
     geometry = geometry or ParafoilGeometry()
     geometry.validate()
-    coefs = gains_to_coefficients(gains)
+    coefs = gains_to_coefficients(gains, reference)
     n = coefs.shape[0]
     props = np.zeros((n, NPROP))
     props[:, :NGAIN] = coefs
@@ -515,7 +718,8 @@ def build_properties(
     props[:, I_B] = b
     props[:, I_C] = c
     props[:, I_MC] = geometry.canopy_mass
-    props[:, I_MP] = geometry.payload_mass
+    mp = np.full(n, geometry.payload_mass) if payload_mass is None else np.asarray(payload_mass)
+    props[:, I_MP] = mp
     lx, ly, lz = geometry.payload_size
     props[:, I_CDSP] = geometry.payload_cd * ly * lz
     props[:, I_G] = geometry.gravity
@@ -528,13 +732,20 @@ def build_properties(
     props[:, I_RMC : I_RMC + 3] = r_mid
     props[:, I_RAM : I_RAM + 3] = r_mid
     props[:, I_RP + 2] = geometry.riser_length + 0.5 * lz
-    mp = geometry.payload_mass
-    props[:, I_IP] = mp * (ly**2 + lz**2) / 12.0
-    props[:, I_IP + 1] = mp * (lx**2 + lz**2) / 12.0
-    props[:, I_IP + 2] = mp * (lx**2 + ly**2) / 12.0
+    if geometry.payload_inertia is None:
+        props[:, I_IP] = mp * (ly**2 + lz**2) / 12.0
+        props[:, I_IP + 1] = mp * (lx**2 + lz**2) / 12.0
+        props[:, I_IP + 2] = mp * (lx**2 + ly**2) / 12.0
+    else:
+        scale = mp / geometry.payload_mass
+        for j in range(3):
+            props[:, I_IP + j] = geometry.payload_inertia[j] * scale
     mc = geometry.canopy_mass
     t = geometry.thickness_ratio * c
-    i_c = np.diag([mc * (b**2 + t**2) / 12.0, mc * (c**2 + t**2) / 12.0, mc * (b**2 + c**2) / 12.0])
+    if geometry.canopy_inertia is None:
+        i_c = np.diag([b**2 + t**2, c**2 + t**2, b**2 + c**2]) * (mc / 12.0)
+    else:
+        i_c = np.diag(np.asarray(geometry.canopy_inertia, dtype=float))
     props[:, I_MRB : I_MRB + 36] = _rigid_mass_about(mc, r_mid, i_c).reshape(n, 36)
     props[:, I_MAM : I_MAM + 36] = apparent_mass_matrix(coefs, geometry, 1.0).reshape(n, 36)
     props[:, I_KTH], props[:, I_KPS] = geometry.joint_stiffness
@@ -544,6 +755,19 @@ def build_properties(
     props[:, I_SRIG] = np.sin(rig)
     props[:, I_AERO] = 1.0 if aero else 0.0
     props[:, I_MUNK] = 1.0 if (aero and munk_in_static_data) else 0.0
+    extra = dict(extra_coefficients or {})
+    for key in extra:
+        if key not in EXTRA_COEFFICIENTS:
+            raise ParafoilOptionError(
+                f"model option coefficients.{key}: unknown coefficient; "
+                f"{suggest(str(key), [*GAIN_NAMES, *EXTRA_COEFFICIENTS])}"
+            )
+    props[:, I_CMA] = float(extra.get("Cmalpha", 0.0))
+    props[:, I_CDA2] = float(extra.get("CDalpha2", 0.0))
+    if wind_offset is not None:
+        w = np.asarray(wind_offset, dtype=float)
+        props[:, I_WN] = w[:, 0]
+        props[:, I_WE] = w[:, 1]
     return props
 
 
@@ -646,7 +870,7 @@ def canopy_aero(
     ac = alpha * deg - k[I_RIG]  # chord angle of attack, deg
     bd = beta * deg
     cl = k[I_CLA] * (ac + k[I_ALPHA0]) + k[I_CLDF] * ds
-    cd = k[I_CD0] + k[I_A2] * cl * cl + k[I_ADF] * ds
+    cd = k[I_CD0] + k[I_A2] * cl * cl + k[I_CDA2] * ac * ac + k[I_ADF] * ds
     cy = (k[I_CYBN] + k[I_CYBG] * ac) * bd + (k[I_CYDAN] + k[I_CYDAG] * ac) * da
     b = k[I_B]
     c = k[I_C]
@@ -660,7 +884,7 @@ def canopy_aero(
         + k[I_CLP] * ph
         + k[I_CLR] * rh
     )
-    cm = k[I_CM0] + k[I_CMQ] * qh
+    cm = k[I_CM0] + k[I_CMA] * ac + k[I_CMQ] * qh
     cn = (
         (k[I_CNBN] + k[I_CNBG] * ac) * bd
         + (k[I_CNDAN] + k[I_CNDAG] * ac) * da

@@ -1,0 +1,409 @@
+"""Identify a real small parafoil's glide and turn-control gains from several flights at once.
+
+Usage::
+
+    python examples/eth_parafoil.py [PATH/TO/shared/data/eth-parafoil] [--trials 4096]
+        [--out eth-parafoil]
+
+The flights: four constant-heading tests of the ETH Zürich student parafoil (2022; data README
+in ``../shared/data/eth-parafoil/``): GNSS north/east position and a z-down coordinate at
+2.5 Hz, and the asymmetric brake command delta_a at about 100 Hz, 11-17 s each. No airspeed,
+attitude or wind was recorded.
+
+The model starts from the authors' stated parameter set (their ``ParamSetup.m``, quoted in the
+data README), entered as model options of ``parafoil6dof`` (the authors' simulator is a rigid
+6-DoF model): mass 1.2 kg, canopy 1.5 m² / 1.88 m span / 0.80 m chord, arc 0.4 m, thickness
+0.075 m, canopy point 1.2 m above the mass centre, no rigging angle, payload drag 3.2 on
+0.06 m², their aerodynamic coefficients (per radian, converted to the model's per-degree
+forms) and the Lissaman-Brown apparent masses of their geometry. Two readings are ours, printed
+at the start: the brakes (only delta_a was logged; the fixed-point test's log shows the
+controller holding both brakes at 0.5 and releasing one, so left = 0.5 - max(delta_a, 0),
+right = 0.5 + min(delta_a, 0)) and the split of the 1.2 kg into canopy 0.2 kg and payload
+1.0 kg. The stated inertia matrix cannot be used: its diagonal violates the triangle
+inequality (1.68 > 0.80 + 0.32 kg m²), which no mass distribution satisfies, so the model's
+inertia comes from the masses and the geometry.
+
+Identified, from the four flights together (each criterion is the mean over the flights, as
+the seed's "several experiments"):
+
+* glide: the gains of CD0 and CLalpha (the sink rate and the airspeed);
+* turn control: the gains of CnDanom (yaw per unit asymmetric brake) and Cnr (yaw damping),
+  which these short flights turn out not to determine (the script measures and says so);
+* per flight, the unknown uniform wind (north, east): nuisance parameters (the seed's k_U), so
+  that the glide gains do not absorb the wind.
+
+Criteria (pure): horizontal and vertical position residuals ∫|ΔP_H| dt and ∫|ΔP_V| dt, averaged
+over the flights. The script prints, per flight, the horizontal RMS error with the stated
+parameters (calm air, and with the wind fitted alone) and with the identified ones, then each
+identified gain with its feasible and Pareto ranges and what the data cannot determine.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from vectorid.identify import Channel, FlightData, Identification, load_flight
+from vectorid.problem import Criterion
+from vectorid.space import Continuous, Space
+from vectorid.spec import StudySpec
+
+ROOT = Path(__file__).resolve().parents[1]
+DEFAULT_DATA = ROOT.parent / "shared" / "data" / "eth-parafoil"
+FLIGHTS = ("flight1", "flight2", "flight3", "flight4")
+RAD = 180.0 / math.pi
+#: Altitude of the flights' NED origin above mean sea level, m. Not stated; the site is in
+#: Zürich (origin 47.355 N, 8.520 E), about 500 m; it only sets the air density (~1 % per 100 m).
+ORIGIN_ALTITUDE = 500.0
+#: Brake held on both sides (the fixed-point test's log: max(left, right) = 0.5 throughout).
+BRAKE_BASE = 0.5
+
+# ---- the authors' stated parameter set (data README, ParamSetup.m on feature/paper) ------------
+MASS = 1.2  # kg, system_mass
+AREA, SPAN, CHORD = 1.5, 1.88, 0.80  # m², m, m
+ARC, THICKNESS = 0.4, 0.075  # m (parafoil_arc_h, parafoil_thickness)
+CANOPY_ABOVE_CG = 1.2  # m, B_r_BP = [0; 0; -1.2]
+S_PAYLOAD, CD_PAYLOAD = 0.06, 3.2  # m², -
+STATED_INERTIA = (1.68, 0.80, 0.32)  # kg m², diagonal of system_inertia (Ixz = 0.09 not used)
+STATED = {  # their coefficients, per radian where they depend on an angle
+    "c_D0": 0.12, "c_Da2": 0.33, "c_Dds": 0.43, "c_Yb": 0.23,
+    "c_L0": 0.24, "c_La": 2.14, "c_Lds": 0.2783,
+    "c_lp": -0.84, "c_lda": 0.05, "c_m0": 0.1, "c_ma": -0.72, "c_mq": -1.49,
+    "c_nr": -0.27, "c_nda": 0.025,
+}  # fmt: skip
+#: Our reading of the split of the 1.2 kg (not stated): canopy, lines and fabric vs payload.
+CANOPY_MASS = 0.2  # kg
+
+GLIDE = ("CD0", "CLalpha")
+TURN = ("CnDanom", "Cnr")
+GAIN_BOX = (0.3, 3.0)
+WIND_BOX = (-5.0, 5.0)  # m/s, per flight and component
+
+
+def lissaman_brown_factors() -> dict[str, float]:
+    """The six apparent-mass factors of the model's Lissaman-Brown forms that reproduce the
+    stated geometry's apparent masses (the README's ``ImIiCompute`` formulas)."""
+    a_s, t_s = ARC / SPAN, THICKNESS / CHORD
+    ar = SPAN / CHORD
+    b, c, t = SPAN, CHORD, THICKNESS
+    m_a = 0.666 * (1 + 8 / 3 * a_s**2) * t**2 * b
+    m_b = 0.267 * (t**2 + 2 * ARC**2 * (1 - t_s**2)) * c
+    m_c = 0.785 * math.sqrt(1 + 2 * a_s**2 * (1 - t_s**2)) * ar / (1 + ar) * b * c**2
+    i_a = 0.055 * ar / (1 + ar) * b**3 * c**2
+    i_b = 0.0308 * ar / (1 + ar) * (1 + math.pi / 6 * (1 + ar) * ar * a_s**2 * t_s**2) * b * c**4
+    i_c = 0.0555 * (1 + 8 * a_s**2) * t**2 * b**3
+    # the model's forms (its chord is S / b = 0.798 m, not the stated 0.80 m):
+    # A = kA π/4 t² b, B = kB π/4 t² c, C = kC π/4 c² b,
+    # IA = kA* π/48 c² b³, IB = kB* 4/(48π) c⁴ b, IC = kC* π/48 t² b³
+    c = AREA / SPAN
+    return {
+        "kA": m_a / (math.pi / 4 * t**2 * b),
+        "kB": m_b / (math.pi / 4 * t**2 * c),
+        "kC": m_c / (math.pi / 4 * c**2 * b),
+        "kA_star": i_a / (math.pi / 48 * c**2 * b**3),
+        "kB_star": i_b / (4 / (48 * math.pi) * c**4 * b),
+        "kC_star": i_c / (math.pi / 48 * t**2 * b**3),
+    }
+
+
+def model_options() -> dict:
+    """The stated parameter set as ``parafoil6dof`` model options (what a study file's
+    ``[identification] model_options`` would hold)."""
+    payload_mass = MASS - CANOPY_MASS
+    side = math.sqrt(S_PAYLOAD)  # a cube with the stated reference area
+    riser = 0.10  # m, joint to the top of the payload (our reading)
+    d_payload = riser + side / 2
+    # put the canopy's quarter chord CANOPY_ABOVE_CG above the system's mass centre:
+    # L + (m_p d_p - m_c L) / m = 1.2  ->  L = (1.2 - m_p d_p / m) / (1 - m_c / m)
+    line = (CANOPY_ABOVE_CG - payload_mass * d_payload / MASS) / (1 - CANOPY_MASS / MASS)
+    coefficients = {
+        "CD0": STATED["c_D0"], "A2": 0.0, "CDalpha2": STATED["c_Da2"] / RAD**2,
+        "ADf": STATED["c_Dds"],
+        "CLalpha": STATED["c_La"] / RAD, "Alpha0": STATED["c_L0"] / (STATED["c_La"] / RAD),
+        "CLDf": STATED["c_Lds"], "Rig": 0.0,
+        "Cm0": STATED["c_m0"], "Cmalpha": STATED["c_ma"] / RAD, "Cmq": STATED["c_mq"],
+        "CYbnom": -STATED["c_Yb"] / RAD, "CYbgrad": 0.0, "CYDanom": 0.0, "CYDagrad": 0.0,
+        "Clbnom": 0.0, "Clbgrad": 0.0, "ClDanom": STATED["c_lda"], "ClDagrad": 0.0,
+        "Clp": STATED["c_lp"], "Clr": 0.0,
+        "Cnbnom": 0.0, "Cnbgrad": 0.0, "CnDanom": STATED["c_nda"], "CnDagrad": 0.0,
+        "Cnp": 0.0, "Cnr": STATED["c_nr"],
+        **lissaman_brown_factors(),
+    }  # fmt: skip
+    geometry = {
+        "area": AREA, "span": SPAN, "thickness_ratio": THICKNESS / (AREA / SPAN),
+        "arc_ratio": ARC / SPAN,
+        "line_length": line, "canopy_ahead": 0.0, "canopy_mass": CANOPY_MASS,
+        "payload_mass": payload_mass, "payload_size": [side, side, side],
+        "payload_cd": CD_PAYLOAD, "riser_length": riser,
+    }  # fmt: skip
+    return {
+        "geometry": geometry,
+        "coefficients": coefficients,
+        "extra_parameters": ["wind_north", "wind_east"],
+    }
+
+
+def load(folder: Path, name: str) -> FlightData:
+    """One flight: GNSS position, the course as a yaw estimate for the initial attitude, and
+    the brakes from delta_a (see the module docstring)."""
+    states = load_flight(
+        folder / f"{name}_states.csv",
+        mapping={
+            "time": "t_s",
+            "position": {"north": "x_north_m", "east": "y_east_m", "down": "z_down_m",
+                         "unit": "m"},
+        },
+    )  # fmt: skip
+    raw = np.genfromtxt(folder / f"{name}_states.csv", delimiter=",", names=True)
+    course = np.unwrap(np.radians(raw["heading_deg"]))
+    euler = Channel(
+        "euler", raw["t_s"], np.column_stack([0 * course, 0 * course, course]),
+        ("roll", "pitch", "yaw"), "rad",
+    )  # fmt: skip
+    inputs = np.genfromtxt(folder / f"{name}_inputs.csv", delimiter=",", names=True)
+    t, da = inputs["t_s"], inputs["delta_a"]
+    keep = np.concatenate([[True], np.diff(t) > 0])  # the log repeats a few time stamps
+    t, da = t[keep], da[keep]
+    left = BRAKE_BASE - np.maximum(da, 0.0)
+    right = BRAKE_BASE + np.minimum(da, 0.0)
+    controls = Channel(
+        "controls", t, np.column_stack([left, right]), ("flap_left", "flap_right"), "-"
+    )
+    channels = dict(states.channels, euler=euler, controls=controls)
+    return FlightData(name, channels, {}, None)
+
+
+def identification(flights: dict[str, FlightData], name: str, variables) -> Identification:
+    """The identification of one flight (its own wind variables among ``variables``)."""
+    fl = flights[name]
+    t0, t1 = fl["position"].t[0], fl["position"].t[-1]
+    table = {
+        "model": "parafoil6dof",
+        "model_options": model_options(),
+        "dt": 0.02,
+        "output_dt": 0.2,
+        "init_span": 1.0,
+        "drops": [{"name": name, "window": [float(t0), float(t1)], "interpolation": "linear",
+                   "origin_altitude": ORIGIN_ALTITUDE}],
+    }  # fmt: skip
+    return Identification.from_table(
+        table, variables=list(variables), criteria=["pos_h_abs", "pos_v_abs"],
+        flights={name: fl},
+    )  # fmt: skip
+
+
+class MultiFlight:
+    """The batch model: design vector -> criteria averaged over the flights.
+
+    Columns: the shared gains, then ``wind_north.<flight>``, ``wind_east.<flight>`` per flight.
+    """
+
+    def __init__(self, flights: dict[str, FlightData], gains: tuple[str, ...]):
+        self.gains = gains
+        self.names = list(flights)
+        self.idents = {
+            n: identification(flights, n, [*gains, "wind_north", "wind_east"]) for n in flights
+        }
+
+    @property
+    def variables(self) -> list[str]:
+        return [*self.gains, *(f"{c}.{n}" for n in self.names for c in ("wind_north", "wind_east"))]
+
+    def columns(self, X: np.ndarray, k: int) -> np.ndarray:
+        g = len(self.gains)
+        return np.column_stack([X[:, :g], X[:, g + 2 * k], X[:, g + 2 * k + 1]])
+
+    def per_flight(self, X: np.ndarray) -> np.ndarray:
+        """Criteria (n, flights, 2)."""
+        X = np.atleast_2d(np.asarray(X, dtype=float))
+        out = []
+        for k, n in enumerate(self.names):
+            out.append(self.idents[n].evaluate(self.columns(X, k))[0])
+        return np.stack(out, axis=1)
+
+    def __call__(self, X: np.ndarray) -> np.ndarray:
+        return self.per_flight(X).mean(axis=1)
+
+    def horizontal_rms(self, x: np.ndarray) -> dict[str, float]:
+        """Horizontal RMS error (m) of one design vector on each flight."""
+        out = {}
+        for k, n in enumerate(self.names):
+            ident = self.idents[n]
+            d = ident.drops[0]
+            res = ident.simulate(self.columns(np.atleast_2d(x), k), d)
+            e = res.position[0, :, :2] - d.measured("position")[:, :2]
+            out[n] = float(np.sqrt(np.mean((e**2).sum(axis=1))))
+        return out
+
+
+#: The model of the study being run: the study file names ``eth_parafoil:evaluate`` (a module-level
+#: function, so the store can name it), which evaluates this object.
+_CURRENT: MultiFlight | None = None
+
+
+def evaluate(X: np.ndarray) -> np.ndarray:
+    """The study's batch model: criteria (n, 2) averaged over the flights of ``_CURRENT``."""
+    if _CURRENT is None:
+        raise RuntimeError("no model is being identified; call identify() first")
+    return _CURRENT(X)
+
+
+def run(model: MultiFlight, boxes: dict, store: Path, trials: int, name: str):
+    """One PSI study of ``model`` with double tuning (a coarse run of a quarter of ``trials``,
+    the box narrowed from its feasible set, then ``trials`` more); returns the step result."""
+    from vectorid.identify.twostep import run_step
+
+    global _CURRENT
+    _CURRENT = model
+    space = Space([Continuous(v, *boxes[v]) for v in model.variables])
+    spec = StudySpec(
+        name=name, model=evaluate, space=space,
+        criteria=(Criterion("pos_h", unit="m·s"), Criterion("pos_v", unit="m·s")),
+        trials=trials, seed=1, executor="serial",
+    )  # fmt: skip
+    if store.exists():
+        store.unlink()
+    return run_step(spec, store, trials=trials, coarse=max(16, trials // 4), auto_quantile=0.1,
+                    min_feasible=20, name=name)  # fmt: skip
+
+
+def identify(folder: str | Path, out: str | Path, trials: int = 4096) -> dict:
+    """Run both studies on the four flights; returns the RMS tables and the step results."""
+    folder, out = Path(folder), Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    flights = {n: load(folder, n) for n in FLIGHTS}
+    names = [*GLIDE, *TURN]
+    full = MultiFlight(flights, tuple(names))
+    wind_only = MultiFlight(flights, ())
+    wind_boxes = {v: WIND_BOX for v in full.variables if v.startswith("wind_")}
+    boxes = {**{g: GAIN_BOX for g in names}, **wind_boxes}
+    stated = np.concatenate([np.ones(len(names)), np.zeros(2 * len(FLIGHTS))])
+    rw = run(wind_only, wind_boxes, out / "eth-wind-only.db", max(16, trials // 2), "eth-wind")
+    r = run(full, boxes, out / "eth-glide-turn.db", trials, "eth-glide-turn")
+    x_w = np.array([rw.chosen[v] for v in wind_only.variables])
+    x_id = np.array([r.chosen[v] for v in full.variables])
+    a = r.analysis
+    Xd = a.trials.X[a.feasible]
+    col = {v: Xd[:, a.spec.space.names.index(v)] for v in names}
+
+    def log_width(v: np.ndarray) -> float:
+        """Width of the 5-95 % range of ln(v) over D (0.69: a factor of two)."""
+        q = np.quantile(np.log(v), [0.05, 0.95]) if v.size >= 5 else (np.nan, np.nan)
+        return float(q[1] - q[0])
+
+    widths = {v: log_width(col[v]) for v in names}
+    widths["CnDanom/Cnr"] = log_width(col["CnDanom"] / col["Cnr"])
+    return {
+        "flights": flights,
+        "model": full.idents[FLIGHTS[0]].model,
+        "gains": names,
+        "wind_step": rw,
+        "step": r,
+        "rms_stated_calm": full.horizontal_rms(stated),
+        "rms_stated_wind": wind_only.horizontal_rms(x_w),
+        "rms_identified": full.horizontal_rms(x_id),
+        "log_widths": widths,
+    }
+
+
+def main(argv: list[str] | None = None) -> int:
+    from vectorid.demo_parafoil import print_chosen_values
+
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("data", nargs="?", default=str(DEFAULT_DATA), help="the eth-parafoil folder")
+    ap.add_argument("--trials", type=int, default=4096)
+    ap.add_argument("--out", default="eth-parafoil", help="folder of the stores")
+    args = ap.parse_args(argv)
+    folder = Path(args.data)
+    if not (folder / "flight1_states.csv").exists():
+        print(
+            f"error: {folder} holds no flight1_states.csv; pass the eth-parafoil folder of the "
+            "shared data",
+            file=sys.stderr,
+        )
+        return 2
+    geo = model_options()["geometry"]
+    print("ETH Zürich small parafoil, four constant-heading flights (data README: eth-parafoil)")
+    print(
+        f"  model parafoil6dof from the stated set: {MASS} kg ({CANOPY_MASS} kg canopy, "
+        f"{geo['payload_mass']:.1f} kg payload: our split), {AREA} m², span {SPAN} m, "
+        f"lines {geo['line_length']:.2f} m (canopy point {CANOPY_ABOVE_CG} m above the mass centre)"
+    )
+    print(
+        "  stated inertia diag (1.68, 0.80, 0.32) kg m² violates the triangle inequality "
+        "(1.68 > 0.80 + 0.32): not used; the model's comes from the masses and geometry"
+    )
+    print(
+        "  brakes: left = 0.5 - max(delta_a, 0), right = 0.5 + min(delta_a, 0) (the fixed-point "
+        "log's pattern; only delta_a was logged here)"
+    )
+    sys.stdout.flush()
+    res = identify(folder, args.out, args.trials)
+    for n, fl in res["flights"].items():
+        p = fl["position"]
+        print(f"  {n}: {p.t[-1] - p.t[0]:.1f} s, {len(p.t)} GNSS fixes")
+    r = res["step"]
+    a = r.analysis
+    print()
+    print(
+        f"Identified from the four flights together: N = {a.n}   ND = {a.n_feasible}   "
+        f"NP = {a.n_pareto} ({r.elapsed:.0f} s); criteria constraints (10 % quantile): "
+        + ", ".join(f"{k} <= {v:.3g} m·s" for k, v in r.limits.items())
+    )
+    print()
+    print("Horizontal RMS error per flight (m):")
+    print(f"  {'flight':<8}{'stated, calm':>14}{'stated + wind':>15}{'identified':>12}")
+    cols = (res["rms_stated_calm"], res["rms_stated_wind"], res["rms_identified"])
+    for n in FLIGHTS:
+        print(f"  {n:<8}{cols[0][n]:14.1f}{cols[1][n]:15.1f}{cols[2][n]:12.1f}")
+    means = [float(np.mean(list(c.values()))) for c in cols]
+    print(f"  {'mean':<8}{means[0]:14.1f}{means[1]:15.1f}{means[2]:12.1f}")
+    print("  (stated + wind: the stated gains with each flight's uniform wind fitted alone)")
+    print()
+    print("Identified gains (x the stated coefficient) and winds (m/s), with their ranges:")
+    rows = print_chosen_values(a, r.chosen)
+    print()
+    m = res["model"]
+    by_name = {rr.name: rr for rr in rows}
+    for g in res["gains"]:
+        ref = m.coefficients[g]
+        lo, hi = sorted((ref * by_name[g].feasible[0], ref * by_name[g].feasible[1]))
+        print(
+            f"  {g:<8} stated {ref:.4g}, chosen {r.chosen[g] * ref:.4g} "
+            f"({r.chosen[g]:.2f} x stated); over D {lo:.4g} ... {hi:.4g}"
+        )
+    print()
+    print("What these flights cannot determine:")
+    wide = [rr.name for rr in rows if rr.verdict == "wide"]
+    glide_wide = [g for g in GLIDE if by_name[g].verdict == "wide"]
+    glide_kept = [g for g in GLIDE if by_name[g].verdict != "wide"]
+    print(
+        "  - the along-track wind and the airspeed separately: no airspeed was logged and every "
+        "flight\n    heads about the same way (course over ground 14-41 deg), so a faster canopy "
+        "in less tailwind\n    fits as well"
+        + (f"; here {', '.join(glide_wide)} stays wide" if glide_wide else "")
+        + (f" while {', '.join(glide_kept)} is narrowed (the sink rate)" if glide_kept else "")
+    )
+    if wide:
+        print(f"  - not pinned by the data here (range, not value): {', '.join(wide)}")
+    w = res["log_widths"]
+    box = np.log(GAIN_BOX[1] / GAIN_BOX[0])
+    turn = ", ".join(f"{k} {w[k]:.2f}" for k in ("CnDanom", "Cnr", "CnDanom/Cnr"))
+    if max(w["CnDanom"], w["Cnr"], w["CnDanom/Cnr"]) > 0.5 * box:
+        print(
+            "  - the turn-control gains: neither CnDanom, nor Cnr, nor the turn rate's ratio "
+            "CnDanom/Cnr is narrowed\n    much by these flights (5-95 % widths of ln over D: "
+            f"{turn}; the box is {box:.2f}): 11-17 s of\n    small brake inputs "
+            "(|delta_a| <= 0.24) under an unknown wind do not determine them"
+        )
+    else:
+        print(f"  - turn-control gains, 5-95 % widths of ln over D: {turn} (box {box:.2f})")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,31 @@
+"""Acceptance test: what the SSI drops (unknown mass and canopy) determine (shared data)."""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+DATA = ROOT.parent / "shared" / "data" / "ssi-parafoil"
+
+
+@pytest.mark.skipif(not (DATA / "parafoildata_clean.csv").exists(), reason=f"no data at {DATA}")
+def test_ssi_drops_give_a_wing_loading_range(tmp_path):
+    for name in ("eth_parafoil", "ssi_parafoil"):
+        spec = importlib.util.spec_from_file_location(name, ROOT / "examples" / f"{name}.py")
+        mod = importlib.util.module_from_spec(spec)
+        sys.modules[name] = mod
+        spec.loader.exec_module(mod)
+    r = sys.modules["ssi_parafoil"].identify(DATA, tmp_path, trials=256)
+    a = r["step"].analysis
+    assert a.n == 256 + 64 and a.n_feasible >= 20
+    # the sink rate of 6-7 m/s is matched: altitude within 15 m RMS over each drop
+    for name, (alt_rms, h_rms, duration) in r["errors"].items():
+        assert alt_rms < 15.0, name
+        assert np.isfinite(h_rms) and duration > 9.0
+    lo, hi = r["wing_loading"]
+    assert 0 < lo <= hi and np.isfinite(r["ridge_corr"])
