@@ -141,7 +141,10 @@ def run_analytic_demo(out: Path, *, trials: int = 2048, progress: bool = True) -
         )
         print(f"  parameter-space residual: mean {resid.mean():.3f}, max {resid.max():.3f}")
     print()
-    print("Next: vectorid table", store, "--limit 'f1<=40'   |   vectorid pareto", store, "--json")
+    from ._hints import command_name
+
+    cmd = command_name()
+    print(f"Next: {cmd} table {store} --limit 'f1<=40'   |   {cmd} pareto {store} --json")
     sys.stdout.flush()
     return 0
 
@@ -461,9 +464,12 @@ def run_identification_demo(
     print(f"Done in {time.perf_counter() - t_start:.1f} s. Next:")
     print("  (the criteria constraints above are saved in each store; tighten or loosen them")
     print("   with --limit, and keep them with --save)")
-    print(f"  vectorid table  {res.step2.store} --top 7")
-    print(f"  vectorid pareto {res.step2.store} --limit 'pos_v_abs<=300'")
-    print(f"  vectorid report {res.step2.store} --out report.html")
-    print(f"  vectorid ui     {res.step2.store}")
+    from ._hints import command_name
+
+    cmd = command_name()
+    print(f"  {cmd} table  {res.step2.store} --top 7")
+    print(f"  {cmd} pareto {res.step2.store} --limit 'pos_v_abs<=300'")
+    print(f"  {cmd} report {res.step2.store} --out report.html")
+    print(f"  {cmd} ui     {res.step2.store}")
     sys.stdout.flush()
     return 0
