@@ -382,6 +382,9 @@ def run_identification_demo(
         "refined from the feasible set (double tuning)"
     )
     sys.stdout.flush()
+    from .models import get as get_model
+
+    get_model("parachute6dof").compile()  # says so if it compiles: not inside a progress bar
     res = run_two_step(
         spec1,
         spec2,
