@@ -235,6 +235,10 @@ class Model(abc.ABC):
     - Optionally override :meth:`_check_parameters` to reject non-physical parameter vectors
       (status 4) before integration, and :meth:`altitude_range` if the tables must cover more.
     - ``simulate`` itself is not overridden.
+    - Compilation: the module-level numba dispatcher ``_kernel`` of the model's module is what
+      :meth:`kernel_cached` checks (override :meth:`_kernels` otherwise); set
+      ``compile_seconds`` to the measured first compile (``benchmarks/startup.py --compile``)
+      so that the "compiling ..." message says how long to wait.
     """
 
     name: ClassVar[str] = ""

@@ -555,6 +555,9 @@ class Parachute6DoF(Model):
     """
 
     name = "parachute6dof"
+    #: First compilation in an empty numba cache, s (benchmarks/startup.py --compile: 47.5 CPU s
+    #: with imports; 143 s wall on the 2-core machine at load 8-11).
+    compile_seconds = 45.0
     parameters = tuple(
         Parameter(
             f"x{i + 1}",
