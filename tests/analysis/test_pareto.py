@@ -389,13 +389,18 @@ def test_pareto_mask_in_a_fresh_process_does_not_load_numba():
     import subprocess
     import sys
 
+    # A process that keeps filtering moves to the compiled kernels after a few calls.
     code = (
         "import sys, numpy as np\n"
         "from vectorid.analysis import Analysis, pareto_mask\n"
-        "m = pareto_mask(np.random.default_rng(0).random((20000, 4)))\n"
-        "print(int(m.sum()), 'numba' in sys.modules)\n"
+        "F = np.random.default_rng(0).random((20000, 4))\n"
+        "masks = []\n"
+        "for i in range(6):\n"
+        "    masks.append(pareto_mask(F))\n"
+        "    print(int(masks[-1].sum()), 'numba' in sys.modules)\n"
+        "assert all((m == masks[0]).all() for m in masks)\n"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
-    count, loaded = out.stdout.split()
-    assert int(count) > 0
-    assert loaded == "False"
+    rows = [line.split() for line in out.stdout.splitlines()]
+    assert int(rows[0][0]) > 0
+    assert [loaded for _, loaded in rows] == ["False"] * 4 + ["True"] * 2
