@@ -6,6 +6,7 @@ import json
 import shutil
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -158,6 +159,32 @@ def test_init_writes_runnable_study(tmp_path, capsys, monkeypatch):
     assert code == 0 and "64 trials computed" in out
     code, _, err = run_cli(capsys, "init", "tanaka")
     assert code == 2 and "exists already" in err
+
+
+def test_init_unknown_problem_is_one_line_exit_2_without_traceback(tmp_path):
+    # the installed console script, as a user runs it (README: one line, exit 2)
+    exe = shutil.which("vectorid", path=str(Path(sys.executable).parent))
+    out = subprocess.run([exe, "init", "foo"], cwd=tmp_path, capture_output=True, text=True)
+    assert out.returncode == 2
+    assert "Traceback" not in out.stderr and out.stdout == ""
+    lines = out.stderr.strip().splitlines()
+    assert len(lines) == 1, out.stderr
+    assert "unknown analytic problem 'foo'" in lines[0] and "binh-korn" in lines[0]
+    assert "vectorid init binh-korn" in lines[0]  # how to fix it
+    assert not (tmp_path / "foo.toml").exists()
+
+
+def test_limit_on_the_better_side_of_a_criterion_is_refused(ran, capsys):
+    # f1 is minimised: 'f1>=0.4' would keep the worse trials; one line, exit 2, the form to write
+    for verb in ("table", "pareto", "hist"):
+        code, out, err = run_cli(capsys, verb, ran, "--limit", "f1>=0.4")
+        assert code == 2 and out == ""
+        assert len(err.strip().splitlines()) == 1
+        assert "f1 is minimised" in err and "--limit 'f1<=0.4'" in err
+    # the right side, functional constraints on either side, and removing bounds still work
+    for limit in ("f1<=0.4", "g>=0.1", "g<=1.2", "f1>=-inf"):
+        code, _, err = run_cli(capsys, "table", ran, "--limit", limit)
+        assert code == 0, err
 
 
 def test_demo_end_to_end_reduced(tmp_path, capsys):

@@ -162,3 +162,16 @@ def test_errors_exit_2_with_a_fix(store, capsys, tmp_path, monkeypatch, args, me
     code, out, err = run_cli(capsys, *[a.format(s=store) for a in args])
     assert code == 2
     assert message in err and err.startswith("error: ")
+
+
+def test_hist_text_labels_its_count_columns(store, capsys):
+    code, out, err = run_cli(capsys, "hist", store, "--param", "x1", "--bins", 5)
+    assert code == 0, err
+    lines = out.splitlines()
+    assert lines[0].startswith("x1: 512 trials,") and "feasible (in D)" in lines[0]
+    header = lines[1].split()
+    assert header[:3] == ["bin", "of", "x1"] and header[3:5] == ["feasible", "Pareto"]
+    rows = [ln.split(")")[1].split()[:2] for ln in lines[2:7]]
+    doc_code, doc, _ = run_cli(capsys, "hist", store, "--param", "x1", "--bins", 5, "--json")
+    h = json.loads(doc)["histograms"][0]
+    assert [int(r[0]) for r in rows] == h["feasible"] and [int(r[1]) for r in rows] == h["pareto"]

@@ -220,8 +220,39 @@ def _open_study(path: str, write: bool = False):
     return Study.open(p, write=write)
 
 
-def _analysis(args: argparse.Namespace):
+def parse_limits_for(spec: Any, texts: Sequence[str]) -> list[Any]:
+    """Parse ``--limit`` options and refuse a bound on a criterion's better side.
+
+    A criteria constraint Φ** is the worst value accepted: ``'f1<=40'`` for a minimised
+    criterion, ``'f2>=0.5'`` for a maximised one. ``'f1>=40'`` on a minimised criterion would
+    keep the *worse* trials, which is never what the expert means; it is refused with the form
+    to write. (Infinite values, which remove a bound, pass.)
+    """
     from .analysis import parse_limits
+    from .errors import StudyDefinitionError
+
+    bounds = parse_limits(texts)
+    senses = {c.name: c.sense for c in spec.criteria}
+    for text, b in zip(texts, bounds):
+        sense = senses.get(b.name)
+        if sense is None or math.isinf(b.value):
+            continue
+        better = "low" if sense == "min" else "high"
+        if b.side == better:
+            op, want = (">=", "<=") if sense == "min" else ("<=", ">=")
+            raise StudyDefinitionError(
+                "--limit",
+                f"{text!r} bounds {b.name} from its better side, but {b.name} is "
+                f"{'minimised' if sense == 'min' else 'maximised'} and a criteria constraint is "
+                f"the worst accepted value (it would keep only the trials with {b.name} "
+                f"{op} {b.value:g})",
+                f"write --limit '{b.name}{want}{b.value:g}' to keep the trials with {b.name} "
+                f"{want} {b.value:g}",
+            )
+    return bounds
+
+
+def _analysis(args: argparse.Namespace):
     from .errors import StudyDefinitionError
 
     roles = {}
@@ -232,10 +263,9 @@ def _analysis(args: argparse.Namespace):
                 "--role", f"cannot read {text!r}", "write NAME=pure or NAME=pseudo"
             )
         roles[name.strip()] = role.strip()
-    bounds = parse_limits(args.limit)
     study = _open_study(args.store)
     try:
-        return study.analysis(bounds, roles)
+        return study.analysis(parse_limits_for(study.spec, args.limit), roles)
     finally:
         study.close()
 
@@ -516,17 +546,28 @@ def _cmd_export(args: argparse.Namespace) -> int:
 
 
 def _cmd_init(args: argparse.Namespace) -> int:
+    from . import analytic
     from .demo import study_toml
+    from .errors import StudyDefinitionError
 
+    try:
+        analytic.get(args.problem)
+    except ValueError as exc:  # unknown name: the message lists the names and the nearest one
+        raise StudyDefinitionError(
+            "PROBLEM",
+            str(exc),
+            "e.g. `vectorid init binh-korn`; models of your own need a "
+            "study file written by hand (see README, 'A study file')",
+        ) from None
     out = Path(args.out or f"{args.problem}.toml")
     if out.exists():
-        from .errors import StudyDefinitionError
-
         raise StudyDefinitionError(
             "--out", f"{out} exists already", "choose another --out or remove it"
         )
     out.write_text(study_toml(args.problem, trials=args.trials), encoding="utf-8")
-    print(f"wrote {out}; run it with: vectorid run {out}")
+    from ._hints import command_name
+
+    print(f"wrote {out}; run it with: {command_name()} run {out}")
     return 0
 
 

@@ -27,16 +27,11 @@ from typing import Any
 
 import numpy as np
 
-from .cli import add_limit_options, positive_int
+from ._hints import install_hint
+from .cli import add_limit_options, parse_limits_for, positive_int
 from .errors import StudyDefinitionError
 
 __all__ = ["COMMANDS", "add_parsers"]
-
-
-def _parse_limits(texts: list[str]) -> Any:
-    from .analysis import parse_limits
-
-    return parse_limits(texts)
 
 
 def add_parsers(sub: Any) -> None:
@@ -153,10 +148,7 @@ def _open(path: str, write: bool = False):
 
 
 def _analysis(study: Any, args: argparse.Namespace):
-
-    from .analysis import parse_limits
-
-    return study.analysis(parse_limits(args.limit), _roles(args))
+    return study.analysis(parse_limits_for(study.spec, args.limit), _roles(args))
 
 
 def _json(obj: Any) -> None:
@@ -175,7 +167,7 @@ def _figures():
         from .views import figures
     except ImportError as exc:
         raise StudyDefinitionError(
-            "--out", f"figures need plotly ({exc})", "pip install 'vectorid[plot]'"
+            "--out", f"figures need plotly ({exc})", install_hint("plot")
         ) from None
     return figures
 
@@ -340,14 +332,14 @@ def _cmd_report(args: argparse.Namespace) -> int:
         from .views.report import write_report
     except ImportError as exc:
         raise StudyDefinitionError(
-            "report", f"the report needs plotly ({exc})", "pip install 'vectorid[plot]'"
+            "report", f"the report needs plotly ({exc})", install_hint("plot")
         ) from None
     study = _open(args.store)
     with study:
         res = write_report(
             study.store,
             args.out,
-            limits=_parse_limits(args.limit),
+            limits=parse_limits_for(study.spec, args.limit),
             roles=_roles(args),
             chosen=args.chosen,
             max_points=args.max_points,
@@ -433,16 +425,21 @@ def _cmd_hist(args: argparse.Namespace) -> int:
     if args.json:
         _json({"histograms": [h.to_dict() for h in hists]})
     else:
+        units = {v.name: v.unit for v in a.spec.space}
         for h in hists:
             where = "" if h.stage is None else f" stage {h.stage}"
+            unit = f" [{units[h.param]}]" if units.get(h.param) else ""
             print(
-                f"{h.param}{where}: {int(h.all.sum())} trials, {int(h.feasible.sum())} feasible,"
-                f" {int(h.pareto.sum())} Pareto over [{_fmt(h.low)}, {_fmt(h.high)}]"
+                f"{h.param}{unit}{where}: {int(h.all.sum())} trials, {int(h.feasible.sum())} "
+                f"feasible (in D), {int(h.pareto.sum())} Pareto, over [{_fmt(h.low)}, "
+                f"{_fmt(h.high)}]"
             )
+            label = f"bin of {h.param}{unit}"
+            print(f"  {label:<25}  {'feasible':>8} {'Pareto':>7}  # = feasible trials")
             peak = max(1, int(h.feasible.max()) if len(h.feasible) else 1)
             for lo, hi, f, p in zip(h.edges[:-1], h.edges[1:], h.feasible, h.pareto):
                 bar = "#" * round(30 * f / peak)
-                print(f"  [{_fmt(lo):>10}, {_fmt(hi):>10})  {f:>6} {p:>5}  {bar}")
+                print(f"  [{_fmt(lo):>10}, {_fmt(hi):>10})  {f:>8} {p:>7}  {bar}")
     if args.out:
         fg = _figures()
         if args.by_stage:

@@ -59,7 +59,18 @@ def _cmd_ui(args: argparse.Namespace) -> int:
         raise StoreError(
             f"no store at {path}; run a study first (`vectorid demo`, `vectorid run STUDY.toml`)"
         )
+    import importlib.util
+
+    from ._hints import install_hint
     from .errors import StudyDefinitionError
+
+    missing = [m for m in ("dash", "plotly") if importlib.util.find_spec(m) is None]
+    if missing:
+        raise StudyDefinitionError(
+            "ui",
+            f"the browser UI needs {' and '.join(missing)}, which is not installed",
+            install_hint("ui"),
+        )
     from .views.ui import serve
 
     try:
@@ -71,8 +82,8 @@ def _cmd_ui(args: argparse.Namespace) -> int:
             workers=args.workers,
             max_points=args.max_points,
         )
-    except ImportError as exc:  # pragma: no cover - without dash or plotly only
-        raise StudyDefinitionError("ui", str(exc), "pip install 'vectorid[ui]'") from None
+    except ImportError as exc:  # pragma: no cover - a broken dash installation only
+        raise StudyDefinitionError("ui", str(exc)) from None
     except KeyboardInterrupt:
         return 130
     except OSError as exc:  # port in use, cannot bind

@@ -141,7 +141,10 @@ def run_analytic_demo(out: Path, *, trials: int = 2048, progress: bool = True) -
         )
         print(f"  parameter-space residual: mean {resid.mean():.3f}, max {resid.max():.3f}")
     print()
-    print("Next: vectorid table", store, "--limit 'f1<=40'   |   vectorid pareto", store, "--json")
+    from ._hints import command_name
+
+    cmd = command_name()
+    print(f"Next: {cmd} table {store} --limit 'f1<=40'   |   {cmd} pareto {store} --json")
     sys.stdout.flush()
     return 0
 
@@ -566,6 +569,9 @@ def run_identification_demo(
         + " for what the model does not fly"
     )
     sys.stdout.flush()
+    from .models import get as get_model
+
+    get_model("parachute6dof").compile()  # says so if it compiles: not inside a progress bar
     res = run_two_step(
         spec1,
         spec2,
@@ -608,9 +614,12 @@ def run_identification_demo(
     print(f"Done in {time.perf_counter() - t_start:.1f} s. Next:")
     print("  (the criteria constraints above are saved in each store with their sources;")
     print("   tighten or loosen them with --limit, and keep them with --save)")
-    print(f"  vectorid identifiability {res.step2.store}")
-    print(f"  vectorid table  {res.step2.store} --top 7")
-    print(f"  vectorid report {res.step2.store} --out report.html")
-    print(f"  vectorid ui     {res.step2.store}")
+    from ._hints import command_name
+
+    cmd = command_name()
+    print(f"  {cmd} identifiability {res.step2.store}")
+    print(f"  {cmd} table  {res.step2.store} --top 7")
+    print(f"  {cmd} report {res.step2.store} --out report.html")
+    print(f"  {cmd} ui     {res.step2.store}")
     sys.stdout.flush()
     return 0

@@ -19,7 +19,6 @@ from __future__ import annotations
 import warnings
 
 import numpy as np
-from scipy.stats import qmc
 
 from .errors import StudyDefinitionError
 
@@ -60,6 +59,8 @@ class Sampler:
             )
         if d < 1:
             raise ValueError(f"dimension must be >= 1, got {d}")
+        from scipy.stats import qmc  # here, not at import: scipy.stats takes ~0.5 s to load
+
         if d > qmc.Sobol.MAXDIM and kind == "sobol":
             raise StudyDefinitionError(
                 "variables",
@@ -83,6 +84,8 @@ class Sampler:
         return self._lhs(start, n)
 
     def _sobol(self, start: int, n: int) -> np.ndarray:
+        from scipy.stats import qmc
+
         engine = qmc.Sobol(
             self.d, scramble=self.scramble, seed=self.seed if self.scramble else None
         )
@@ -96,6 +99,8 @@ class Sampler:
             return engine.random(n)
 
     def _lhs(self, start: int, n: int) -> np.ndarray:
+        from scipy.stats import qmc
+
         out = np.empty((n, self.d))
         first, last = start // self.block, (start + n - 1) // self.block
         pos = 0

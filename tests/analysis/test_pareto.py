@@ -336,3 +336,71 @@ def test_large_inputs_match_lexsort_reference(kind, k):
     assert 0 < expected.sum() < n - n // 997  # non-trivial front
     got = pareto_mask(F, senses)
     np.testing.assert_array_equal(got, expected)
+
+
+# --------------------------------------------------------------------------------------------
+# the numpy engine (used without numba loaded): same mask as the compiled one
+# --------------------------------------------------------------------------------------------
+
+
+def _sgn(F, senses):
+    return (
+        np.array([-1.0 if s == "max" else 1.0 for s in senses]) if senses else np.ones(F.shape[1])
+    )
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    problems(values=st.sampled_from(TRICKY), max_n=60),
+    st.sampled_from([0, 1, 3, 64]),
+    st.sampled_from([np.inf, 0.0]),
+)
+def test_numpy_engine_exact_with_extreme_values(problem, n_pivots, max_pairs):
+    # max_pairs = 0 hands the survivors to the compiled exact kernels; inf compares them
+    # pairwise in numpy.
+    F, senses = problem
+    got = pareto._mask_numpy(np.ascontiguousarray(F), _sgn(F, senses), n_pivots, max_pairs)
+    np.testing.assert_array_equal(got, brute_mask(F, senses))
+
+
+@settings(max_examples=150, deadline=None)
+@given(problems(values=st.integers(0, 4).map(float), max_n=60), st.sampled_from([0, 2, 64]))
+def test_numpy_engine_exact_with_ties(problem, n_pivots):
+    F, senses = problem
+    got = pareto._mask_numpy(np.ascontiguousarray(F), _sgn(F, senses), n_pivots)
+    np.testing.assert_array_equal(got, brute_mask(F, senses))
+
+
+@pytest.mark.parametrize("k", [2, 3, 4, 6])
+@pytest.mark.parametrize("kind", ["uniform", "correlated", "ties"])
+def test_numpy_engine_matches_the_compiled_one_on_large_inputs(kind, k):
+    F = _large(kind, 30_000, k, seed=k + len(kind))
+    F[::991] = np.nan
+    sgn = np.ones(k)
+    compiled = pareto._mask_signed(F, sgn, pareto._N_PIVOTS)
+    assert 0 < compiled.sum()
+    np.testing.assert_array_equal(pareto._mask_numpy(F, sgn, pareto._N_PIVOTS), compiled)
+    small = pareto._mask_numpy(F, sgn, pareto._N_PIVOTS, max_pairs=0.0)  # compiled exact step
+    np.testing.assert_array_equal(small, compiled)
+
+
+def test_pareto_mask_in_a_fresh_process_does_not_load_numba():
+    # The analysis verbs of the CLI start without numba (0.5-1 s to load); see pareto_mask.
+    import subprocess
+    import sys
+
+    # A process that keeps filtering moves to the compiled kernels after a few calls.
+    code = (
+        "import sys, numpy as np\n"
+        "from vectorid.analysis import Analysis, pareto_mask\n"
+        "F = np.random.default_rng(0).random((20000, 4))\n"
+        "masks = []\n"
+        "for i in range(6):\n"
+        "    masks.append(pareto_mask(F))\n"
+        "    print(int(masks[-1].sum()), 'numba' in sys.modules)\n"
+        "assert all((m == masks[0]).all() for m in masks)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    rows = [line.split() for line in out.stdout.splitlines()]
+    assert int(rows[0][0]) > 0
+    assert [loaded for _, loaded in rows] == ["False"] * 4 + ["True"] * 2

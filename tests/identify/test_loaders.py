@@ -375,3 +375,69 @@ def test_iso_time_column(tmp_path):
     fd = load_csv(write(tmp_path / "i.csv", cols), {"time": "when", "time_unit": "iso",
                                                      "altitude": "h"})  # fmt: skip
     assert fd["altitude"].t == pytest.approx([0.0, 0.5, 1.25])
+
+
+def _gps_descent(tmp_path: Path, seed: int, *, correlated: bool, factor: float = 1.0) -> Path:
+    """A 120-s parachute descent logged by a 4-Hz GPS: 5 m/s down, a drift of 2-4 m/s turning
+    with the wind; positions with 1.5 m white noise (plus, if ``correlated``, a Gauss-Markov
+    error of 2.5 m with a 60-s correlation time, as receivers have), velocities with 0.15 m/s
+    noise, written ``factor`` times the m/s value (1.94: knots)."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(0.0, 120.0, 0.25)
+    speed, heading = 3.0 + np.sin(t / 20.0), 0.3 + t / 60.0
+    v = np.stack([speed * np.cos(heading), speed * np.sin(heading), np.full(t.size, 5.0)], 1)
+    pos = np.vstack([np.zeros(3), np.cumsum(0.5 * (v[1:] + v[:-1]) * 0.25, axis=0)])
+    err = rng.normal(0.0, 1.5, pos.shape)
+    if correlated:
+        a = np.exp(-0.25 / 60.0)
+        gm = np.empty_like(pos)
+        gm[0] = rng.normal(0.0, 2.5, 3)
+        for i in range(1, t.size):
+            gm[i] = a * gm[i - 1] + rng.normal(0.0, 2.5 * math.sqrt(1 - a * a), 3)
+        err += gm
+    meas_v = (v + rng.normal(0.0, 0.15, v.shape)) * factor
+    cols = {"t": t, "n": pos[:, 0] + err[:, 0], "e": pos[:, 1] + err[:, 1],
+            "d": pos[:, 2] + err[:, 2], "vn": meas_v[:, 0], "ve": meas_v[:, 1],
+            "vd": meas_v[:, 2]}  # fmt: skip
+    return write(tmp_path / f"gps{seed}.csv", {k: [f"{x:.6f}" for x in c] for k, c in cols.items()})
+
+
+GPS_MAPPING = {
+    "time": "t",
+    "position": {"north": "n", "east": "e", "down": "d", "unit": "m"},
+    "velocity": {"north": "vn", "east": "ve", "down": "vd", "unit": "m/s"},
+}
+
+
+@pytest.mark.parametrize("correlated", [False, True], ids=["white", "white+gauss-markov"])
+def test_unit_check_accepts_noisy_4hz_gps_with_a_right_mapping(tmp_path, correlated):
+    # 1.5 m of white noise on 4-Hz positions makes the per-sample derivative noisier (±4 m/s)
+    # than the motion; over windows of a few seconds the check sees the motion.
+    for seed in range(8):
+        fd = load_csv(_gps_descent(tmp_path, seed, correlated=correlated), GPS_MAPPING)
+        assert fd["velocity"].values[:, 2].mean() == pytest.approx(5.0, abs=0.05)
+        kn = {**GPS_MAPPING, "velocity": {**GPS_MAPPING["velocity"], "unit": "knot"}}
+        knots = _gps_descent(tmp_path, seed, correlated=correlated, factor=1 / (1852 / 3600))
+        assert load_csv(knots, kn)["velocity"].values[:, 2].mean() == pytest.approx(5.0, abs=0.05)
+
+
+@pytest.mark.parametrize("correlated", [False, True], ids=["white", "white+gauss-markov"])
+def test_unit_check_catches_knots_and_metres_per_second_mixed_up_in_noisy_gps(tmp_path, correlated):
+    kn = 1 / (1852 / 3600)
+    for seed in range(4):
+        knots = _gps_descent(tmp_path, seed, correlated=correlated, factor=kn)
+        with pytest.raises(FlightDataError, match=r"velocity is 1\.9\d+ times .*unit 'm/s' of "
+                           r"the mapping: the column looks like knots; set the velocity unit to "
+                           r"'knot'"):  # fmt: skip
+            load_csv(knots, GPS_MAPPING)
+        si = _gps_descent(tmp_path, seed, correlated=correlated)
+        as_knots = {**GPS_MAPPING, "velocity": {**GPS_MAPPING["velocity"], "unit": "knot"}}
+        with pytest.raises(FlightDataError, match=r"velocity is 0\.5\d+ times .*unit 'knot' of "
+                           r"the mapping: the column looks like m/s; set the velocity unit to "
+                           r"'m/s'"):  # fmt: skip
+            load_csv(si, as_knots)
+        kmh = {**GPS_MAPPING, "velocity": {**GPS_MAPPING["velocity"], "unit": "km/h"}}
+        with pytest.raises(
+            FlightDataError, match=r"looks like m/s; set the velocity unit to 'm/s'"
+        ):
+            load_csv(si, kmh)

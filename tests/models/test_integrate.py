@@ -107,6 +107,7 @@ def _run(x0, p, t_final, dt, stride=1, x_max=None, u=0.0, lanes=False):
     return y, status, t_fail
 
 
+@pytest.mark.slow
 def test_harmonic_oscillator_fourth_order():
     w2 = 4.0
     x0 = np.array([[1.0, 0.0]])

@@ -80,6 +80,7 @@ def test_kernel_matches_numpy_reference(model):
         assert np.allclose(dx, ref, rtol=1e-10, atol=1e-10)
 
 
+@pytest.mark.slow
 def test_energy_conserved_without_aerodynamics():
     model = models.get("parafoil6dof", aerodynamics=False)
     k = model.constants(model.nominal[None])[0]

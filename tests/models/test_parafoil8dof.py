@@ -109,6 +109,7 @@ def test_kernel_matches_numpy_reference(model):
         assert np.allclose(dx, ref, rtol=1e-10, atol=1e-10)
 
 
+@pytest.mark.slow
 def test_energy_conserved_without_aerodynamics_and_damping():
     model = models.get("parafoil8dof", aerodynamics=False, joint_damping=(0.0, 0.0),
                        joint_stiffness=(3000.0, 2000.0))  # fmt: skip

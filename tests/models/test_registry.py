@@ -41,6 +41,8 @@ def test_every_registered_model_follows_the_contract(name):
     assert m.nominal.shape == (p,)
     assert m.bounds.shape == (p, 2)
     assert np.all(m.bounds[:, 0] <= m.bounds[:, 1])
+    outside = [q.name for q in m.parameters if not q.low <= q.nominal <= q.high]
+    assert not outside, f"nominal values outside their own box: {outside}"
     assert m.outputs[: len(BASE_CHANNELS)] == BASE_CHANNELS
     assert len(set(m.parameter_names)) == p
     res = m.simulate(np.tile(m.nominal, (2, 1)), t_final=1.0, dt=0.02, output_dt=0.5)

@@ -73,7 +73,10 @@ def test_study_through_executor_matches_direct_evaluation(name, batch, tmp_path)
     assert "failed" in text and "RuntimeError" in text
 
 
-@pytest.mark.parametrize("name", EXECUTOR_NAMES)
+@pytest.mark.parametrize(
+    "name",
+    [pytest.param(n, marks=pytest.mark.slow) if n == "dask" else n for n in EXECUTOR_NAMES],
+)
 def test_continuation_equals_one_long_run(name, tmp_path):
     spec = load_study(write_user_study(tmp_path / "s", trials=96))
     with Study.create(spec, tmp_path / "a.db") as a:

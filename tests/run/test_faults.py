@@ -29,6 +29,8 @@ HAVE_DASK = importlib.util.find_spec("distributed") is not None
 needs_dask = pytest.mark.skipif(
     not HAVE_DASK, reason="dask.distributed not installed (pip install 'vectorid[dask]')"
 )
+#: The Dask variants take 10-30 s each (cluster start, worker restarts): run with -m slow.
+slow_dask = [needs_dask, pytest.mark.slow]
 
 # Two trials of the user study (sequence indices 26 and 35) misbehave. The rest of each
 # batch is the user model of conftest, so innocent neighbours must come out exactly as in a
@@ -118,6 +120,7 @@ def check_against_reference(t, study_file: Path, faulty: tuple[int, ...], reason
 # -- the runner killed with kill -9, again and again -----------------------------------------
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("executor", ["processes", pytest.param("dask", marks=needs_dask)])
 def test_runner_killed_repeatedly_at_random_points_then_resumed(tmp_path, executor):
     rng = np.random.default_rng(20240607)
@@ -169,6 +172,7 @@ def _spawned_children() -> list:
     return out
 
 
+@pytest.mark.slow
 @needs_dask
 def test_dask_worker_killed_mid_run_gives_identical_results(tmp_path, monkeypatch):
     monkeypatch.setenv("VECTORID_TEST_SLEEP", "0.25")  # inherited by the cluster's workers
@@ -243,10 +247,10 @@ def _dask_options(monkeypatch, **options) -> None:
     "executor, func, isolate",
     [
         ("processes", "hang", None),
-        pytest.param("dask", "hang", True, marks=needs_dask),
+        pytest.param("dask", "hang", True, marks=slow_dask),
         # without model processes the worker's watchdog thread gives up and the worker is
         # restarted through its nanny (a model stuck in Python only: see vectorid.run.dask)
-        pytest.param("dask", "hang_python", False, marks=needs_dask),
+        pytest.param("dask", "hang_python", False, marks=slow_dask),
     ],
 )
 def test_hanging_model_times_out_and_the_study_goes_on(
@@ -267,10 +271,10 @@ def test_hanging_model_times_out_and_the_study_goes_on(
     "executor, func, isolate",
     [
         ("processes", "crash", None),
-        pytest.param("dask", "crash", True, marks=needs_dask),
-        pytest.param("dask", "leak", True, marks=needs_dask),
+        pytest.param("dask", "crash", True, marks=slow_dask),
+        pytest.param("dask", "leak", True, marks=slow_dask),
         # without model processes the model kills the Dask worker itself (KilledWorker)
-        pytest.param("dask", "crash", False, marks=needs_dask),
+        pytest.param("dask", "crash", False, marks=slow_dask),
     ],
 )
 def test_model_crashing_or_leaking_its_worker_fails_only_its_trial(

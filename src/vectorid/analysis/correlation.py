@@ -14,7 +14,6 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from scipy import stats
 
 from ..errors import StudyDefinitionError
 from .results import Analysis
@@ -79,6 +78,8 @@ class CorrelationResult:
 
 def _corr(X: np.ndarray, method: str) -> np.ndarray:
     if method == "spearman":
+        from scipy import stats  # imported where used: it loads slowly
+
         X = np.apply_along_axis(stats.rankdata, 0, X) if len(X) else X
     elif method != "pearson":
         raise StudyDefinitionError(

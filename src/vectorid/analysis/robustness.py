@@ -37,7 +37,6 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from scipy.stats import qmc
 
 from ..errors import StudyDefinitionError
 from ..problem import OK, Problem
@@ -146,6 +145,8 @@ def neighbourhood(
             "--points", f"expected at least 4 neighbours, got {n}", "use --points 32"
         )
     dirs = math.ceil(n / 4)
+    from scipy.stats import qmc  # imported where used: scipy.stats loads slowly
+
     sob = qmc.Sobol(p, scramble=True, seed=np.random.default_rng(seed))
     u = sob.random_base2(max(0, math.ceil(math.log2(dirs))))[:dirs]
     lows, highs = space.lows, space.highs

@@ -17,7 +17,6 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy import stats
 
 from .results import Analysis
 
@@ -34,6 +33,8 @@ def rank_correlation(X: np.ndarray, F: np.ndarray) -> np.ndarray:
     p, k = X.shape[1], F.shape[1]
     if ok.sum() < 3:
         return np.full((p, k), np.nan)
+    from scipy import stats  # imported where used: it loads slowly
+
     RX = np.column_stack([stats.rankdata(c) for c in X[ok].T]) if p else np.empty((ok.sum(), 0))
     RF = np.column_stack([stats.rankdata(c) for c in F[ok].T])
 
@@ -54,6 +55,8 @@ def ks_filtering(X: np.ndarray, behavioural: np.ndarray) -> tuple[np.ndarray, np
     stat = np.full(p, np.nan)
     pval = np.full(p, np.nan)
     if b.any() and (~b).any():
+        from scipy import stats
+
         for j in range(p):
             r = stats.ks_2samp(X[b, j], X[~b, j])
             stat[j], pval[j] = float(r.statistic), float(r.pvalue)

@@ -10,7 +10,6 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-from scipy import signal
 
 __all__ = ["dominant_frequency", "envelope", "power_spectrum", "uniform"]
 
@@ -64,6 +63,8 @@ def power_spectrum(
     tu, yu = uniform(t, y)
     fs = 1.0 / float(tu[1] - tu[0])
     seg = min(len(tu), 256) if nperseg is None else int(nperseg)
+    from scipy import signal  # imported where used: it loads slowly
+
     f, p = signal.welch(yu, fs=fs, nperseg=seg, detrend=detrend, axis=0)
     return f, p
 

@@ -172,6 +172,9 @@ class RocketDescent(Model):
     """
 
     name = "rocket-descent"
+    #: First compilation in an empty numba cache, s (benchmarks/startup.py --compile: 8.9 CPU s
+    #: with imports; 23 s wall at load 8-11).
+    compile_seconds = 7.0
     parameters = (
         Parameter("cd_drogue", 1.6, 0.5, 3.5, "-", "drogue drag coefficient on π D_d²/4"),
         Parameter("cd_main", 2.2, 0.8, 4.5, "-", "main drag coefficient on π D_m²/4"),

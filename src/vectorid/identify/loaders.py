@@ -338,47 +338,103 @@ def _factor(kind: str, unit: str, where: str) -> float:
     return table[unit]
 
 
-def _fit_factor(t_a: Array, a: Array, t_b: Array, b: Array) -> tuple[float, float] | None:
-    """Least-squares k with a ≈ k b on the overlap; returns (k, rms of b) or None."""
+#: Window lengths tried, shortest first, when comparing a rate with a position's change, s.
+_WINDOWS = (1.0, 2.0, 4.0, 8.0, 16.0, 32.0, 64.0, 128.0)
+#: A window is long enough when the rms change of position over it is at least this many
+#: times the standard deviation of that change due to white measurement noise (so the noise
+#: makes up at most 1/100 of the variance: GPS positions at 4 Hz with 1.5 m of noise would
+#: otherwise bias a per-sample derivative by half).
+_SIGNAL_TO_NOISE = 10.0
+
+
+def _noise_sd(t: Array, x: Array) -> float:
+    """Robust standard deviation of the white noise of samples ``x`` (T, m), combined over the
+    columns, from their second differences (a smooth motion contributes ~a dt², negligible)."""
+    if x.shape[0] < 5:
+        return 0.0
+    d2 = x[2:] - 2.0 * x[1:-1] + x[:-2]
+    mad = np.median(np.abs(d2 - np.median(d2, axis=0)), axis=0)
+    return float(np.sqrt(np.sum((1.4826 * mad) ** 2 / 6.0)))
+
+
+def _changes(t: Array, x: Array, starts: Array, T: float, rate: bool) -> Array:
+    """Change of ``x`` over ``[s, s + T]`` for each start ``s``; a rate is integrated first."""
+    if rate:
+        steps = 0.5 * (x[1:] + x[:-1]) * np.diff(t)[:, None]
+        x = np.vstack([np.zeros((1, x.shape[1])), np.cumsum(steps, axis=0)])
+    cols = range(x.shape[1])
+    return np.stack([np.interp(starts + T, t, x[:, j]) - np.interp(starts, t, x[:, j])
+                     for j in cols], axis=1)  # fmt: skip
+
+
+def _compare_changes(
+    t_a: Array, a: Array, t_b: Array, b: Array, *, a_is_rate: bool, noise: float
+) -> tuple[float, float, float] | None:
+    """Factor ``k`` with ``a ≈ k b``, comparing their changes over windows of length ``T``.
+
+    ``b`` is a position (m); ``a`` a velocity (integrated over each window) or another
+    position. ``T`` is the shortest of :data:`_WINDOWS` over which the change of ``b`` stands
+    out of the white noise (``noise``: the noise of one change of ``b - a``); at least 5
+    non-overlapping windows are needed. For a velocity, the regression is of the (noisy)
+    position change on the (smooth) integrated velocity, ``k = Σa² / Σab``, so position
+    noise does not bias ``k`` towards 0; two positions use ``k = Σab / Σb²``.
+    Returns ``(k, T, rms change of b / T in m/s)`` or None when the data cannot tell.
+    """
     lo, hi = max(t_a[0], t_b[0]), min(t_a[-1], t_b[-1])
-    sel = (t_a >= lo) & (t_a <= hi)
-    if hi <= lo or sel.sum() < 5:
-        return None
-    aa = a[sel]
-    bb = np.stack([np.interp(t_a[sel], t_b, b[:, j]) for j in range(b.shape[1])], axis=1)
-    den = float(np.sum(bb * bb))
-    if den <= 0:
-        return None
-    return float(np.sum(aa * bb)) / den, math.sqrt(den / bb.size)
-
-
-_SUSPECTS = {
-    "knots (1 kn = 0.514 m/s)": 1.0 / (1852.0 / 3600.0),
-    "ft/s or ft": 1.0 / 0.3048,
-    "km/h": 3.6,
-    "mph": 1.0 / 0.44704,
-}
-
-
-def _name_factor(k: float) -> str | None:
-    for label, f in _SUSPECTS.items():
-        if abs(k / f - 1) < 0.15:
-            return label
-        if abs(k * f - 1) < 0.15:
-            return f"SI although labelled {label.split(' ')[0]}"
+    for T in _WINDOWS:
+        nw = int((hi - lo) // T)
+        if nw < 5:
+            return None
+        starts = lo + T * np.arange(nw)
+        db = _changes(t_b, b, starts, T, rate=False)
+        rms = math.sqrt(float(np.mean(np.sum(db * db, axis=1))))
+        if rms < _SIGNAL_TO_NOISE * noise:
+            continue
+        da = _changes(t_a, a, starts, T, rate=a_is_rate)
+        num, den = (np.sum(da * da), np.sum(da * db)) if a_is_rate else (
+            np.sum(da * db), np.sum(db * db))  # fmt: skip
+        if den == 0:
+            return None
+        return float(num / den), T, rms / T
     return None
 
 
-def check_units(fd: FlightData, source: str = "") -> None:
+def _unit_named(kind: str, factor: float) -> str | None:
+    """The unit of ``kind`` whose factor to SI is within 15 % of ``factor``."""
+    for unit, f in UNITS[kind].items():
+        if abs(factor / f - 1) < 0.15:
+            return unit
+    return None
+
+
+_UNIT_WORDS = {"knot": "knots", "m/s": "m/s", "ft/s": "ft/s", "km/h": "km/h", "mph": "mph",
+               "m": "metres", "ft": "ft (feet)", "km": "km"}  # fmt: skip
+
+
+def check_units(fd: FlightData, source: str = "", units: Mapping[str, str] | None = None) -> None:
     """Magnitude heuristics that catch unit mistakes; raise :class:`FlightDataError`.
 
     - ``euler`` in rad: |roll| > π, |pitch| > π/2, or a wrapped yaw (jumps > π between samples)
       beyond 2π are degrees labelled as radians.
     - ``rates`` in rad/s: any |rate| > 35 rad/s (2000 deg/s, a common gyro full scale) is deg/s.
-    - ``velocity`` against the rate of change of ``position`` (when both are present and the
-      motion is > 1 m/s): a least-squares factor near 1.94 means knots, 3.28 ft/s, 3.6 km/h,
-      2.24 mph; a negative factor on the vertical component means "up" given as "down".
-    - ``altitude`` against ``-position.down`` likewise (factor 3.28: feet).
+    - ``velocity`` against the change of ``position`` (when both are present and the motion
+      is > 1 m/s), compared over windows long enough for the position noise not to matter
+      (the shortest of 1, 2, 4, ... s over which the change of position is 10 times the
+      change due to its white noise, estimated from its second differences): the velocity
+      integrated over each window against the position's change, ``k = Σv² / Σv·Δp``. A
+      factor ``k`` far from 1 whose unit ``f_mapped / k`` is a known speed unit (knot, ft/s,
+      km/h, mph, m/s) names that unit and the unit the mapping gave; a negative factor on the
+      vertical component means "up" given as "down".
+    - ``altitude`` against ``-position.down`` likewise (e.g. ft given as m).
+
+    Parameters
+    ----------
+    fd : FlightData
+    source : str
+        Prefix of the messages (the file).
+    units : mapping, optional
+        The unit each channel was mapped with (``{"velocity": "knot"}``), to name it and the
+        unit the data look like; default SI.
     - time: a median sample interval > 50 s looks like milliseconds, < 10 µs like nanoseconds.
     """
     pre = f"{source}: " if source else ""
@@ -414,51 +470,54 @@ def check_units(fd: FlightData, source: str = "") -> None:
                 f"({np.max(np.abs(r)) / (2 * math.pi):.3g} rev/s): they look like deg/s given "
                 f"as rad/s; set the rates unit to 'deg/s'{off}"
             )
-    if "position" in fd.channels:
+    units = dict(units or {})
+    if "position" in fd.channels and fd.channels["position"].t.size >= 5:
         p = fd.channels["position"]
-        if p.t.size >= 5:
-            pdot = np.gradient(p.values, p.t, axis=0)
-            for key, cols, sign_name in (
-                ("velocity", slice(0, 3), "velocity"),
-                ("altitude", slice(2, 3), "altitude"),
-            ):
-                if key not in fd.channels:
+        p_noise = _noise_sd(p.t, p.values)
+        for key in ("velocity", "altitude"):
+            if key not in fd.channels or fd.channels[key].t.size < 5:
+                continue
+            ch = fd.channels[key]
+            kind = "speed" if key == "velocity" else "length"
+            mapped = units.get(key, "m/s" if key == "velocity" else "m")
+            if key == "velocity":
+                if ch.values.shape[1] != 3:
                     continue
-                ch = fd.channels[key]
-                if key == "altitude":
-                    a_t, a_v = ch.t, np.gradient(ch.values, ch.t, axis=0) if ch.t.size > 1 else None
-                    b = -pdot[:, cols]
-                else:
-                    a_t, a_v = ch.t, ch.values[:, cols]
-                    b = pdot[:, cols]
-                if a_v is None or a_v.shape[1] != b.shape[1]:
-                    continue
-                if key == "velocity":
-                    vfit = _fit_factor(a_t, a_v[:, 2:3], p.t, b[:, 2:3])
-                    if vfit is not None and vfit[1] >= 1.0 and vfit[0] < -0.5:
-                        raise FlightDataError(
-                            f"{pre}the vertical velocity has the opposite sign of the rate of "
-                            "change of position.down: it looks like 'up' given as 'down'; map "
-                            f"the column with the key 'up' instead of 'down'{off}"
-                        )
-                fit = _fit_factor(a_t, a_v, p.t, b)
-                if fit is None or fit[1] < 1.0:
-                    continue
-                k, _ = fit
-                if abs(k - 1) < 0.25:
-                    continue
-                label = _name_factor(abs(k))
-                if label is not None:
+                a, b, noise = ch.values, p.values, math.sqrt(2) * p_noise
+                vert = _compare_changes(
+                    ch.t, a[:, 2:3], p.t, b[:, 2:3], a_is_rate=True, noise=noise
+                )
+                if vert is not None and vert[2] >= 1.0 and vert[0] < -0.5:
                     raise FlightDataError(
-                        f"{pre}{sign_name} is {abs(k):.3g} times the rate of change of the "
-                        f"position: it looks like {label}; set the {sign_name} unit accordingly"
-                        f"{off}"
+                        f"{pre}the vertical velocity has the opposite sign of the change of "
+                        f"position.down (over {vert[1]:g}-s windows): it looks like 'up' given "
+                        f"as 'down'; map the column with the key 'up' instead of 'down'{off}"
                     )
-                if k < 0 and key == "altitude":
-                    raise FlightDataError(
-                        f"{pre}altitude decreases when the position rises: it looks like depth "
-                        f"(positive down), but 'altitude' is positive up{off}"
-                    )
+                what = "the change of the position"
+            else:
+                a, b = ch.values[:, :1], -p.values[:, 2:3]
+                noise = math.sqrt(2) * math.hypot(p_noise, _noise_sd(ch.t, ch.values[:, :1]))
+                what = "the change of -position.down"
+            fit = _compare_changes(ch.t, a, p.t, b, a_is_rate=key == "velocity", noise=noise)
+            if fit is None or fit[2] < 1.0:
+                continue  # too little motion, or too short, to tell
+            k, T, _ = fit
+            if abs(k - 1) < 0.25:
+                continue
+            f_map = UNITS[kind].get(mapped, 1.0)
+            actual = _unit_named(kind, f_map / abs(k))
+            if actual is not None and actual != mapped:
+                raise FlightDataError(
+                    f"{pre}{key} is {abs(k):.3g} times {what} over {T:g}-s windows, with the "
+                    f"unit {mapped!r} of the mapping: the column looks like "
+                    f"{_UNIT_WORDS.get(actual, actual)}; set the {key} unit to {actual!r} (or "
+                    f"check the position's unit){off}"
+                )
+            if k < 0 and key == "altitude":
+                raise FlightDataError(
+                    f"{pre}altitude decreases when the position rises: it looks like depth "
+                    f"(positive down), but 'altitude' is positive up{off}"
+                )
     for ch in fd.channels.values():
         _check_time_scale(ch.t, f"{pre}channel {ch.name!r}", off)
 
@@ -910,7 +969,12 @@ def _build(table: _Table, mapping: Mapping[str, Any], name: str | None) -> Fligh
         str(mapping.get("name") or name or Path(table.source).stem), channels, events, origin
     )
     if mapping.get("check_units", True):
-        check_units(fd, table.source)
+        units = {
+            key: str(_as_dict(key, mapping[key]).get("unit", default))
+            for key, default in (("velocity", "m/s"), ("altitude", "m"))
+            if key in mapping
+        }
+        check_units(fd, table.source, units)
     return fd
 
 

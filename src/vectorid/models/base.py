@@ -11,9 +11,10 @@ a concrete model implements only the hook :meth:`Model._simulate` (and usually
 from __future__ import annotations
 
 import abc
+import sys
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numba
 import numpy as np
@@ -31,6 +32,8 @@ from vectorid.models.wind import Wind, WindProfile
 
 #: Trials per chunk of the parallel kernels' work queue (see :meth:`Model.simulate`).
 PARALLEL_CHUNK = 4
+#: Model classes whose compilation this process has checked (and announced if cold).
+_ANNOUNCED: set[type] = set()
 
 __all__ = [
     "BASE_CHANNELS",
@@ -232,6 +235,10 @@ class Model(abc.ABC):
     - Optionally override :meth:`_check_parameters` to reject non-physical parameter vectors
       (status 4) before integration, and :meth:`altitude_range` if the tables must cover more.
     - ``simulate`` itself is not overridden.
+    - Compilation: the module-level numba dispatcher ``_kernel`` of the model's module is what
+      :meth:`kernel_cached` checks (override :meth:`_kernels` otherwise); set
+      ``compile_seconds`` to the measured first compile (``benchmarks/startup.py --compile``)
+      so that the "compiling ..." message says how long to wait.
     """
 
     name: ClassVar[str] = ""
@@ -239,6 +246,64 @@ class Model(abc.ABC):
     inputs: tuple[Channel, ...] = ()
     outputs: tuple[Channel, ...] = BASE_CHANNELS
     presets: Mapping[str, NDArray[np.float64]] = {}
+    #: Seconds the first compilation of the model's kernel takes (numba, empty cache, 2 cores),
+    #: measured and quoted in the "compiling ..." message; None: not measured.
+    compile_seconds: ClassVar[float | None] = None
+
+    # ---- compilation ----------------------------------------------------------------------
+    def _kernels(self) -> list[Any]:
+        """The numba dispatchers ``_simulate`` calls: by default the ``_kernel`` of the model's
+        module. Override when a model's kernel lives elsewhere."""
+        kernel = getattr(sys.modules[type(self).__module__], "_kernel", None)
+        return [kernel] if hasattr(kernel, "signatures") else []
+
+    def kernel_cached(self) -> bool | None:
+        """Whether the compiled kernel is ready without compiling: loaded in this process, or
+        in numba's on-disk cache for this machine and this source. ``None``: cannot tell."""
+        kernels = self._kernels()
+        if not kernels:
+            return None
+        try:
+            for k in kernels:
+                if k.signatures:
+                    continue
+                cache = k._cache  # numba internals, read only: FunctionCache
+                codegen = k.targetctx.codegen()
+                index = cache._cache_file._load_index()  # {} when missing or stale
+                if not any(cache._index_key(key[0], codegen) == key for key in index):
+                    return False
+        except Exception:  # numba's private API moved: say nothing rather than guess
+            return None
+        return True
+
+    def _announce_compile(self) -> None:
+        """Print, once per process and model, that the kernel is about to be compiled."""
+        if type(self) in _ANNOUNCED:
+            return
+        _ANNOUNCED.add(type(self))
+        if self.kernel_cached() is False:
+            about = (
+                f", about {self.compile_seconds:.0f} s"
+                if self.compile_seconds
+                else ", up to a minute"
+            )
+            print(
+                f"compiling the {self.name} model, first use only{about} "
+                "(numba; cached on disk afterwards) ...",
+                file=sys.stderr,
+                flush=True,
+            )
+
+    def compile(self) -> bool:
+        """Compile the model's kernel now unless it is cached, saying so on stderr.
+
+        Call it before a run whose progress should not sit still while the kernel compiles
+        (``vectorid demo`` does). Returns whether it compiled.
+        """
+        if self.kernel_cached() is not False:
+            return False
+        self.simulate(self.nominal[None, :], t_final=0.1, dt=0.05)
+        return True
 
     # ---- metadata -----------------------------------------------------------------------
     @property
@@ -341,6 +406,7 @@ class Model(abc.ABC):
         # Trials that diverge stop early, so equal static shares of the batch leave threads
         # idle; small chunks handed out on demand keep every core busy (measured: 6 % faster
         # on the parafoil box, where half the trials stop early).
+        self._announce_compile()
         with numba.parallel_chunksize(PARALLEL_CHUNK):
             y = self._simulate(
                 np.ascontiguousarray(Xc),

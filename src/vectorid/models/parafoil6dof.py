@@ -61,6 +61,9 @@ class Parafoil6DoF(ParafoilModelBase):
     """
 
     name: ClassVar[str] = "parafoil6dof"
+    #: First compilation in an empty numba cache, s (benchmarks/startup.py --compile: 49.5 CPU s
+    #: with imports; 115 s wall at load 8-11).
+    compile_seconds = 45.0
     outputs: tuple[Channel, ...] = BASE_CHANNELS
     rigid: ClassVar[bool] = True
     #: As the 8-DoF count with a 6x6 LDL^T (~230 instead of ~420) and 12 states.

@@ -664,6 +664,9 @@ class Parafoil8DoF(ParafoilModelBase):
     """
 
     name: ClassVar[str] = "parafoil8dof"
+    #: First compilation in an empty numba cache, s (benchmarks/startup.py --compile: 52 CPU s
+    #: with imports; 151 s wall at load 8-11).
+    compile_seconds = 50.0
     outputs: tuple[Channel, ...] = BASE_CHANNELS + _PAYLOAD_CHANNELS
     rigid: ClassVar[bool] = False
 

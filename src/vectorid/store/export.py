@@ -69,10 +69,12 @@ def export_trials(store: Store, fmt: str, out: str | Path | TextIO) -> int:
             import pyarrow as pa
             import pyarrow.parquet as pq
         except ImportError:
+            from .._hints import install_hint
+
             raise StudyDefinitionError(
                 "--format",
                 "parquet export needs pyarrow, which is not installed",
-                "pip install 'vectorid[parquet]', or use --format csv",
+                f"{install_hint('parquet')}, or use --format csv",
             ) from None
         if not isinstance(out, str | Path):
             raise StudyDefinitionError("--out", "parquet needs a file path", "give --out FILE")

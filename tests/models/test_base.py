@@ -1,0 +1,83 @@
+"""Model base class: compiling announces itself, once, only when numba's cache is cold."""
+
+import os
+import subprocess
+import sys
+import textwrap
+
+TINY = """
+import numpy as np
+from numba import njit
+
+from vectorid.models.base import Model, Parameter
+
+
+@njit(cache=True)
+def _kernel(y):
+    y[:] = 1.0
+
+
+class Tiny(Model):
+    name = "tiny"
+    parameters = (Parameter("a", 1.0, 0.0, 2.0),)
+    compile_seconds = 3.0
+
+    def _simulate(self, X, status, t_fail, *, dt, n_steps, stride, controls, env, initial):
+        y = np.zeros((X.shape[0], n_steps // stride + 1, len(self.outputs)))
+        _kernel(y[:, 0, 0])
+        return y
+"""
+
+RUN = """
+import sys
+from tinymodel import Tiny
+m = Tiny()
+print("cached", m.kernel_cached())
+if sys.argv[1] == "compile":
+    print("compiled", m.compile())
+m.simulate(m.nominal, t_final=1.0, dt=0.5)
+m.simulate(m.nominal, t_final=1.0, dt=0.5)
+"""
+
+
+def _run(tmp_path, env, how):
+    return subprocess.run(
+        [sys.executable, "-c", RUN, how], cwd=tmp_path, env=env, capture_output=True, text=True
+    )
+
+
+def test_first_compile_is_announced_once_and_never_from_the_cache(tmp_path):
+    (tmp_path / "tinymodel.py").write_text(textwrap.dedent(TINY), encoding="utf-8")
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"), PYTHONPATH=str(tmp_path))
+    cold = _run(tmp_path, env, "simulate")
+    assert cold.returncode == 0, cold.stderr
+    assert "cached False" in cold.stdout
+    msg = "compiling the tiny model, first use only, about 3 s (numba; cached on disk afterwards)"
+    assert cold.stderr.count(msg) == 1  # two simulations, one message
+    warm = _run(tmp_path, env, "simulate")
+    assert "cached True" in warm.stdout and "compiling" not in warm.stderr
+    # compile() compiles (with the message) only when the cache is cold
+    (tmp_path / "cache2").mkdir()
+    env2 = dict(env, NUMBA_CACHE_DIR=str(tmp_path / "cache2"))
+    first = _run(tmp_path, env2, "compile")
+    assert "compiled True" in first.stdout and first.stderr.count(msg) == 1
+    again = _run(tmp_path, env2, "compile")
+    assert "compiled False" in again.stdout and "compiling" not in again.stderr
+    # a changed source makes the cache stale: compiled again, announced again
+    (tmp_path / "tinymodel.py").write_text(
+        textwrap.dedent(TINY).replace("y[:] = 1.0", "y[:] = 2.0"), encoding="utf-8"
+    )
+    changed = _run(tmp_path, env2, "simulate")
+    assert "cached False" in changed.stdout and changed.stderr.count(msg) == 1
+
+
+def test_models_without_a_compiled_kernel_say_nothing():
+    from vectorid.models.base import Model
+
+    class Plain(Model):
+        name = "plain"
+
+        def _simulate(self, *a, **k):  # pragma: no cover - not called
+            raise AssertionError
+
+    assert Plain().kernel_cached() is None
