@@ -19,6 +19,12 @@ The convention (also in README, "Contributing: documentation that runs"):
     output must hold every key of the example, at the same places;
   - ``<!-- docs-test: server: URL -->`` (bash blocks that start a server): the block runs in
     the background until ``URL`` answers, then it is stopped;
+  - ``<!-- docs-test: needs: PATH -->``: run only where ``PATH`` (relative to the clone, e.g.
+    ``../shared/data/eth-parafoil``) exists, as the acceptance tests on shared data do; the
+    clone folder has ``../shared`` beside it when the checkout has, and the repository's
+    ``examples/`` and ``scripts/`` in it;
+  - ``<!-- docs-test: slow: REASON -->``: run by the ``slow`` suite (``pytest -m slow``, which
+    ``.ci/run`` runs), each such block in a fresh clone folder;
   - ``<!-- docs-test: skip: REASON -->``: not run. Keep these few, each with its reason.
 
 Failures name the file, the block's line, and the command that failed.
@@ -160,6 +166,11 @@ def _make_clone(folder: Path) -> dict[str, str]:
     (shims / "python3").write_text(_PYTHON3.format(python=sys.executable), encoding="utf-8")
     for f in [*bin_.iterdir(), *shims.iterdir()]:
         f.chmod(0o755)
+    for name in ("examples", "scripts"):  # what a clone has beside the package
+        (folder / name).symlink_to(ROOT / name, target_is_directory=True)
+    shared = ROOT.parent / "shared"
+    if shared.is_dir() and not (folder.parent / "shared").exists():
+        (folder.parent / "shared").symlink_to(shared, target_is_directory=True)
     env = dict(os.environ)
     # vectorid is on PATH only as .venv/bin/vectorid, as after the README's setup
     env["PATH"] = os.pathsep.join([str(shims), "/usr/local/bin", "/usr/bin", "/bin"])
@@ -330,10 +341,31 @@ def run_block(block: Block, folder: Path, env: dict[str, str]) -> None:
 # --------------------------------------------------------------------------------------------
 
 
+def _runs_here(block: Block, folder: Path) -> bool:
+    needs = block.directives.get("needs")
+    return needs is None or (folder / needs).exists()
+
+
 def _run_doc(doc: Path, folder: Path, env: dict[str, str]) -> None:
     for block in blocks(doc):
-        if "skip" not in block.directives:
+        d = block.directives
+        if "skip" not in d and "slow" not in d and _runs_here(block, folder):
             run_block(block, folder, env)
+
+
+SLOW_BLOCKS = [b for b in ALL_BLOCKS if "slow" in b.directives and "skip" not in b.directives]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("block", SLOW_BLOCKS, ids=[b.where for b in SLOW_BLOCKS])
+def test_slow_doc_blocks_run(block, tmp_path):
+    """The blocks marked ``slow`` (minutes each), each in a fresh clone folder."""
+    folder = tmp_path / "clone"
+    folder.mkdir()
+    env = _make_clone(folder)
+    if not _runs_here(block, folder):
+        pytest.skip(f"{block.directives['needs']} not found")
+    run_block(block, folder, env)
 
 
 @pytest.mark.parametrize("doc", DOCS, ids=[str(p.relative_to(ROOT)) for p in DOCS])
@@ -350,7 +382,7 @@ def test_doc_blocks_run(doc, clone):
 
 
 def test_every_block_has_a_language_and_known_directives():
-    known = {"file", "output-of", "server", "skip"}
+    known = {"file", "output-of", "server", "skip", "needs", "slow"}
     problems = []
     for b in ALL_BLOCKS:
         if not b.lang:
@@ -358,6 +390,9 @@ def test_every_block_has_a_language_and_known_directives():
         for name in b.directives:
             if name not in known:
                 problems.append(f"{b.where}: unknown directive {name!r} (known: {sorted(known)})")
+        for name in ("skip", "slow", "needs"):
+            if name in b.directives and not b.directives[name].strip():
+                problems.append(f"{b.where}: <!-- docs-test: {name}: ... --> needs its argument")
         if "skip" in b.directives and not b.directives["skip"].strip():
             problems.append(f"{b.where}: a skip needs its reason: <!-- docs-test: skip: WHY -->")
         if "output-of" in b.directives and b.lang != "json":
