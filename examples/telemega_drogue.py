@@ -184,11 +184,15 @@ def figures(path: str | Path) -> dict:
     gs = (gps.t >= grid[0]) & (gps.t <= grid[-1])
     r_gps, res = _steady_fits(atm, z0, gps.values[gs, 0], grid, lambda z: z, gps.t[gs], cds)
     i = int(np.argmin(r_gps))
+    e = np.interp(gps.t[gs] - grid[0], res.t, -res.position[i, :, 2]) - gps.values[gs, 0]
+    e -= e.mean()
     out["constant_drag_fits"] = {
         "start_after_drogue_s": START,
         "isa_vs_baro_m": float(r_isa.min()), "isa_vs_baro_cds_m2": float(cds[np.argmin(r_isa)]),
         "log_atmosphere_vs_baro_m": float(r_log.min()),
         "log_atmosphere_vs_gps_m": float(r_gps[i]), "log_atmosphere_cds_m2": float(cds[i]),
+        "log_atmosphere_vs_gps_max_m": float(np.abs(e).max()),
+        "altitude_loss_m": float(baro[0] - baro[-1]),
     }  # fmt: skip
     # how the GPS descent rate strays from the best constant-drag one (10-s windows)
     z = -res.position[i, :, 2]
@@ -243,8 +247,9 @@ def report(d: dict) -> str:
         f"   ISA, barometric heights:               {cf['isa_vs_baro_m']:.2f} m RMS "
         f"(C_D S {cf['isa_vs_baro_cds_m2']:.3f} m²)",
         f"   log's atmosphere, barometric heights:  {cf['log_atmosphere_vs_baro_m']:.2f} m RMS",
-        f"   log's atmosphere, GPS heights:         {cf['log_atmosphere_vs_gps_m']:.2f} m RMS "
-        f"(C_D S {cf['log_atmosphere_cds_m2']:.3f} m²)",
+        f"   log's atmosphere, GPS heights:         {cf['log_atmosphere_vs_gps_m']:.2f} m RMS, "
+        f"{cf['log_atmosphere_vs_gps_max_m']:.1f} m at most over the "
+        f"{cf['altitude_loss_m']:.0f} m descended (C_D S {cf['log_atmosphere_cds_m2']:.3f} m²)",
         "   GPS descent rate minus the constant-drag one, 10-s windows (m/s): "
         + " ".join(f"{v:+.2f}" for v in d["gps_rate_minus_constant_drag_10s_ms"]),
     ]

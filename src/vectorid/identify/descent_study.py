@@ -1461,7 +1461,10 @@ def _verdict(
                 "not motion"
             )
         parts.append(text)
-        if rms > RMS_GOAL or rms > 1.5 * floor:  # say so in the table too
+        if rms <= floor:
+            if rms > RMS_GOAL:
+                short.append(f"alt RMS {rms:.1f} m, within the noise floor ({floor:.1f} m)")
+        elif rms > RMS_GOAL or rms > 1.5 * floor:  # say so in the table too
             short.append(
                 f"alt RMS {rms:.1f} m (noise floor {floor:.1f} m, no constant drag area "
                 f"< {rb:.1f} m{'; baro error not in GPS' if baro else ''})"
