@@ -10,6 +10,7 @@
                      [--drogue-window START END] [--main-window START END]
                      [--drogue-settle S] [--main-settle S] [--allowance M]
                      [--allowance-fraction F] [--vz-allowance M/S] [--vz-allowance-fraction F]
+                     [--noise M|estimate] [--initial-speed steady|data] [--box-factor F]
                      [--trials N] [--seed N] [--out DIR] [--json]
 
 Identifies the drag area C_D S of each parachute of a rocket's recovery descent from an
@@ -147,8 +148,42 @@ def add_parsers(sub: Any) -> None:
         metavar="F",
         help="plus this fraction of the phase's altitude loss (default 0.005)",
     )
-    d.add_argument("--vz-allowance", type=_number, default=1.0, metavar="M/S")
-    d.add_argument("--vz-allowance-fraction", type=_number, default=0.1, metavar="F")
+    d.add_argument(
+        "--vz-allowance",
+        type=_number,
+        default=1.0,
+        metavar="M/S",
+        help="model-discrepancy allowance on the mean vertical-speed residual, m/s (default 1)",
+    )
+    d.add_argument(
+        "--vz-allowance-fraction",
+        type=_number,
+        default=0.1,
+        metavar="F",
+        help="plus this fraction of the phase's mean descent rate (default 0.1)",
+    )
+    d.add_argument(
+        "--noise",
+        metavar="M|estimate",
+        default="estimate",
+        help="the altitude's measurement noise: a σ in m, or 'estimate' (default: white plus "
+        "correlated noise estimated from each phase's data)",
+    )
+    d.add_argument(
+        "--initial-speed",
+        choices=["steady", "data"],
+        default="steady",
+        help="each phase starts at every trial's steady descent rate (default) or at the "
+        "slope of the data at the window's start",
+    )
+    d.add_argument(
+        "--box-factor",
+        type=_number,
+        default=1.5,
+        metavar="F",
+        help="each phase's box of the drag area: this factor either way of what its mean "
+        "descent rate implies (default 1.5)",
+    )
     d.add_argument("--trials", type=positive_int, default=1024, help="trials per phase")
     d.add_argument("--seed", type=int, default=1)
     d.add_argument("--out", default="vectorid-descent", help="folder of the phases' stores")
@@ -221,6 +256,22 @@ def _mapping(args: argparse.Namespace) -> dict[str, Any] | None:
     return mapping
 
 
+def _noise(text: str) -> float | str:
+    from .errors import StudyDefinitionError
+
+    if text.strip() == "estimate":
+        return "estimate"
+    try:
+        v = float(text)
+    except ValueError:
+        v = math.nan
+    if not (math.isfinite(v) and v > 0):
+        raise StudyDefinitionError(
+            "--noise", f"expected a σ in m (> 0) or 'estimate', got {text!r}", "e.g. --noise 1.5"
+        )
+    return v
+
+
 def _cmd_descent(args: argparse.Namespace) -> int:
     from .cli import _print_json
     from .errors import StudyDefinitionError, VectoridError
@@ -252,6 +303,9 @@ def _cmd_descent(args: argparse.Namespace) -> int:
         allowance_fraction=args.allowance_fraction,
         vz_allowance=args.vz_allowance,
         vz_allowance_fraction=args.vz_allowance_fraction,
+        noise=_noise(args.noise),
+        initial_speed=args.initial_speed,
+        box_factor=args.box_factor,
         trials=args.trials,
         seed=args.seed,
     )

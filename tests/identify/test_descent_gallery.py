@@ -56,8 +56,11 @@ def test_every_phase_agrees_or_says_why_not(results, name):
     assert r.phases
     for p in r.phases:
         assert p.verdict and p.summary
-        if p.status in ("D empty", "not identified", "no data"):
+        if p.status != "identified":
             assert p.cds is None  # no single value where the data give none
+        if p.identifiability is not None:  # the verdict is the shared identifiability's
+            assert p.identifiability["verdict"] == p.status
+            assert {c["limit_source"] for c in p.limits.criteria} == {"noise"}
         if p.summary.startswith("agrees"):
             assert p.status == "identified" and _agrees_within_15(p)
             lo, hi = p.cds_feasible
@@ -72,6 +75,7 @@ def test_every_phase_agrees_or_says_why_not(results, name):
                     "main-sized canopy",
                     "never reached",
                     "bound the drag area only",
+                    "do not exclude the stated",
                 )
             ), p.verdict
 
@@ -81,6 +85,10 @@ def test_prometheus_both_canopies_agree(results):
     for p in r.phases:
         assert p.summary.startswith("agrees"), p.verdict
     assert r.phase("main").alt_rms_m <= 5.0
+    # the drogue phase cannot meet 5 m, and its summary says why
+    d = r.phase("drogue")
+    assert d.rate_bound["rms_m"] > 5.0
+    assert "no constant drag area < " in d.summary and "baro error not in GPS" in d.summary
 
 
 @pytest.mark.parametrize("name", ["Bella Lui", "Juno III"])

@@ -17,7 +17,7 @@ from vectorid.identify.descent import RocketDescentCdS
 from vectorid.identify.descent_study import (
     Canopy,
     DescentPlan,
-    criteria_limits,
+    discrepancy,
     identify_descent,
     parse_length,
 )
@@ -165,7 +165,10 @@ def test_a_main_that_did_not_open_is_said_so(tmp_path):
     r = identify_descent(_plan(path, convention="replaces"), tmp_path / "out")
     p = r.phase("main")
     assert "did not open" in p.verdict
-    assert p.cds == pytest.approx(0.5, rel=0.05)  # the drogue's drag area, under the "main"
+    # the drogue's drag area, under the "main" (6 s of window: a range, maybe not a value)
+    assert p.compared_cds == pytest.approx(0.5, rel=0.05)
+    lo, hi = p.cds_feasible
+    assert lo <= 0.5 <= hi
 
 
 def test_a_stated_drag_area_the_descent_does_not_fit_is_said_so(adds_log, tmp_path):
@@ -189,7 +192,7 @@ def test_one_canopy_from_apogee_in_feet(tmp_path):
             convention=None,
             main_at=None,
             main_settle=8.0,
-            trials=64,
+            trials=256,
         ),
         tmp_path / "out",
     )
@@ -205,13 +208,36 @@ def test_a_log_that_ends_in_the_air_uses_it_to_the_end(adds_log, tmp_path):
     assert "no touchdown" in r.format_text()
 
 
-def test_criteria_limits_add_noise_and_allowance():
-    lim = criteria_limits(4.0, 1.0, 1000.0, 20.0, allowance=3.0, allowance_fraction=0.0)
-    assert lim.alt_rms == pytest.approx(5.0)
-    lim = criteria_limits(0.0, 0.0, 1000.0, 20.0)
-    assert lim.alt_rms == pytest.approx(3.0 + 5.0)
-    assert lim.vz_mean_abs == pytest.approx(math.sqrt(2 / math.pi) * (1.0 + 2.0))
-    assert "noise floor" in lim.source
+def test_discrepancy_allowance_grows_with_the_phase():
+    assert discrepancy(1000.0, 20.0, allowance=3.0, allowance_fraction=0.0) == (3.0, 3.0)
+    d_h, d_v = discrepancy(1000.0, 20.0)
+    assert d_h == pytest.approx(3.0 + 5.0) and d_v == pytest.approx(1.0 + 2.0)
+
+
+def test_limits_come_from_the_noise_floor_machinery(adds_result):
+    """Each phase's criteria constraints are the study's noise floors (estimated altitude
+    noise) plus the stated allowance, saved with their source in the phase's store."""
+    from vectorid.store import Store
+
+    for p in adds_result.phases:
+        lim = p.limits
+        assert p.noise_sigma_m == pytest.approx(0.5, rel=0.1)  # the log's white noise
+        assert "estimated" in p.noise
+        d_h, d_v = discrepancy(p.altitude_loss, p.descent_rate)
+        assert lim.allowance_alt == pytest.approx(d_h) and lim.allowance_vz == pytest.approx(d_v)
+        # the altitude floor of a 0.5 m white noise is about 0.5 m RMS
+        assert 0.3 < lim.floor_alt_rms < 1.0
+        assert lim.alt_rms == pytest.approx(lim.floor_alt_rms + d_h)
+        assert {c["limit_source"] for c in lim.criteria} == {"noise"}
+        assert "noise floor" in lim.source and "discrepancy altitude" in lim.source
+        with Store.open(p.store) as st:
+            held = {c.name: c for c in st.spec.criteria}
+        for c in lim.criteria:
+            assert held[c["name"]].source == "noise"
+            assert held[c["name"]].limit == pytest.approx(c["limit"])
+        # the verdict is the shared identifiability's
+        assert p.identifiability["verdict"] == p.status == "identified"
+        assert p.identifiability["feasible"] == pytest.approx(list(p.cds_feasible))
 
 
 def test_parse_length():
@@ -274,6 +300,20 @@ def test_verb_json(adds_log, tmp_path, capsys):
     assert (tmp_path / f"{path.stem}-main.db").exists()
 
 
+def test_verb_stated_noise_and_data_start(adds_log, tmp_path, capsys):
+    path, _, _ = adds_log
+    code, out, err = _cli(
+        capsys, path, "--columns", "time=t_s,altitude=alt_m", "--mass", MASS,
+        "--drogue-cds", 0.5, "--pad-altitude", PAD, "--trials", 64, "--out", tmp_path,
+        "--drogue-window", "apogee+5", "apogee+40", "--noise", 0.5, "--initial-speed", "data",
+        "--json",
+    )  # fmt: skip
+    assert code == 0, err
+    p = json.loads(out)["phases"][0]
+    assert p["noise_sigma_m"] == 0.5 and p["noise"].startswith("stated")
+    assert p["limits"]["criteria"][0]["limit_source"] == "noise"
+
+
 def test_verb_text_has_units(adds_log, tmp_path, capsys):
     path, _, _ = adds_log
     code, out, err = _cli(
@@ -298,6 +338,10 @@ def test_verb_text_has_units(adds_log, tmp_path, capsys):
           "time=t_s,altitude=alt_m", "--pad-altitude", 0], "--drogue-diameter"),
         (["LOG", "--mass", 3, "--drogue-cd", 1.5, "--columns", "time=t_s,altitude=alt_m"],
          "--drogue-cd"),
+        (["LOG", "--mass", 3, "--drogue-cds", 1, "--columns", "time=t_s,altitude=alt_m",
+          "--pad-altitude", 0, "--noise", "loud"], "--noise"),
+        (["LOG", "--mass", 3, "--drogue-cds", 1, "--columns", "time=t_s,altitude=alt_m",
+          "--pad-altitude", 0, "--box-factor", 50], "box_factor"),
     ],
 )  # fmt: skip
 def test_verb_bad_input_is_one_line_and_exit_2(adds_log, tmp_path, capsys, args, match):

@@ -295,6 +295,11 @@ def test_real_telemega_flight():
     # spikes the barometer at the event itself)
     assert h.at([ev["main"] - 0.3])[0, 0] == pytest.approx(1500 * 0.3048, abs=30)
     assert fd["rates"].unit == "rad/s" and np.abs(fd["rates"].values).max() < 35
+    # the barometer's own samples only (10 Hz in the descent): rows of other packets, which
+    # repeat the last pressure and height 0.01-0.09 s later, are not new samples
+    steps = np.diff(h.t[(h.t > 35.0) & (h.t < 150.0)])
+    assert steps.min() > 0.095 and np.median(steps) == pytest.approx(0.1, abs=1e-6)
+    assert np.array_equal(fd["pressure"].t, h.t)
     d = fd.window("drogue", "main")
     assert d.time_range() == (ev["drogue"], ev["main"])
     assert load_flight(TELEMEGA).events == ev

@@ -15,6 +15,7 @@ from vectorid.identify.flight import Channel, FlightData
 from vectorid.identify.noise import (
     ComponentNoise,
     NoiseFloor,
+    estimate_correlated,
     estimate_noise,
     estimate_sigma,
     highfreq_sigma,
@@ -57,6 +58,22 @@ def test_estimator_ignores_spikes_and_uneven_steps():
     assert estimate_sigma(t, y)[0] == pytest.approx(0.3, rel=0.12)
 
 
+def test_estimator_on_jittered_sample_times():
+    """Rows at jittered times (a logger interleaving packets): the divided differences
+    normalised by their weights have variance σ² whatever the steps."""
+    rng = np.random.default_rng(6)
+    t = np.cumsum(rng.choice([0.03, 0.05, 0.07, 0.09, 0.1, 0.1, 0.1], 3000))
+    for sigma in (0.2, 1.5):
+        y = _smooth(t) + rng.normal(0, sigma, t.size)
+        assert estimate_sigma(t, y)[0] == pytest.approx(sigma, rel=0.06)
+    # evenly spaced: the third differences over sqrt(20), as documented
+    t = np.arange(0.0, 100.0, 0.1)
+    y = rng.normal(0, 1.0, t.size)
+    d = np.diff(y, 3) / math.sqrt(20.0)
+    want = 1.482602218505602 * np.median(np.abs(d - np.median(d)))
+    assert estimate_sigma(t, y)[0] == pytest.approx(want, rel=1e-9)
+
+
 def test_estimator_on_coloured_noise_sees_its_high_frequency_share():
     """A Gauss-Markov error slower than the sampling is indistinguishable from motion: the
     estimator sees what highfreq_sigma predicts (the documented limitation), not its σ."""
@@ -70,6 +87,33 @@ def test_estimator_on_coloured_noise_sees_its_high_frequency_share():
     np.testing.assert_allclose(est, want, rtol=0.08)  # ... and the estimate is its share
     # white noise: the share is the whole σ
     assert highfreq_sigma(ComponentNoise(0.7), 0.25) == pytest.approx(0.7)
+
+
+@pytest.mark.parametrize(
+    ("sigma", "tau", "white"), [(4.0, 1.0, 1.5), (2.0, 0.5, 0.5), (1.0, 0.2, 1.0)]
+)
+def test_correlated_estimator_recovers_gauss_markov_and_white_parts(sigma, tau, white):
+    """On a descent that slows down (a quadratic signal, which third differences remove):
+    the σ of both parts and the correlation time, over five records."""
+    rng = np.random.default_rng(7)
+    t = np.arange(0.0, 200.0, 0.1)
+    sig = 3000.0 - 27.0 * t + 0.01 * t**2
+    cn = ComponentNoise(sigma, correlation_time=tau, white=white)
+    est = [estimate_correlated(t, sig + cn.draw(t, 1, rng)[0]) for _ in range(5)]
+    assert np.median([e.sigma for e in est]) == pytest.approx(sigma, rel=0.15)
+    assert np.median([e.correlation_time for e in est]) == pytest.approx(tau, rel=0.3)
+    assert np.median([e.white for e in est]) == pytest.approx(white, rel=0.2)
+
+
+def test_correlated_estimator_on_white_noise_and_short_series():
+    rng = np.random.default_rng(8)
+    t = np.arange(0.0, 200.0, 0.1)
+    e = estimate_correlated(t, 500.0 - 8.0 * t + rng.normal(0, 1.0, t.size))
+    assert e.correlation_time == 0 and e.sigma == pytest.approx(1.0, rel=0.1)
+    # the third differences see only a Gauss-Markov error's high-frequency share
+    n = ComponentNoise(3.0, correlation_time=0.5).draw(t, 1, rng)[0]
+    assert estimate_sigma(t, n)[0] < 0.6 * estimate_correlated(t, n).total
+    assert estimate_correlated(t[:100], n[:100]) is None  # 10 s: fewer than 4 max_lag
 
 
 def test_gauss_markov_draws_have_the_stated_spread_and_correlation():

@@ -63,18 +63,32 @@ def test_drag_coefficients_with_their_spread(result):
 
 
 def test_drogue_phase_residual_is_explained(result):
-    # the drogue phase cannot meet 5 m: a constant drag area leaves about 15 m RMS on the
-    # barometric heights, which themselves disagree with the GPS heights by about 8 m RMS
+    # the drogue phase cannot meet 5 m: no descent with a rate that never increases (any
+    # constant drag area in still air) comes within 5 m of the barometric heights, whose
+    # fast error (about 5 m RMS) the log's GPS heights do not share; the verdict says so
     p = result.phase("drogue")
+    assert p.window[0] == pytest.approx(result.events["drogue"] + 17.0)
     assert p.alt_rms_m < p.limits.alt_rms
+    assert p.rate_bound["rms_m"] > 5.0
+    assert p.noise_sigma_m > 4.0 and "τ" in p.noise  # correlated, estimated from the data
+    fe = p.fast_error
+    assert fe["baro_m"] > 3.0 * fe["gps_m"] and abs(fe["correlation"]) < 0.3
+    assert "pressure error at the barometer, not motion" in p.verdict
     assert p.sensor_disagreement_m is not None and p.sensor_disagreement_m > 5.0
     assert "GPS and barometric heights disagree" in p.verdict
+
+
+def test_limits_and_verdicts_come_from_the_shared_machinery(result):
+    for p in result.phases:
+        assert p.identifiability["verdict"] == p.status == "identified"
+        assert [c["limit_source"] for c in p.limits.criteria] == ["noise", "noise"]
+        assert p.limits.alt_rms == pytest.approx(p.limits.floor_alt_rms + p.limits.allowance_alt)
 
 
 def test_json_output(tmp_path, capsys):
     if not LOG.exists():
         pytest.skip(f"shared flight data not found at {LOG}")
-    code = _example().main([str(LOG), "--json", "--trials", "64", "--out", str(tmp_path)])
+    code = _example().main([str(LOG), "--json", "--trials", "256", "--out", str(tmp_path)])
     assert code == 0
     d = json.loads(capsys.readouterr().out)
     names = [p["name"] for p in d["phases"]]

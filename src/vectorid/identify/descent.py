@@ -37,9 +37,10 @@ Outputs are the 15 base channels (Euler angles, body rates, angle of attack and 
 a point mass has no attitude) plus ``drag_area`` (m²).
 
 The data side of a descent (:func:`detect_apogee`, :func:`detect_touchdown`,
-:func:`crossing_time`, :func:`detect_rate_change`, :func:`noise_floor`) reads an altitude
-series: where the descent starts, where it ends on the ground, when it passes a trigger height,
-where its drag area changes, how noisy it is.
+:func:`crossing_time`, :func:`detect_rate_change`, :func:`monotone_rate_bound`,
+:func:`fast_variation`) reads an altitude series: where the descent starts, where it ends on
+the ground, when it passes a trigger height, where its drag area changes, how close any
+constant-drag descent can come, how much of its fast variation a second altimeter shares.
 """
 
 from __future__ import annotations
@@ -57,6 +58,9 @@ from vectorid.models.integrate import STATUS_REJECTED, allocate_outputs, env_at,
 __all__ = [
     "DRAG_CONVENTIONS",
     "INCH",
+    "INITIAL_SPEEDS",
+    "FastVariation",
+    "RateBound",
     "RateChange",
     "RocketDescent",
     "RocketDescentCdS",
@@ -65,13 +69,16 @@ __all__ = [
     "detect_apogee",
     "detect_rate_change",
     "detect_touchdown",
-    "noise_floor",
+    "fast_variation",
+    "monotone_rate_bound",
 ]
 
 INCH = 0.0254
 
 #: What a main parachute's drag area means (see the module docstring).
 DRAG_CONVENTIONS = ("adds", "replaces")
+#: Where the simulated descent starts its velocity (see :class:`RocketDescent`).
+INITIAL_SPEEDS = ("data", "steady")
 
 # Per-trial constants vector P (_REPL: 1 when the main replaces the drogue, 0 when it adds).
 _MASS, _SD, _SM, _CDD, _CDM, _CDAB, _REPL = range(7)
@@ -163,6 +170,14 @@ class RocketDescent(Model):
     drag_convention : {"adds", "replaces"}
         Whether the main's drag adds to the drogue's (default: the drogue stays attached) or
         replaces it once the main is out (RocketPy's convention); see the module docstring.
+    initial_speed : {"data", "steady"}
+        The velocity the simulation starts from: the initial state's (default: fitted to the
+        data at the window start) or, ``"steady"``, each trial's own steady descent rate
+        sqrt(2 m g / (ρ C_D S)) with the horizontal velocity of the wind (drifting with it).
+        A canopy some seconds after it opened descends at its steady rate (the speed's time
+        constant is v / 2g, about 1.4 s at 27 m/s); a slope fitted over a few seconds of a
+        barometric height whose error is correlated over seconds is not (the TeleMega's
+        drogue phase: 25-32 m/s from 2-s lines at successive starts).
 
     Notes
     -----
@@ -191,6 +206,7 @@ class RocketDescent(Model):
         main_diameter: float = 72 * INCH,
         body_drag_area: float = 0.0,
         drag_convention: str = "adds",
+        initial_speed: str = "data",
     ) -> None:
         for name, v in (
             ("mass", mass),
@@ -198,12 +214,20 @@ class RocketDescent(Model):
             ("main_diameter", main_diameter),
         ):
             _check_positive(name, v)
-        self._set_common(mass, body_drag_area, drag_convention)
+        self._set_common(mass, body_drag_area, drag_convention, initial_speed)
         self.drogue_area = float(np.pi * drogue_diameter**2 / 4)
         self.main_area = float(np.pi * main_diameter**2 / 4)
 
-    def _set_common(self, mass: float, body_drag_area: float, drag_convention: str) -> None:
+    def _set_common(
+        self, mass: float, body_drag_area: float, drag_convention: str, initial_speed: str
+    ) -> None:
         _check_positive("mass", mass)
+        if initial_speed not in INITIAL_SPEEDS:
+            raise ValueError(
+                f"initial_speed must be 'data' (the initial state's velocity) or 'steady' (each "
+                f"trial's own steady descent rate, drifting with the wind), got {initial_speed!r}"
+            )
+        self.initial_speed = initial_speed
         if not (np.isfinite(body_drag_area) and body_drag_area >= 0):
             raise ValueError(f"body_drag_area must be >= 0 m², got {body_drag_area!r}")
         if drag_convention not in DRAG_CONVENTIONS:
@@ -259,14 +283,14 @@ class RocketDescent(Model):
         x0[:, 0] = initial.north
         x0[:, 1] = initial.east
         x0[:, 2] = -initial.altitude
-        if initial.velocity is None:
+        if initial.velocity is None or self.initial_speed == "steady":
             h = initial.altitude
             i = int(np.clip(round((h - env.atm[0, 0]) / env.atm[0, 1]), 0, env.atm[0, 2] - 1)) + 1
-            rho, g, wn, we = env.atm[i, 0], env.atm[i, 1], env.atm[i, 2], env.atm[i, 3]
+            rho, g, wn, we, wd = env.atm[i, :5]
             u0 = float(controls(np.array(0.0))[0])
             x0[:, 3] = wn
             x0[:, 4] = we
-            x0[:, 5] = self.steady_descent_rate(X, rho, g, min(max(u0, 0.0), 1.0))
+            x0[:, 5] = wd + self.steady_descent_rate(X, rho, g, min(max(u0, 0.0), 1.0))
         else:
             x0[:, 3:6] = np.asarray(initial.velocity)
         x_max = np.full(_NS, np.inf)
@@ -305,6 +329,8 @@ class RocketDescentCdS(RocketDescent):
         Fixed drag area of the body C_D S, m² (default 0).
     drag_convention : {"adds", "replaces"}
         What the main's drag area means (see the module docstring); default ``"adds"``.
+    initial_speed : {"data", "steady"}
+        As in :class:`RocketDescent`.
 
     Notes
     -----
@@ -326,8 +352,9 @@ class RocketDescentCdS(RocketDescent):
         mass: float = 13.9 + 2.981,
         body_drag_area: float = 0.0,
         drag_convention: str = "adds",
+        initial_speed: str = "data",
     ) -> None:
-        self._set_common(mass, body_drag_area, drag_convention)
+        self._set_common(mass, body_drag_area, drag_convention, initial_speed)
         self.drogue_area = 1.0
         self.main_area = 1.0
 
@@ -428,51 +455,141 @@ def crossing_time(t, h, level: float, *, after: float | None = None, smooth: flo
     return float(g[k - 1] + frac * dt)
 
 
-def noise_floor(t, h, grid, *, span: float = 5.0) -> tuple[float, float]:
-    """What the altitude criteria of a descent come to when the model is perfect and only the
-    measurement noise is left.
+@dataclass(frozen=True)
+class RateBound:
+    """The closest a descent whose rate never increases comes to an altitude series.
 
-    The "perfect model" is the data's own local quadratic trend (Savitzky-Golay over ``span``
-    s): what varies faster than that is noise. Both the data and the trend are sampled on the
-    comparison ``grid`` (as the criteria sample the data), and the vertical speeds are
-    ``numpy.gradient`` over it (as the criterion ``vz_abs`` takes them).
+    Attributes
+    ----------
+    rms : float
+        Smallest altitude RMS (m) over the comparison grid of any such descent.
+    rate_first, rate_last : float
+        Its descent rates at the start and the end, m/s.
+    """
+
+    rms: float
+    rate_first: float
+    rate_last: float
+
+
+def monotone_rate_bound(t, h, grid) -> RateBound:
+    """A lower bound of the altitude RMS of any constant-drag descent in still air.
+
+    A point mass of constant drag area falling in still air at (or above) its steady rate
+    slows down as the air thickens: its descent rate never increases (in pressure height as
+    well, in any atmosphere without an inversion steeper than about 20 K/km). The altitude
+    curve of *any* such descent, whatever its drag area, mass, atmosphere and initial state,
+    is therefore one of h₀ − ∫v dt with v non-increasing, and none comes closer to the data
+    than the best of those: the least-squares fit (``scipy.optimize.lsq_linear``) of h₀ and
+    a rate that is constant between grid points and never increases, to the data sampled on
+    the comparison grid (as the criteria sample them). A residual above it is the
+    identification's; the bound itself is what the data hold that no such descent follows
+    (measurement error slower than the grid, vertical air motion, a drag area that changes).
 
     Parameters
     ----------
     t, h : array_like
         Times (s) and altitudes (m) covering the grid.
     grid : array_like
-        Uniform comparison grid, s.
+        Comparison grid, s (increasing, at least 3 points).
+
+    Returns
+    -------
+    RateBound
+    """
+    from scipy.optimize import lsq_linear
+
+    t, h = _series(t, h)
+    grid = np.asarray(grid, dtype=float)
+    if grid.size < 3 or np.any(np.diff(grid) <= 0):
+        raise ValueError("monotone_rate_bound: the grid needs at least 3 increasing points")
+    y = np.interp(grid, t, h)
+    n = grid.size - 1  # one rate per interval
+    step = np.diff(grid)
+    # rate of interval i = r_last + sum of the non-negative decrements after it
+    # r_i = r_last + sum_{j > i} e_j, e_j = r_{j-1} - r_j >= 0: columns r_last, e_1..e_{n-1}
+    B = np.triu(np.ones((n, n)), k=1)
+    B[:, 0] = 1.0
+    drop = np.zeros((grid.size, n))  # altitude lost by grid point k: sum_{i<k} step_i r_i
+    drop[1:] = np.tril(np.ones((n, n))) * step[None, :]
+    A = np.hstack([np.ones((grid.size, 1)), -drop @ B])
+    lb = np.r_[-np.inf, -np.inf, np.zeros(n - 1)]
+    fit = lsq_linear(A, y, bounds=(lb, np.full(n + 1, np.inf)), method="bvls")
+    rate = B @ fit.x[1:]
+    res = A @ fit.x - y
+    return RateBound(float(np.sqrt(np.mean(res**2))), float(rate[0]), float(rate[-1]))
+
+
+@dataclass(frozen=True)
+class FastVariation:
+    """How much of one altimeter's fast variation another altimeter of the same flight shares.
+
+    Attributes
+    ----------
+    rms, rms_ref : float
+        RMS (m) of each series about its own local quadratic trend.
+    correlation : float
+        Correlation of the two residuals (at the reference's sample times).
+    span : float
+        Width of the local trend, s.
+    """
+
+    rms: float
+    rms_ref: float
+    correlation: float
+    span: float
+
+
+def fast_variation(t, h, t_ref, h_ref, t0: float, t1: float, span: float = 20.0):
+    """Compare the variation of two altitude series faster than ``span`` s over [t0, t1].
+
+    Each series is put on a 0.1-s grid and its local quadratic trend (Savitzky–Golay over
+    ``span`` s) is removed; the residuals are read at the reference's sample times (the
+    first and last ``span``/2 s left out, where the trends are extrapolated). Real motion
+    faster than the trend shows in both; the error of one instrument only in its own (a
+    barometer against the GPS heights of the same log).
+
+    Parameters
+    ----------
+    t, h : array_like
+        The series examined (e.g. barometric heights), s and m.
+    t_ref, h_ref : array_like
+        The reference (e.g. GPS heights), s and m.
+    t0, t1 : float
+        s.
     span : float
         s.
 
     Returns
     -------
-    alt_rms, vz_mean_abs : float
-        RMS of the altitude residual (m) and mean absolute vertical-speed residual (m/s): the
-        noise floors of ``alt_sq`` (as an RMS) and of ``vz_abs`` (as a mean). A logger's own
-        filter makes its noise slower than the raw sensor's; what is slower than ``span`` is
-        not counted here (it is model discrepancy to the identification).
+    FastVariation or None
+        None when [t0, t1] is shorter than 3 ``span`` or holds fewer than 10 reference
+        samples.
     """
     from scipy.signal import savgol_filter
 
     t, h = _series(t, h)
-    grid = np.asarray(grid, dtype=float)
-    if grid.size < 3:
-        raise ValueError("noise_floor: the grid needs at least 3 points")
-    g, hg, dt = _uniform(t, h)
-    n = max(5, round(span / dt) | 1)
-    if n > g.size:
-        n = g.size if g.size % 2 else g.size - 1
-    if n < 5:
-        raise ValueError(f"noise_floor: needs at least 5 samples, got {g.size}")
-    trend = savgol_filter(hg, n, 2, mode="interp")
-    meas = np.interp(grid, t, h)
-    smooth = np.interp(grid, g, trend)
-    step = float(grid[1] - grid[0])
-    e_h = meas - smooth
-    e_v = np.gradient(meas, step) - np.gradient(smooth, step)
-    return float(np.sqrt(np.mean(e_h**2))), float(np.mean(np.abs(e_v)))
+    t_ref, h_ref = _series(t_ref, h_ref, "reference altitude")
+    lo, hi = max(t0, t[0], t_ref[0]), min(t1, t[-1], t_ref[-1])
+    if hi - lo < 3 * span:
+        return None
+    step = 0.1
+    grid = np.arange(lo, hi + 1e-9, step)
+    n = round(span / step) | 1
+    at = t_ref[(t_ref >= lo + span / 2) & (t_ref <= hi - span / 2)]
+    if at.size < 10:
+        return None
+    out = []
+    for tt, hh in ((t, h), (t_ref, h_ref)):
+        y = np.interp(grid, tt, hh)
+        out.append(np.interp(at, grid, y - savgol_filter(y, n, 2)))
+    a, b = out
+    return FastVariation(
+        float(np.sqrt(np.mean(a**2))),
+        float(np.sqrt(np.mean(b**2))),
+        float(np.corrcoef(a, b)[0, 1]),
+        float(span),
+    )
 
 
 @dataclass(frozen=True)

@@ -4,25 +4,31 @@ A descent under one or two parachutes (a drogue from apogee, a main later; or on
 cut into phases from the data: the apogee and the touchdown are read from the altitude (not
 from a logger's "landed" state), the main's opening from an event of the log, a stated
 trigger height or time, or the change of descent rate in the data. Each phase is one
-identification step of the PSI method on the point-mass model ``"rocket-descent-cds"``
-(:class:`~vectorid.identify.descent.RocketDescentCdS`): one design variable, the drag area
-C_D S of the canopy that phase is flown under (m²), sampled by LP_tau in a box around what
-the phase's mean descent rate implies, with double tuning (a coarse run, then the box narrowed
-to the feasible set); two criteria, the altitude residual ``alt_sq`` (∫(h - ĥ)² dt) and the
-vertical-speed residual ``vz_abs`` (∫|h' - ĥ'| dt), whose constraints Φ** come from the noise
-measured in the phase's data plus a stated model-discrepancy allowance
-(:func:`criteria_limits`, the one place they are set). Under a main whose drag adds to the
-drogue's (``convention = "adds"``) the main's step takes the drogue's drag area in the drogue
-step's feasible range as a second variable (a chained step).
+identification step of the PSI method (:func:`vectorid.identify.twostep.run_step`) on the
+point-mass model ``"rocket-descent-cds"`` (:class:`~vectorid.identify.descent.RocketDescentCdS`,
+started at each trial's own steady descent rate): one design variable, the drag area C_D S of
+the canopy that phase is flown under (m²), sampled by LP_tau in a box of a factor 1.5 either
+way of what the phase's mean descent rate implies, with double tuning; two pure criteria, the
+altitude residual ``alt_sq`` (∫(h - ĥ)² dt) and the vertical-speed residual ``vz_abs``
+(∫|h' - ĥ'| dt). Their constraints Φ** are the study's noise floors
+(:mod:`vectorid.identify.noise`, ``limits = "noise"``): the altitude noise estimated from the
+phase's data by the documented estimator (or stated), plus a model-discrepancy allowance
+(:func:`discrepancy`, stated by the plan and justified in docs/identify.md). Under a main whose
+drag adds to the drogue's (``convention = "adds"``) the main's step takes the drogue's drag
+area in the drogue step's feasible range as a second variable (a chained step).
 
-Every phase ends with a verdict: the identified drag area (the Pareto trial closest to the
-ideal point) with its feasible and Pareto ranges, or why there is none (the feasible set D is
-empty, and the constraint that empties it); compared with the stated drag area, within ±15 %
-or why not (the main did not open; the drag area is the other canopy's; the descent rate does
-not fit the stated value).
+Every phase ends with the identifiability verdict of its drag area
+(:func:`vectorid.analysis.identifiability.identifiability`: identified, weak, not identified;
+a value only when identified) with its feasible and Pareto ranges, and the descent's own
+explanation beside it: compared with the stated drag area, within ±15 % or why not (the main
+did not open; the drag area is the other canopy's; the descent rate does not fit the stated
+value; the trigger height is never reached), which constraint empties D, and, where the
+residual exceeds the noise floor, how close any constant-drag descent can come at all
+(:func:`~vectorid.identify.descent.monotone_rate_bound`) and, in a log with GPS heights, how
+much of the barometric residual the GPS does not see.
 
 Each step is a study in its own store (``OUT/NAME-PHASE.db``): ``vectorid info``, ``table``,
-``pareto`` and ``ui`` work on it.
+``pareto``, ``identifiability`` and ``ui`` work on it.
 """
 
 from __future__ import annotations
@@ -39,11 +45,13 @@ import numpy as np
 from vectorid.errors import StudyDefinitionError
 from vectorid.identify.descent import (
     DRAG_CONVENTIONS,
+    INITIAL_SPEEDS,
     crossing_time,
     detect_apogee,
     detect_rate_change,
     detect_touchdown,
-    noise_floor,
+    fast_variation,
+    monotone_rate_bound,
 )
 
 __all__ = [
@@ -52,7 +60,7 @@ __all__ = [
     "DescentResult",
     "PhaseLimits",
     "PhaseResult",
-    "criteria_limits",
+    "discrepancy",
     "identify_descent",
     "parse_length",
 ]
@@ -60,6 +68,9 @@ __all__ = [
 G0 = 9.80665
 #: Relative distance from the stated drag area within which the identified one "agrees".
 AGREEMENT = 0.15
+#: Altitude RMS (m) the issue asks of each phase; a phase whose best fit leaves more (or
+#: more than 1.5 × its noise floor) says in its summary what the residual is made of.
+RMS_GOAL = 5.0
 _LENGTH_UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001, "in": 0.0254, "ft": 0.3048}
 _LENGTH = re.compile(r"^\s*([-+]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][-+]?\d+)?)\s*([a-z]*)\s*$")
 
@@ -177,12 +188,25 @@ class DescentPlan:
         ``touchdown``, ``main``, ``main_trigger`` and the log's, with ``+``/``-`` offsets in s).
     drogue_settle, main_settle : float
         Seconds left out after the start / the main's opening (deployment transients).
+    noise : "estimate", float or mapping
+        The altitude's measurement noise: ``"estimate"`` (default: σ of each phase's white
+        noise by :func:`vectorid.identify.noise.estimate_sigma`), a σ in m, or a Gauss–Markov
+        statement ``{"sigma": m, "correlation_time": s, "white": m}``.
     allowance, allowance_fraction : float
         Model-discrepancy allowance on the altitude, m, plus a fraction of the phase's
-        altitude loss (see :func:`criteria_limits`).
+        altitude loss (see :func:`discrepancy`).
     vz_allowance, vz_allowance_fraction : float
-        Allowance on the vertical speed, m/s, plus a fraction of the phase's mean descent
-        rate.
+        Allowance on the mean vertical-speed residual, m/s, plus a fraction of the phase's
+        mean descent rate.
+    initial_speed : {"steady", "data"}
+        Where each simulated phase starts its descent rate: every trial's own steady rate
+        (default; the phases start seconds after a canopy opened) or the slope of the data
+        at the window's start.
+    box_factor : float
+        Each phase's box of the drag area: this factor either way of what the phase's mean
+        descent rate implies (default 1.5). The verdicts are judged against it (identified:
+        D at most a quarter of the box wide, about ±10 % at 1.5); a D that reaches an edge
+        is at best "weak" and says to widen it.
     trials : int
         Trials per phase (a quarter in the coarse run, the rest in the narrowed box).
     seed : int
@@ -210,6 +234,9 @@ class DescentPlan:
     allowance_fraction: float = 0.005
     vz_allowance: float = 1.0
     vz_allowance_fraction: float = 0.1
+    noise: float | Mapping[str, float] | str = "estimate"
+    initial_speed: str = "steady"
+    box_factor: float = 1.5
     trials: int = 1024
     seed: int = 1
     name: str | None = None
@@ -252,6 +279,15 @@ class DescentPlan:
             v = getattr(self, name)
             if not (math.isfinite(v) and v >= 0):
                 raise _err(name, f"expected a number >= 0, got {v!r}")
+        if not (isinstance(self.box_factor, int | float) and 1.05 <= self.box_factor <= 10):
+            raise _err("box_factor", f"expected a number in [1.05, 10], got {self.box_factor!r}")
+        if self.initial_speed not in INITIAL_SPEEDS:
+            raise _err(
+                "initial_speed",
+                f"expected 'steady' or 'data', got {self.initial_speed!r}",
+                "'steady': each trial's steady descent rate; 'data': the slope at the start",
+            )
+        _noise_table(self.noise)  # raises on a bad statement
         if not (isinstance(self.trials, int) and self.trials >= 16):
             raise _err("trials", f"expected a whole number >= 16, got {self.trials!r}")
         for k in self.windows:
@@ -260,6 +296,49 @@ class DescentPlan:
 
 
 # -- criteria constraints -----------------------------------------------------------------------
+
+
+def _noise_table(noise: Any) -> dict[str, Any] | str:
+    """The ``[identification] noise`` statement of a phase from the plan's ``noise``."""
+    from vectorid.identify.noise import parse_noise
+
+    if isinstance(noise, str):
+        value: dict[str, Any] | str = noise
+    elif isinstance(noise, int | float) and not isinstance(noise, bool):
+        value = {"altitude": float(noise)}
+    elif isinstance(noise, Mapping):
+        value = {"altitude": dict(noise)}
+    else:
+        raise _err("noise", f'expected "estimate", a σ in m or a table, got {noise!r}')
+    parse_noise(value, "noise")  # one-line errors: unknown keys, negative σ
+    return value
+
+
+def discrepancy(
+    altitude_loss: float,
+    descent_rate: float,
+    *,
+    allowance: float = 3.0,
+    allowance_fraction: float = 0.005,
+    vz_allowance: float = 1.0,
+    vz_allowance_fraction: float = 0.1,
+) -> tuple[float, float]:
+    """The model-discrepancy allowance of a descent phase, (δ_h m, δ_v m/s).
+
+    What the point mass of one constant drag area, flown in ISA and still air, may miss of a
+    real descent, granted on top of the noise floors (the ``discrepancy`` of
+    :mod:`vectorid.identify.noise`): the altitude may depart from the truth by δ_h =
+    ``allowance`` + ``allowance_fraction`` × the phase's altitude loss (a temperature profile
+    other than ISA's, vertical air motion: both grow with the height descended), and the
+    vertical speed by δ_v = ``vz_allowance`` + ``vz_allowance_fraction`` × the mean descent
+    rate on average over the window (a canopy that breathes and swings, turbulence). The
+    noise-floor machinery turns them into each criterion's limit by the triangle inequality:
+    the altitude RMS limit is the floor's RMS + δ_h, the mean |vz residual| limit the floor's +
+    δ_v. The defaults, and the figures that justify them, are in docs/identify.md.
+    """
+    d_h = allowance + allowance_fraction * max(altitude_loss, 0.0)
+    d_v = vz_allowance + vz_allowance_fraction * abs(descent_rate)
+    return d_h, d_v
 
 
 @dataclass(frozen=True)
@@ -273,60 +352,24 @@ class PhaseLimits:
     vz_mean_abs : float
         Largest accepted mean absolute vertical-speed residual, m/s (``vz_abs`` ≤ T · it).
     source : str
-        Where they come from (for every printed answer).
+        Where they come from (the criteria's limit notes).
+    floor_alt_rms, floor_vz_mean_abs : float
+        The noise floors alone (without the allowance), m and m/s.
+    allowance_alt, allowance_vz : float
+        The discrepancy allowances δ_h (m) and δ_v (m/s).
+    criteria : list of dict
+        Each criterion as stored: ``name``, ``limit`` (criterion unit), ``unit``,
+        ``limit_source`` ("noise" here), ``limit_note``.
     """
 
     alt_rms: float
     vz_mean_abs: float
     source: str
-
-
-def criteria_limits(
-    noise_alt: float,
-    noise_vz: float,
-    altitude_loss: float,
-    descent_rate: float,
-    *,
-    allowance: float = 3.0,
-    allowance_fraction: float = 0.005,
-    vz_allowance: float = 1.0,
-    vz_allowance_fraction: float = 0.1,
-) -> PhaseLimits:
-    """Criteria constraints of a descent phase from its noise floor and a stated allowance.
-
-    The single place where the descent identification sets Φ** (to be replaced by the study's
-    ``limits = "noise"`` where that is available). A perfect model leaves the measurement noise:
-    the criteria then take their noise floors (:func:`vectorid.identify.descent.noise_floor`),
-    an altitude RMS ``noise_alt`` (m) and a mean absolute vertical-speed residual ``noise_vz``
-    (m/s). The model is not perfect: ISA air on a real day and still air (the altitude may
-    depart by an allowance δ_h = ``allowance`` + ``allowance_fraction`` × the phase's altitude
-    loss, m), one constant drag area for a rocket that swings under a canopy that breathes,
-    in turbulent air (the vertical speed may depart by δ_v = ``vz_allowance`` +
-    ``vz_allowance_fraction`` × the mean descent rate, m/s). The limits add them in quadrature
-    (δ_v as the mean absolute value of a Gaussian of that standard deviation):
-
-        alt RMS ≤ sqrt(noise_alt² + δ_h²),    mean |vz residual| ≤ sqrt(noise_vz² + (2/π) δ_v²).
-
-    Parameters
-    ----------
-    noise_alt, noise_vz : float
-        Noise floors of the altitude (RMS, m) and of its rate (mean absolute, m/s).
-    altitude_loss, descent_rate : float
-        The phase's altitude loss (m) and mean descent rate (m/s).
-    allowance, allowance_fraction, vz_allowance, vz_allowance_fraction : float
-        m, -, m/s, -.
-    """
-    d_h = allowance + allowance_fraction * max(altitude_loss, 0.0)
-    d_v = vz_allowance + vz_allowance_fraction * abs(descent_rate)
-    alt = math.hypot(noise_alt, d_h)
-    vz = math.hypot(noise_vz, math.sqrt(2 / math.pi) * d_v)
-    source = (
-        f"noise floor + allowance: altitude noise {noise_alt:.2f} m ⊕ allowance {d_h:.1f} m "
-        f"({allowance:g} m + {100 * allowance_fraction:g} % of the {altitude_loss:.0f} m lost); "
-        f"vertical-speed noise {noise_vz:.2f} m/s ⊕ allowance {d_v:.2f} m/s ({vz_allowance:g} "
-        f"m/s + {100 * vz_allowance_fraction:g} % of {abs(descent_rate):.1f} m/s)"
-    )
-    return PhaseLimits(alt, vz, source)
+    floor_alt_rms: float = math.nan
+    floor_vz_mean_abs: float = math.nan
+    allowance_alt: float = 0.0
+    allowance_vz: float = 0.0
+    criteria: tuple[dict[str, Any], ...] = ()
 
 
 # -- results ------------------------------------------------------------------------------------
@@ -344,6 +387,8 @@ class PhaseResult:
     descent_rate: float = 0.0
     noise_alt_m: float = math.nan
     noise_vz_ms: float = math.nan
+    noise: str = ""
+    noise_sigma_m: float | None = None
     limits: PhaseLimits | None = None
     stated_cds: float | None = None
     diameter: float | None = None
@@ -365,6 +410,9 @@ class PhaseResult:
     rate_change: dict[str, float] | None = None
     height_ratio: float | None = None
     sensor_disagreement_m: float | None = None
+    rate_bound: dict[str, float] | None = None
+    fast_error: dict[str, float] | None = None
+    identifiability: dict[str, Any] | None = None
     status: str = "no data"
     verdict: str = ""
     summary: str = ""
@@ -431,7 +479,12 @@ class PhaseResult:
             "altitude_loss_m": self.altitude_loss,
             "noise_alt_m": self.noise_alt_m,
             "noise_vz_ms": self.noise_vz_ms,
+            "noise": self.noise,
+            "noise_sigma_m": self.noise_sigma_m,
             "limits": None if self.limits is None else asdict(self.limits),
+            "identifiability": self.identifiability,
+            "rate_bound": self.rate_bound,
+            "fast_error": self.fast_error,
             "n": self.n,
             "n_feasible": self.n_feasible,
             "n_pareto": self.n_pareto,
@@ -517,9 +570,8 @@ class DescentResult:
                 f"{self.end_of_data[1]:.0f} m above the pad, still descending"
             )
         if self.convention:
-            lines.append(
-                f"drag-area convention: the main's drag area {self.convention} the drogue's"
-            )
+            verb = "adds to" if self.convention == "adds" else "replaces"
+            lines.append(f"drag-area convention: the main's drag area {verb} the drogue's")
         for p in self.phases:
             lines.append("")
             lines.extend(_phase_lines(p))
@@ -533,17 +585,27 @@ def _fmt_range(v, digits: int = 4) -> str:
 
 
 def _phase_lines(p: PhaseResult) -> list[str]:
-    out = [f"{p.name}: {p.status}"]
+    head = f"{p.name}: {p.status}"
+    v = p.identifiability
+    if v and v.get("reason"):
+        head += f" ({v['reason']})"
+    out = [head]
     if p.window is not None:
         out.append(
             f"  window {p.window[0]:.2f}-{p.window[1]:.2f} s ({p.duration:.0f} s, "
             f"{p.altitude_loss:.0f} m lost at {p.descent_rate:.1f} m/s on average)"
         )
-    if p.limits is not None:
+    if p.noise:
+        out.append(f"  altitude noise: {p.noise}")
+    lim = p.limits
+    if lim is not None:
         out.append(
-            f"  criteria constraints: altitude RMS <= {p.limits.alt_rms:.2f} m, mean |vz "
-            f"residual| <= {p.limits.vz_mean_abs:.2f} m/s ({p.limits.source})"
+            f"  criteria constraints (noise floor + discrepancy allowance): altitude RMS <= "
+            f"{lim.alt_rms:.2f} m ({lim.floor_alt_rms:.2f} + {lim.allowance_alt:.2f} m), mean "
+            f"|vz residual| <= {lim.vz_mean_abs:.2f} m/s ({lim.floor_vz_mean_abs:.2f} + "
+            f"{lim.allowance_vz:.2f} m/s)"
         )
+        out.append(f"    limits: {lim.source}")
         out.append(
             f"  N = {p.n}   ND = {p.n_feasible}   NP = {p.n_pareto}   box of {p.variable} "
             f"{_fmt_range(p.box)} m²"
@@ -560,11 +622,16 @@ def _phase_lines(p: PhaseResult) -> list[str]:
             )
         out.append(line)
     elif p.cds_feasible is not None:
-        out.append(f"  C_D S in {_fmt_range(p.cds_feasible)} m² (feasible range)")
+        out.append(f"  C_D S in {_fmt_range(p.cds_feasible)} m² (feasible range, {p.status})")
     if p.alt_rms_m is not None:
         out.append(
             f"  residuals: altitude RMS {p.alt_rms_m:.2f} m, vertical speed RMS "
             f"{p.vz_rms_ms:.2f} m/s"
+        )
+    if p.rate_bound is not None:
+        out.append(
+            f"  no descent whose rate never increases (a constant drag area in still air) comes "
+            f"closer than {p.rate_bound['rms_m']:.2f} m RMS"
         )
     if p.stated_cds is not None:
         line = f"  stated C_D S = {p.stated_cds:.4g} m²"
@@ -573,6 +640,8 @@ def _phase_lines(p: PhaseResult) -> list[str]:
         out.append(line)
     if p.verdict:
         out.append(f"  verdict: {p.verdict}")
+    if v and v.get("suggestion") and p.status != "identified":
+        out.append(f"  to identify it: {v['suggestion']}")
     if p.store:
         out.append(f"  store: {p.store}")
     return out
@@ -887,7 +956,8 @@ def _main_trigger(plan, events, t, h, h_agl, start, tail, origin) -> tuple[float
     return _resolve(events, at, "main_at"), ""
 
 
-def _spec_dict(plan, path, name, ph: _Phase, origin, events, box, extra_vars, fixed, limits, T):
+def _spec_dict(plan, path, name, ph: _Phase, origin, events, box, nominal, extra_vars, fixed, T,
+               allow, noise):  # fmt: skip
     drop: dict[str, Any] = {
         "name": ph.name,
         "file": str(path),
@@ -900,16 +970,16 @@ def _spec_dict(plan, path, name, ph: _Phase, origin, events, box, extra_vars, fi
         drop["format"] = plan.format
     if plan.mapping is not None:
         drop["mapping"] = dict(plan.mapping)
-    variables = [
-        {
-            "name": ph.variable,
-            "low": box[0],
-            "high": box[1],
-            "unit": "m²",
-        }
-    ]
-    variables.extend(extra_vars)
-    options = {"mass": float(plan.mass), "drag_convention": plan.convention or "adds"}
+    var: dict[str, Any] = {"name": ph.variable, "low": box[0], "high": box[1], "unit": "m²"}
+    if box[0] <= nominal <= box[1]:
+        var["nominal"] = nominal  # the noise floor's reference truth
+    variables = [var, *extra_vars]
+    options = {
+        "mass": float(plan.mass),
+        "drag_convention": plan.convention or "adds",
+        "initial_speed": plan.initial_speed,
+    }
+    d_h, d_v = allow
     return {
         "study": {
             "name": f"{name}-{ph.name}",
@@ -924,24 +994,24 @@ def _spec_dict(plan, path, name, ph: _Phase, origin, events, box, extra_vars, fi
             {
                 "name": f"alt_{ph.name}",
                 "role": "pure",
-                "limit": T * limits.alt_rms**2,
                 "unit": "m²·s",
-                "description": f"altitude residual ∫(h - ĥ)² dt over {T:g} s; the limit is "
-                f"an RMS of {limits.alt_rms:.2f} m ({limits.source})",
+                "description": f"altitude residual ∫(h - ĥ)² dt over {T:g} s (the limit / "
+                f"{T:g} s is a mean square)",
             },
             {
                 "name": f"vz_{ph.name}",
                 "role": "pure",
-                "limit": T * limits.vz_mean_abs,
                 "unit": "m",
-                "description": f"vertical-speed residual ∫|h' - ĥ'| dt over {T:g} s; the "
-                f"limit is a mean of {limits.vz_mean_abs:.2f} m/s",
+                "description": f"vertical-speed residual ∫|h' - ĥ'| dt over {T:g} s (the limit "
+                f"/ {T:g} s is a mean, m/s)",
             },
         ],
         "identification": {
             "dt": 0.05,
             "output_dt": 0.5,
-            "init_span": 2.0,
+            # the initial state's line: with a steady start only its altitude is used, and a
+            # longer line averages more of an altitude error correlated over seconds
+            "init_span": 5.0 if plan.initial_speed == "steady" else 2.0,
             "model_options": options,
             "parameters": fixed,
             "drops": [drop],
@@ -949,6 +1019,12 @@ def _spec_dict(plan, path, name, ph: _Phase, origin, events, box, extra_vars, fi
                 f"alt_{ph.name}": {"use": "alt_sq", "drops": [ph.name]},
                 f"vz_{ph.name}": {"use": "vz_abs", "drops": [ph.name]},
             },
+            "noise": noise,
+            "limits": "noise",
+            "noise_seed": plan.seed,
+            # the allowance: the altitude's by channel (Minkowski on the RMS), the vertical
+            # speed's under the criterion's name, in its unit (m: δ_v over the window)
+            "discrepancy": {"altitude": d_h, f"vz_{ph.name}": d_v * T},
         },
     }
 
@@ -967,13 +1043,26 @@ def _sensor_disagreement(channels, t0: float, t1: float) -> float | None:
     return float(np.sqrt(np.mean((A @ coef - gps) ** 2)))
 
 
+def _fast_error(channels, t0: float, t1: float) -> dict[str, float] | None:
+    """:func:`~vectorid.identify.descent.fast_variation` of the barometric heights against
+    the log's GPS heights over [t0, t1], as ``{"baro_m", "gps_m", "correlation", "span_s"}``."""
+    if "gps_altitude" not in channels:
+        return None
+    a, g = channels["altitude"], channels["gps_altitude"]
+    fv = fast_variation(a.t, a.values[:, 0], g.t, g.values[:, 0], t0, t1)
+    if fv is None:
+        return None
+    return {"baro_m": fv.rms, "gps_m": fv.rms_ref, "correlation": fv.correlation, "span_s": fv.span}
+
+
 def _run_phase(
     plan, path, name, ph: _Phase, t, h, origin, events, out, drogue_res, progress, flight_channels
 ):
-    from vectorid.analysis.choice import suggest_choice
+    from vectorid.analysis.identifiability import identifiability
     from vectorid.identify.identification import Identification
+    from vectorid.identify.twostep import run_step
     from vectorid.spec import StudySpec
-    from vectorid.study import Study
+    from vectorid.store import Store
 
     res = PhaseResult(
         ph.name, ph.variable, stated_cds=ph.canopy.stated_cds, diameter=ph.canopy.diameter
@@ -1003,7 +1092,6 @@ def _run_phase(
     res.duration = T
     res.altitude_loss = h0 - h1
     res.descent_rate = rate
-    res.noise_alt_m, res.noise_vz_ms = noise_floor(ts, hs, grid)
     res.effective_cds = _effective_cds(ts, hs, ph.t0, ph.t1, plan.mass, origin)
     rc = detect_rate_change(ts, hs, ph.t0, ph.t1, origin_altitude=origin, min_ratio=1.2)
     if rc is not None:
@@ -1014,9 +1102,14 @@ def _run_phase(
             "rate_after_ms": rc.rate_after,
             "drag_area_ratio": rc.drag_area_ratio,
         }
-    limits = criteria_limits(
-        res.noise_alt_m,
-        res.noise_vz_ms,
+    if grid.size >= 3:
+        rb = monotone_rate_bound(t, h, grid)
+        res.rate_bound = {
+            "rms_m": rb.rms,
+            "rate_first_ms": rb.rate_first,
+            "rate_last_ms": rb.rate_last,
+        }
+    allow = discrepancy(
         res.altitude_loss,
         rate,
         allowance=plan.allowance,
@@ -1024,13 +1117,12 @@ def _run_phase(
         vz_allowance=plan.vz_allowance,
         vz_allowance_fraction=plan.vz_allowance_fraction,
     )
-    res.limits = limits
-    # the box: a factor 3 either way of the drag area the mean descent rate implies
+    # the box: a factor box_factor either way of the drag area the mean descent rate implies
     est = _cds_estimate(rate, 0.5 * (h0 + h1), plan.mass, origin)
     if ph.variable == "cds_main" and plan.convention == "adds" and drogue_res is not None:
         base = drogue_res.cds if drogue_res.cds is not None else drogue_res.best_cds
         est = max(est - (base or 0.0), 0.05 * est)
-    box = (est / 3.0, est * 3.0)
+    box = (est / plan.box_factor, est * plan.box_factor)
     res.box = box
     extra: list[dict[str, Any]] = []
     fixed: dict[str, float] = {}
@@ -1049,75 +1141,155 @@ def _run_phase(
         fixed["cds_drogue"] = 0.0  # replaced: the drogue's drag is not in the main phase
     else:
         fixed[other] = 0.0  # main stowed in the drogue phase (input 0): any value
-    data = _spec_dict(plan, path, name, ph, origin, events, box, extra, fixed, limits, T)
+    noise, res.noise, res.noise_sigma_m = _phase_noise(plan, ts, hs)
+    data = _spec_dict(plan, path, name, ph, origin, events, box, est, extra, fixed, T, allow, noise)
     spec = StudySpec.from_dict(data, base_dir=path.parent)
     store = out / f"{_safe(name)}-{ph.name}.db"
     if store.exists():
         store.unlink()
     res.store = str(store)
-    coarse = max(16, plan.trials // 4)
-    with Study.create(spec, store) as st:
-        st.run(trials=coarse, executor="serial", progress=progress)
-        a = st.analysis()
-        j = a.spec.space.index(ph.variable)
-        X = a.trials.X[:, j]
-        if a.n_feasible:
-            lo, hi = float(X[a.feasible].min()), float(X[a.feasible].max())
-        else:  # around the best altitude fits
-            col = a.trials.F[:, 0]
-            ok = np.isfinite(col)
-            best = np.argsort(np.where(ok, col, np.inf))[: max(3, coarse // 20)]
-            lo, hi = float(X[best].min()), float(X[best].max())
-        w = max(hi - lo, 0.02 * 0.5 * (lo + hi))
-        new_lo, new_hi = max(box[0], lo - w), min(box[1], hi + w)
-        bounds = {ph.variable: (new_lo, new_hi)}
-        st.store.add_stage(
-            a.spec.space.with_bounds(bounds),
-            kind="sample",
-            note=f"narrowed to the {'feasible set' if a.n_feasible else 'best fits'} ± its width",
-        )
-        st.run(trials=plan.trials, executor="serial", progress=progress)
-        a = st.analysis()
-        X = a.trials.X[:, j]
-        res.n, res.n_feasible, res.n_pareto = a.n, a.n_feasible, a.n_pareto
-        F = a.trials.F
-        ok = a.ok & np.isfinite(F[:, 0])
-        if ok.any():
-            ib = int(np.flatnonzero(ok)[np.argmin(F[ok, 0])])
-            res.best_cds = float(X[ib])
-            res.best_alt_rms_m = math.sqrt(max(float(F[ib, 0]), 0.0) / T)
-            okv = a.ok & np.isfinite(F[:, 1])
-            res.best_vz_mean_abs_ms = float(F[okv, 1].min()) / T if okv.any() else None
-        if a.n_feasible:
-            res.cds_feasible = (float(X[a.feasible].min()), float(X[a.feasible].max()))
-            res.cds_pareto = (float(X[a.pareto].min()), float(X[a.pareto].max()))
-            cid = suggest_choice(a)
-            i = int(np.flatnonzero(a.trials.id == cid)[0])
-            res.cds = float(X[i])
-            res.alt_rms_m = math.sqrt(max(float(F[i, 0]), 0.0) / T)
-            x_chosen = a.trials.X[i]
-        else:
-            diag = a.diagnose_empty()
-            first = next((b for b, c in diag.cumulative if c == 0), None)
-            res.empty_by = None if first is None else first.name
-            x_chosen = None
+    coarse = max(8, plan.trials // 4)
+    meanings = {
+        "cds_drogue": "drogue drag area C_D S (m²)",
+        "cds_main": "main drag area C_D S (m², " + (plan.convention or "adds") + " the drogue's)",
+    }
+    hints = {
+        "cds_drogue": "the drogue phase, where the drogue's drag area alone sets the descent"
+        if ph.variable == "cds_main"
+        else "a log whose altitude has less error",
+        "cds_main": "a log whose altitude has less error",
+    }
+    step = run_step(
+        spec,
+        store,
+        trials=max(8, plan.trials - coarse),
+        coarse=coarse,
+        auto_quantile=None,
+        progress=progress,
+        name=ph.name,
+        meanings=meanings,
+        hints=hints,
+    )
+    a = step.analysis
+    with Store.open(store) as st:
+        stages = st.stages()
+    verdicts = identifiability(a, meanings=meanings, hints=hints, stages=stages)
+    verdict = next(v for v in verdicts if v.name == ph.variable)
+    res.identifiability = verdict.to_dict()
+    res.status = verdict.verdict
+    res.limits = _phase_limits(step.spec, T, allow)
+    res.noise_alt_m = res.limits.floor_alt_rms
+    res.noise_vz_ms = res.limits.floor_vz_mean_abs
+    j = a.spec.space.index(ph.variable)
+    X = a.trials.X[:, j]
+    res.n, res.n_feasible, res.n_pareto = a.n, a.n_feasible, a.n_pareto
+    F = a.trials.F
+    ok = a.ok & np.isfinite(F[:, 0])
+    if ok.any():
+        ib = int(np.flatnonzero(ok)[np.argmin(F[ok, 0])])
+        res.best_cds = float(X[ib])
+        res.best_alt_rms_m = math.sqrt(max(float(F[ib, 0]), 0.0) / T)
+        okv = a.ok & np.isfinite(F[:, 1])
+        res.best_vz_mean_abs_ms = float(F[okv, 1].min()) / T if okv.any() else None
+    x_chosen = None
+    if a.n_feasible:
+        res.cds_feasible = verdict.feasible
+        res.cds_pareto = verdict.pareto
+        i = int(np.flatnonzero(a.trials.id == step.chosen_id)[0])
+        res.cds = float(X[i])
+        res.alt_rms_m = math.sqrt(max(float(F[i, 0]), 0.0) / T)
+        x_chosen = a.trials.X[i]
+    else:
+        diag = a.diagnose_empty()
+        first = next((b for b, c in diag.cumulative if c == 0), None)
+        res.empty_by = None if first is None else first.name
     ident = Identification.from_spec(spec)
     d = ident.drops[0]
     if x_chosen is not None:
         res.vz_rms_ms = _vz_rms(ident, d, x_chosen)
-        if res.alt_rms_m is None:
-            res.alt_rms_m = _alt_rms(ident, d, x_chosen)
     if res.stated_cds is not None:
         xs = np.array([_center(v) for v in spec.space])
         xs[spec.space.index(ph.variable)] = res.stated_cds
         res.stated_alt_rms_m = _alt_rms(ident, d, xs)
-    res.status = _status(res)
-    if res.status == "not identified":  # a range, not a value
+    if res.status != "identified":  # a range, not a value
         res.best_cds = res.cds if res.best_cds is None else res.best_cds
         res.cds = None
     if "gps_altitude" in flight_channels:
         res.sensor_disagreement_m = _sensor_disagreement(flight_channels, ph.t0, ph.t1)
+        res.fast_error = _fast_error(flight_channels, ph.t0, ph.t1)
     return res
+
+
+def _phase_limits(spec, T: float, allow: tuple[float, float]) -> PhaseLimits:
+    """The phase's criteria constraints as computed at the store's creation (noise floors +
+    allowance), in m and m/s, with the criteria's own limit notes."""
+    crit = {c.name.split("_", 1)[0]: c for c in spec.criteria}
+    alt, vz = crit["alt"], crit["vz"]
+    d_h, d_v = allow
+    alt_rms = math.sqrt(max(float(alt.limit), 0.0) / T)
+    vz_mean = float(vz.limit) / T
+    rows = tuple(
+        {
+            "name": c.name,
+            "limit": float(c.limit),
+            "unit": c.unit,
+            "limit_source": c.source,
+            "limit_note": c.limit_note,
+        }
+        for c in (alt, vz)
+    )
+
+    def short(note: str) -> str:  # the estimated noise is printed on its own line
+        return re.sub(r" \([^()]*estimated[^()]*\)$", "", note or "")
+
+    return PhaseLimits(
+        alt_rms=alt_rms,
+        vz_mean_abs=vz_mean,
+        source=f"{alt.name}: {short(alt.limit_note)}; {vz.name}: {short(vz.limit_note)}",
+        floor_alt_rms=max(alt_rms - d_h, 0.0),
+        floor_vz_mean_abs=max(vz_mean - d_v, 0.0),
+        allowance_alt=d_h,
+        allowance_vz=d_v,
+        criteria=rows,
+    )
+
+
+def _phase_noise(plan, t, h) -> tuple[dict[str, Any] | str, str, float | None]:
+    """The ``[identification] noise`` of a phase, the noise in words, and its σ (m).
+
+    ``plan.noise == "estimate"``: white plus Gauss–Markov noise of the window's altitude
+    (:func:`vectorid.identify.noise.estimate_correlated`), else its white noise
+    (:func:`~vectorid.identify.noise.estimate_sigma`) where the window is too short for
+    that; a stated noise is used as stated."""
+    from vectorid.identify.noise import ComponentNoise, estimate_correlated, estimate_sigma
+
+    if not isinstance(plan.noise, str):
+        table = _noise_table(plan.noise)
+        c = table["altitude"]
+        if isinstance(c, Mapping):
+            cn = ComponentNoise(c.get("sigma", 0.0), c.get("correlation_time", 0.0),
+                                c.get("white", 0.0))  # fmt: skip
+            return table, f"stated: {cn.describe(1.0, 'm')}", cn.total
+        return table, f"stated: σ {float(c):.3g} m white", float(c)
+    max_lag = min(5.0, (t[-1] - t[0]) / 4) if t.size > 1 else 0.0
+    cn = estimate_correlated(t, h, max_lag) if max_lag > 0 else None
+    how = f"third differences at lags up to {max_lag:.2g} s"
+    if cn is None:
+        sigma = float(estimate_sigma(t, h)[0])
+        if not math.isfinite(sigma):
+            return "estimate", "estimated by the study (too few samples here)", None
+        cn, how = ComponentNoise(sigma), "third differences"
+    table: dict[str, Any] = {"altitude": cn.total}
+    if cn.correlation_time > 0:
+        table = {
+            "altitude": {
+                "sigma": cn.sigma,
+                "correlation_time": cn.correlation_time,
+                "white": cn.white,
+            }
+        }
+    text = f"{cn.describe(1.0, 'm')}, estimated from the window's {t.size} samples ({how})"
+    return table, text, cn.total
 
 
 def _center(v) -> float:
@@ -1147,21 +1319,6 @@ def _vz_rms(ident, d, x) -> float:
     return float(np.sqrt(np.mean(e**2)))
 
 
-def _status(r: PhaseResult) -> str:
-    """identified / weak / not identified from the feasible range, or why there is no value."""
-    if r.n == 0:
-        return "no data"
-    if r.n_feasible == 0:
-        return "D empty"
-    lo, hi = r.cds_feasible
-    rel = (hi - lo) / max(abs(r.cds), 1e-12)
-    if rel <= 0.2:
-        return "identified"
-    if rel <= 1.0:
-        return "weak"
-    return "not identified"
-
-
 def _verdict(
     r: PhaseResult, by_name: Mapping[str, PhaseResult], plan: DescentPlan
 ) -> tuple[str, str]:
@@ -1172,7 +1329,7 @@ def _verdict(
         return v, v
     parts: list[str] = []
     short: list[str] = []
-    empty = r.status == "D empty"
+    empty = r.n > 0 and r.n_feasible == 0
     if empty:
         lim = r.limits
         crit = r.empty_by or "a constraint"
@@ -1193,16 +1350,18 @@ def _verdict(
             f"no drag area keeps the model within the criteria constraints ({crit} empties "
             f"D): the best fit leaves {what}"
         )
-    if r.status in ("weak", "not identified"):
+    if not empty and r.status in ("weak", "not identified") and r.cds_feasible is not None:
         lo, hi = r.cds_feasible
+        why = (r.identifiability or {}).get("reason", "")
         parts.append(
-            f"the data bound the drag area only to {lo:.4g}-{hi:.4g} m² (feasible range; "
-            f"{r.duration:.0f} s and {r.altitude_loss:.0f} m of descent in the window)"
+            f"the data bound the drag area only to {lo:.4g}-{hi:.4g} m² (feasible range, "
+            f"{r.status}: {why}; {r.duration:.0f} s and {r.altitude_loss:.0f} m of descent in "
+            "the window)"
         )
         short.append(f"{r.status}: {lo:.3g}-{hi:.3g} m²")
     value = r.compared_cds
     stated = r.stated_cds
-    label = "the best fit" if empty else "identified"
+    label = "identified" if r.cds is not None else ("the best fit" if empty else "the chosen")
     corrected = " (hot-day corrected)" if r.height_ratio else ""
     if stated is not None and value is not None:
         ratio = value / stated
@@ -1213,13 +1372,23 @@ def _verdict(
         under = None
         if r.name == "main" and dval:
             under = value + (dval if plan.convention == "adds" else 0.0)
-        if abs(ratio - 1) <= AGREEMENT:
-            if empty:
+        # a drag area the data do not identify: the stated value is judged by D's range
+        k = r.height_ratio or 1.0
+        rng = r.cds_feasible if (r.cds is None and not empty) else None
+        inside = rng is not None and rng[0] / k <= stated <= rng[1] / k
+        if inside and abs(ratio - 1) > AGREEMENT:
+            parts.append(
+                f"the data do not exclude the stated {stated:.4g} m²: it lies inside the "
+                f"feasible range {rng[0] / k:.4g}-{rng[1] / k:.4g} m²{corrected}"
+            )
+            short.append("stated value inside the feasible range")
+        elif abs(ratio - 1) <= AGREEMENT:
+            if r.cds is None:  # no value: D empty, or the drag area is not identified
                 parts.append(
                     f"{label}, {value:.4g} m²{corrected}, is within 15 % of the stated "
                     f"{stated:.4g} m² ({pct})"
                 )
-                short.append(f"best fit within 15 % ({pct})")
+                short.append(f"{label.removeprefix('the ')} within 15 % ({pct})")
             else:
                 parts.insert(0, f"agrees with the stated {stated:.4g} m² ({pct}){corrected}")
                 short.insert(0, f"agrees ({pct}{', hot-day corrected' if corrected else ''})")
@@ -1254,6 +1423,11 @@ def _verdict(
                 f"mean descent rate, {r.descent_rate:.1f} m/s, would be about {v_stated:.1f} "
                 "m/s with it"
             )
+            if rng is not None:
+                text += (
+                    f"; the stated value lies outside the feasible range "
+                    f"{rng[0] / k:.4g}-{rng[1] / k:.4g} m²{corrected}"
+                )
             if r.stated_alt_rms_m is not None and r.limits is not None:
                 text += (
                     f" (altitude RMS with the stated value {r.stated_alt_rms_m:.0f} m, "
@@ -1266,14 +1440,42 @@ def _verdict(
             )
     elif stated is None:
         parts.append("no stated drag area to compare with")
-    if r.sensor_disagreement_m is not None and r.alt_rms_m is not None:
-        if r.alt_rms_m > 5.0:
-            parts.append(
-                f"the log's GPS and barometric heights disagree by {r.sensor_disagreement_m:.1f} "
-                "m RMS in this window (beyond a scale factor)"
+    rms = r.best_alt_rms_m  # the closest any drag area of the box comes
+    floor = r.limits.floor_alt_rms if r.limits is not None else math.nan
+    if rms is not None and r.rate_bound is not None:
+        # what the residual is made of: the noise, what no constant drag area can follow
+        # (the monotone-rate bound), and, with GPS heights, the barometer's own error
+        rb = r.rate_bound["rms_m"]
+        text = (
+            f"residual: the best fit leaves {rms:.1f} m RMS, the noise floor is {floor:.1f} m, "
+            f"and no descent whose rate never increases (a constant drag area in still air, in "
+            f"any atmosphere) comes closer than {rb:.1f} m"
+        )
+        fe = r.fast_error
+        baro = fe is not None and fe["baro_m"] > 2.0 * fe["gps_m"] and abs(fe["correlation"]) < 0.3
+        if baro:
+            text += (
+                f"; the barometric heights vary by {fe['baro_m']:.1f} m RMS about their "
+                f"{fe['span_s']:.0f}-s trend and the log's GPS heights by {fe['gps_m']:.1f} m, "
+                f"uncorrelated ({fe['correlation']:+.2f}): pressure error at the barometer, "
+                "not motion"
             )
-            short.append(f"GPS and baro heights disagree by {r.sensor_disagreement_m:.1f} m RMS")
-    if empty:
+        parts.append(text)
+        if rms <= floor:
+            if rms > RMS_GOAL:
+                short.append(f"alt RMS {rms:.1f} m, within the noise floor ({floor:.1f} m)")
+        elif rms > RMS_GOAL or rms > 1.5 * floor:  # say so in the table too
+            short.append(
+                f"alt RMS {rms:.1f} m (noise floor {floor:.1f} m, no constant drag area "
+                f"< {rb:.1f} m{'; baro error not in GPS' if baro else ''})"
+            )
+    if r.sensor_disagreement_m is not None and rms is not None and rms > 5.0:
+        parts.append(
+            f"the log's GPS and barometric heights disagree by {r.sensor_disagreement_m:.1f} "
+            "m RMS in this window (beyond a scale factor)"
+        )
+    agrees = bool(short) and short[0].startswith("agrees")
+    if empty or not agrees:
         if r.rate_change is not None:
             rc = r.rate_change
             parts.append(
@@ -1281,7 +1483,7 @@ def _verdict(
                 f"({rc['altitude_m']:.0f} m) inside the window"
             )
             short.append(f"drag area changes ×{rc['drag_area_ratio']:.2f} at {rc['time_s']:.0f} s")
-        if r.effective_cds is not None:
+        if r.effective_cds is not None and empty:
             parts.append(
                 f"the drag area the descent rate implies goes from {r.effective_cds[0]:.3g} to "
                 f"{r.effective_cds[1]:.3g} m² along the phase (10 s windows)"

@@ -1041,7 +1041,9 @@ def load_telemega(path: str | os.PathLike[str], *, max_gap: float = 3.0) -> Flig
     ``drogue``, ``main``, ``landed`` as present) plus ``apogee``, the time of the highest
     barometric height (derived, not a logger state).
 
-    Exact duplicate rows (the logger repeats some) are dropped. GPS rows are fixes where
+    Exact duplicate rows (the logger repeats some) are dropped. The barometric channels
+    (``altitude``, ``pressure``) keep the rows where the barometer gave a new sample: rows of
+    other packets repeat the last pressure and height at a later time. GPS rows are fixes where
     ``locked`` is 1, ``nsat`` >= 4 and the fix (position or GPS clock) changed from the previous
     row: the file repeats the last fix between updates.
 
@@ -1090,7 +1092,21 @@ def load_telemega(path: str | os.PathLike[str], *, max_gap: float = 3.0) -> Flig
         return Channel(name, tv, vv, comps, unit)
 
     channels: dict[str, Channel] = {}
-    channels["altitude"] = chan("altitude", ["height"], ("altitude",), "m")
+    # The logger writes a row for every packet; rows of other packets carry the last
+    # barometer sample over (same pressure and height, a later time). They are not new
+    # measurements: a copy 0.07 s after its sample, interpolated as if measured then, is off
+    # by the distance flown meanwhile (up to 8 m in the drogue phase of the shared log).
+    baro = ["height"] + (["pressure"] if "pressure" in table.names else [])
+    bv = np.stack([num(c) for c in baro], axis=1)
+    fresh = np.ones(t.size, dtype=bool)
+    fresh[1:] = np.any(bv[1:] != bv[:-1], axis=1)
+
+    def baro_chan(name: str, col: str, comps: tuple[str, ...], unit: str) -> Channel:
+        v = num(col)[fresh][:, None]
+        tv, vv = _valid_samples(name, t[fresh], v, max_gap, table, rows[fresh])
+        return Channel(name, tv, vv, comps, unit)
+
+    channels["altitude"] = baro_chan("altitude", "height", ("altitude",), "m")
     # GPS fixes
     lat, lon, alt = num("latitude"), num("longitude"), num("altitude.1")
     ok = np.isfinite(lat) & np.isfinite(lon) & np.isfinite(alt) & ~((lat == 0) & (lon == 0))
@@ -1134,7 +1150,10 @@ def load_telemega(path: str | os.PathLike[str], *, max_gap: float = 3.0) -> Flig
     ]
     for name, col, unit in extras:
         if col in table.names and np.sum(np.isfinite(num(col))) >= 2:
-            channels[name] = chan(name, [col], (name,), unit)
+            if name == "pressure":
+                channels[name] = baro_chan(name, col, (name,), unit)
+            else:
+                channels[name] = chan(name, [col], (name,), unit)
     events: dict[str, float] = {}
     states = table.strings("state_name", "events")
     prev = None

@@ -71,13 +71,17 @@ no channel bound limits (frequencies, rate extremes, indices) take an allowance 
 their own name. A criterion-name allowance is added to the limit.
 
 The estimator (``noise = "estimate"``, :func:`estimate_sigma`): σ̂ = 1.4826 MAD(Δ³y) / √20,
-the robust spread of the third differences of each component over runs of evenly spaced
-samples, scaled by Var(Δ³n) = C(6, 3) σ² = 20σ² for white noise n. The third difference
-removes a smooth signal (it leaves s'''·Δt³) and the median absolute deviation ignores
-spikes. It sees the *white* part of the noise: a correlated error slower than the sampling
-(a GPS position error of 20 s correlation time) is indistinguishable from motion and is
-estimated as its small high-frequency share (:func:`highfreq_sigma` gives it); state such
-errors explicitly, or grant them as discrepancy.
+the robust spread of the third differences of each component, scaled by Var(Δ³n) =
+C(6, 3) σ² = 20σ² for white noise n; on unevenly spaced samples (a logger that writes rows at
+jittered times) the third divided differences, each divided by the norm of its weights, which
+have variance σ² whatever the steps. The third difference removes a smooth signal (it leaves
+s'''·Δt³) and the MAD (recomputed without the differences beyond 5 σ̂) ignores spikes;
+differences across a gap (a step over twice the median) are left out. Only the channels the
+drop's criteria and its initial-state fit read are estimated. It sees the *white* part of
+the noise: a correlated error slower than the sampling (a GPS position error of 20 s
+correlation time) is indistinguishable from motion and is estimated as its small
+high-frequency share (:func:`highfreq_sigma` gives it); state such errors explicitly, or
+grant them as discrepancy.
 """
 
 from __future__ import annotations
@@ -98,6 +102,7 @@ __all__ = [
     "ComponentNoise",
     "NoiseFloor",
     "NoiseModel",
+    "estimate_correlated",
     "estimate_noise",
     "estimate_sigma",
     "highfreq_sigma",
@@ -225,7 +230,7 @@ class ComponentNoise:
     def describe(self, factor: float = 1.0, unit: str = "") -> str:
         u = f" {unit}" if unit else ""
         if self.correlation_time > 0:
-            text = f"{self.sigma / factor:.3g}{u} (τ {self.correlation_time:g} s)"
+            text = f"{self.sigma / factor:.3g}{u} (τ {self.correlation_time:.3g} s)"
             if self.white > 0:
                 text += f" + {self.white / factor:.3g}{u} white"
             return text
@@ -392,10 +397,15 @@ _MAD = 1.482602218505602  # 1 / Φ⁻¹(3/4): MAD -> σ for a normal distributio
 def estimate_sigma(t: ArrayLike, y: ArrayLike, order: int = _ORDER) -> NDArray[np.float64]:
     """Standard deviation of the white measurement noise of each column of ``y``.
 
-    σ̂ = 1.4826 · MAD(Δᵏy) / √C(2k, k): the robust spread of the k-th differences (default
-    k = 3) over runs of evenly spaced samples (steps within 1 % of the median step), scaled
-    by the variance C(2k, k) σ² of the k-th difference of white noise. A smooth signal
-    contributes s⁽ᵏ⁾Δtᵏ, negligible at the sampling rates of flight logs; a correlated error
+    σ̂ = 1.4826 · MAD(d), d the k-th differences (default k = 3) of consecutive samples,
+    each divided by the norm of its weights: on evenly spaced samples d = Δᵏy / √C(2k, k)
+    (the k-th difference of white noise has variance C(2k, k) σ²); on uneven ones the k-th
+    divided difference Σⱼ wⱼ yⱼ, wⱼ = 1 / Πₗ≠ⱼ (tⱼ − tₗ), over ‖w‖, which has variance σ²
+    for white noise whatever the steps (loggers whose rows come at jittered times). A
+    smooth signal contributes s⁽ᵏ⁾Δtᵏ / k! · (k!/‖w‖Δtᵏ), negligible at the sampling rates of
+    flight logs; the MAD, recomputed without the differences beyond 5 σ̂, ignores spikes.
+    Differences that span a step outside [0.5, 2] × the
+    median step (a gap, or two rows almost at one time) are left out. A correlated error
     slower than the sampling contributes only its high-frequency share
     (:func:`highfreq_sigma`).
 
@@ -411,7 +421,7 @@ def estimate_sigma(t: ArrayLike, y: ArrayLike, order: int = _ORDER) -> NDArray[n
     Returns
     -------
     (m,) float
-        σ̂ per column, unit of ``y``; NaN when fewer than 10 difference runs exist.
+        σ̂ per column, unit of ``y``; NaN when fewer than 10 differences are usable.
     """
     t = np.asarray(t, dtype=float)
     y = np.asarray(y, dtype=float)
@@ -422,16 +432,116 @@ def estimate_sigma(t: ArrayLike, y: ArrayLike, order: int = _ORDER) -> NDArray[n
         return np.full(y.shape[1], np.nan)
     dt = np.diff(t)
     med = float(np.median(dt))
-    even = np.abs(dt - med) <= 0.01 * med
-    # a k-th difference at i uses samples i..i+k: all k steps must be even
-    ok = np.ones(t.size - k, dtype=bool)
+    even = (dt >= 0.5 * med) & (dt <= 2.0 * med)
+    # a k-th difference at i uses samples i..i+k: all k steps must be usable
+    n = t.size - k
+    ok = np.ones(n, dtype=bool)
     for j in range(k):
-        ok &= even[j : j + t.size - k]
+        ok &= even[j : j + n]
     if ok.sum() < 10:
         return np.full(y.shape[1], np.nan)
-    d = np.diff(y, n=k, axis=0)[ok]
-    mad = np.median(np.abs(d - np.median(d, axis=0)), axis=0)
-    return _MAD * mad / math.sqrt(math.comb(2 * k, k))
+    # divided-difference weights w_j = 1 / prod_{l != j} (t_{i+j} - t_{i+l}), in units of the
+    # median step (so that they stay of order one)
+    tau = np.stack([t[j : j + n] for j in range(k + 1)]) / med  # (k+1, n)
+    w = np.ones((k + 1, n))
+    for j in range(k + 1):
+        for m in range(k + 1):
+            if m != j:
+                w[j] /= tau[j] - tau[m]
+    w /= np.sqrt(np.sum(w * w, axis=0))
+    d = np.einsum("jn,jnc->nc", w, np.stack([y[j : j + n] for j in range(k + 1)]))[ok]
+    out = np.empty(d.shape[1])
+    for c in range(d.shape[1]):
+        x = d[:, c]
+        dev = np.abs(x - np.median(x))
+        s0 = _MAD * np.median(dev)
+        # one reweighting step: differences beyond 5 σ (spikes, each spoiling k + 1 of them)
+        # are left out; for normal noise this trims nothing that matters (P < 1e-6)
+        keep = dev <= 5.0 * s0 if s0 > 0 else np.ones(x.size, dtype=bool)
+        x = x[keep]
+        out[c] = _MAD * np.median(np.abs(x - np.median(x)))
+    return out
+
+
+def estimate_correlated(t: ArrayLike, y: ArrayLike, max_lag: float = 5.0) -> ComponentNoise | None:
+    """White plus first-order Gauss–Markov noise of one series, from the variances of its
+    third differences at increasing lags.
+
+    On a uniform grid at the median step Δ, the third difference at lag k,
+    y(t + 3kΔ) − 3y(t + 2kΔ) + 3y(t + kΔ) − y(t), removes a signal up to a quadratic (a
+    descent that slows down) and has, for white noise of σ_w plus a Gauss–Markov error of σ_c
+    and correlation time τ (ρ_j = exp(−jkΔ/τ)), the variance
+
+        V(k) = 20 σ_w² + σ_c² (20 − 30 ρ_1 + 12 ρ_2 − 2 ρ_3).
+
+    The robust variances (1.4826 MAD)² at lags Δ … ``max_lag`` are fitted by that curve
+    (least squares on their logarithms, ``scipy.optimize.least_squares``). White noise gives
+    a flat curve; an error correlated over a few samples (a logger's filter, a barometer whose
+    static port feels the flow as the body swings) a curve that rises to its plateau over
+    about τ — what the lag-1 differences of :func:`estimate_sigma` cannot see. Errors slower
+    than ``max_lag`` are seen only in part, and real motion whose third derivative is large
+    over 3 ``max_lag`` is counted as noise.
+
+    Parameters
+    ----------
+    t, y : (T,) array_like
+        Sample times (s, increasing) and values.
+    max_lag : float
+        Longest lag, s.
+
+    Returns
+    -------
+    ComponentNoise or None
+        ``ComponentNoise(σ_c, τ, σ_w)`` with τ between half a step and ``max_lag`` / 3 (a
+        curve still rising at ``max_lag`` is given τ = ``max_lag`` / 3: an error slower than
+        the lags is seen only in part); white noise only (``ComponentNoise(√(V(1)/20))``)
+        when the fitted σ_c is under 0.3 σ_w or τ under half a step; None when the series
+        holds fewer than 4 ``max_lag`` s or 4 lags.
+    """
+    from scipy.optimize import least_squares
+
+    t = np.asarray(t, dtype=float).ravel()
+    y = np.asarray(y, dtype=float).ravel()
+    if t.size < 20 or t[-1] - t[0] < 4 * max_lag:
+        return None
+    step = float(np.median(np.diff(t)))
+    K = int(max_lag / step + 1e-9)
+    if K < 4:
+        return None
+    grid = np.arange(t[0], t[-1] + 1e-9, step)
+    yg = np.interp(grid, t, y)
+    lags = np.arange(1, K + 1)
+    V = np.empty(K)
+    n = yg.size
+    for i, k in enumerate(lags):
+        if n <= 3 * k + 10:
+            return None
+        d = yg[3 * k :] - 3 * yg[2 * k : n - k] + 3 * yg[k : n - 2 * k] - yg[: n - 3 * k]
+        V[i] = (_MAD * np.median(np.abs(d - np.median(d)))) ** 2
+    if not np.all(V > 0):
+        return None
+
+    def model(p):
+        sw, sc, tau = np.exp(p)
+        rho = np.exp(-lags * step / tau)
+        return 20 * sw**2 + sc**2 * (20 - 30 * rho + 12 * rho**2 - 2 * rho**3)
+
+    # τ at most max_lag / 3, so that the curve reaches its plateau within the lags; the σ's
+    # within 1e-4 .. 1e2 of the scale
+    v0 = float(V[0])
+    scale = math.sqrt(float(V.max()) / 20)
+    lo = np.log([1e-4 * scale, 1e-4 * scale, 0.5 * step])
+    hi = np.log([1e2 * scale, 1e2 * scale, max_lag / 3])
+    best = None
+    for tau0 in (step, max_lag / 10, max_lag / 3.5):
+        p0 = np.clip(np.log([math.sqrt(v0 / 20), scale, tau0]), lo + 1e-9, hi - 1e-9)
+        fit = least_squares(lambda p: np.log(model(p)) - np.log(V), p0, bounds=(lo, hi))
+        if best is None or fit.cost < best.cost:
+            best = fit
+    sw, sc, tau = (float(v) for v in np.exp(best.x))
+    if sc < 0.3 * sw or tau < 0.55 * step:
+        return ComponentNoise(math.sqrt(v0 / 20))
+    return ComponentNoise(sc, tau, sw)
 
 
 def highfreq_sigma(noise: ComponentNoise, dt: float, order: int = _ORDER) -> float:
@@ -702,7 +812,7 @@ def noise_floor(
                     f"no noise is stated for drop {d.name!r}",
                     'add noise = { ... } or noise = "estimate" under [identification]',
                 )
-            nm = estimate_noise(d.flight)
+            nm = estimate_noise(d.flight, _needed_channels(ident, d))
         used_noise[d.name] = nm.describe()
         chans = sorted({ident.defs[j].channel for j in crit})
         # every component a criterion reads must have a stated noise
@@ -833,6 +943,17 @@ def noise_floor(
 
 
 _FIT_CHANNELS = ("position", "velocity", "euler", "rates", "altitude")
+
+
+def _needed_channels(ident, d) -> list[str]:
+    """The channels of drop ``d`` whose noise the floor uses: those its criteria read and
+    those the initial-state fit reads (an estimate of the others would only lengthen notes)."""
+    read = {
+        ident.defs[j].channel
+        for j, c in enumerate(ident.criteria)
+        if c.drops is None or d.name in c.drops
+    }
+    return [ch for ch in d.flight.channels if ch in read or ch in _FIT_CHANNELS]
 
 
 def _fit_state(fit_in, values: Mapping[str, NDArray], t0: float, span: float):
@@ -1125,14 +1246,15 @@ def _drop_noise(spec, ident, study_noise) -> dict[str, NoiseModel | str]:
         mine = parse_noise(own, f"drops[{i}].noise")
         if isinstance(mine, str) or base is None or isinstance(base, str):
             if isinstance(base, str) and not isinstance(mine, str):
-                out[d.name] = estimate_noise(d.flight).merged(mine)
+                out[d.name] = estimate_noise(d.flight, _needed_channels(ident, d)).merged(mine)
             else:
                 out[d.name] = mine
         else:
             out[d.name] = base.merged(mine)
     for name, nm in out.items():
         if isinstance(nm, str):
-            out[name] = estimate_noise(ident.drop(name).flight)
+            d = ident.drop(name)
+            out[name] = estimate_noise(d.flight, _needed_channels(ident, d))
     return out
 
 
