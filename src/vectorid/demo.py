@@ -437,7 +437,7 @@ def _print_step(r, spec, true: dict, nominal: dict, report: bool) -> None:
         b = box[v.name]
         inside = b.low <= tv <= b.high
         print(f"    {v.name} = {v.meaning} [{_unit(v.unit)}]")
-        print(f"      {v.verdict:<14} {r.chosen_text(v.name)}")
+        print(f"      {v.verdict:<14} {r.chosen_text(v.name, with_verdict=False)}")
         print(
             f"      {'':<14} truth {tv:.4g} (nominal {nominal[v.name]:.4g}); final box "
             f"[{b.low:.4g}, {b.high:.4g}] {'holds it' if inside else 'EXCLUDES it'}"
@@ -498,7 +498,7 @@ def _print_control_step(rc, true: dict) -> None:
         else:
             inside = f"(the seed's rule; no estimate, {v.name} is not identified here)"
         print(f"  {v.name} = {v.meaning} [{_unit(v.unit)}]")
-        print(f"    {v.verdict:<14} {r.chosen_text(v.name)}")
+        print(f"    {v.verdict:<14} {r.chosen_text(v.name, with_verdict=False)}")
         print(f"    {'':<14} truth {tv:.4g}; box from the Pareto set [{lo:.4g}, {hi:.4g}] {inside}")
         if v.suggestion:
             print(f"    {'':<14} to identify it: {v.suggestion}")

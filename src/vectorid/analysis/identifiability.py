@@ -98,17 +98,19 @@ class ParameterVerdict:
         """``"x6 (C_D base value (eq. 11))"`` — the name with its meaning."""
         return f"{self.name} ({self.meaning})" if self.meaning else self.name
 
-    def value_text(self, value: float | None = None, digits: int = 4) -> str:
+    def value_text(
+        self, value: float | None = None, digits: int = 4, *, with_verdict: bool = True
+    ) -> str:
         """How a chosen vector shows this variable: the value (with the feasible range) when
         identified; otherwise the feasible range (or the box) and the verdict, never a value
-        alone."""
+        alone. ``with_verdict=False`` leaves the verdict out, for lines that print it already."""
         u = f" {self.unit}" if self.unit and self.unit != "-" else ""
         rng = self.feasible if self.feasible is not None else self.box
         span = f"[{rng[0]:.{digits}g}, {rng[1]:.{digits}g}]{u}"
         if self.identified and value is not None:
             return f"{value:.{digits}g}{u} (feasible {span})"
         where = "feasible" if self.feasible is not None else "box"
-        return f"{where} {span} ({self.verdict})"
+        return f"{where} {span}" + (f" ({self.verdict})" if with_verdict else "")
 
     def to_dict(self) -> dict[str, Any]:
         def pair(p: tuple[float, float] | None) -> list[float] | None:

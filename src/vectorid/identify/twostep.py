@@ -145,13 +145,13 @@ class StepResult:
     def verdict(self, name: str) -> ParameterVerdict | None:
         return next((v for v in self.verdicts if v.name == name), None)
 
-    def chosen_text(self, name: str) -> str:
-        """The chosen value of an identified variable, else its range and verdict."""
+    def chosen_text(self, name: str, *, with_verdict: bool = True) -> str:
+        """The chosen value of an identified variable, else its range (and verdict)."""
         v = self.verdict(name)
         value = self.chosen.get(name)
         if v is None:
             return "-" if value is None else f"{value:.4g}"
-        return v.value_text(value)
+        return v.value_text(value, with_verdict=with_verdict)
 
     def describe(self) -> str:
         a = self.analysis
