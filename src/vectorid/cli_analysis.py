@@ -181,7 +181,7 @@ def _write_fig(fig: Any, out: str) -> None:
 
 
 def _cmd_section(args: argparse.Namespace) -> int:
-    from .analysis.sections import run_section
+    from .run.extra import run_section
 
     study = _open(args.store, write=True)
     with study:
@@ -224,7 +224,8 @@ def _parse_bounds(texts: list[str]) -> dict[str, tuple[float, float]]:
 
 
 def _cmd_refine(args: argparse.Namespace) -> int:
-    from .analysis.refine import apply_refine, propose_refine
+    from .analysis.refine import propose_refine
+    from .run.extra import apply_refine
 
     study = _open(args.store, write=args.apply)
     with study:
@@ -273,7 +274,8 @@ def _cmd_refine(args: argparse.Namespace) -> int:
 
 
 def _cmd_robustness(args: argparse.Namespace) -> int:
-    from .analysis.robustness import chosen_table, run_robustness
+    from .analysis.robustness import chosen_table
+    from .run.extra import run_robustness
 
     study = _open(args.store, write=True)
     with study:

@@ -11,10 +11,9 @@ from vectorid import Study
 from vectorid.analysis.correlation import correlation, parameter_spread
 from vectorid.analysis.histograms import histograms
 from vectorid.analysis.refine import propose_refine
-from vectorid.analysis.robustness import run_robustness
-from vectorid.analysis.sections import run_section
 from vectorid.analysis.sensitivity import sensitivity
 from vectorid.errors import StudyDefinitionError
+from vectorid.run.extra import run_robustness, run_section
 from vectorid.views import figures as fg
 
 

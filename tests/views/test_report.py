@@ -16,9 +16,8 @@ pytest.importorskip("plotly", reason="the report needs the plot extra (plotly)")
 from tests.analysis_helpers import make_store
 from vectorid import Study
 from vectorid.analysis import parse_limits
-from vectorid.analysis.refine import apply_refine, propose_refine
-from vectorid.analysis.robustness import run_robustness
-from vectorid.analysis.sections import run_section
+from vectorid.analysis.refine import propose_refine
+from vectorid.run.extra import apply_refine, run_robustness, run_section
 from vectorid.views.report import write_report
 
 ARTIFACTS = Path(__file__).resolve().parents[2] / "test-artifacts"

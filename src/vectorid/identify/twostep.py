@@ -38,9 +38,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vectorid.analysis.choice import suggest_choice
-from vectorid.analysis.refine import RefineProposal, apply_refine, propose_refine
+from vectorid.analysis.refine import RefineProposal, propose_refine
 from vectorid.analysis.results import Analysis
 from vectorid.errors import StudyDefinitionError
+from vectorid.run.extra import apply_refine
 from vectorid.space import Continuous, Space
 from vectorid.spec import StudySpec
 from vectorid.study import Study

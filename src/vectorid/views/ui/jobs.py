@@ -109,10 +109,9 @@ def run_job(kind: str, store_path: str, params: Mapping[str, Any]) -> str:
     str
         A one-line summary of what was stored.
     """
-    from ...analysis.refine import apply_refine, propose_refine
+    from ...analysis.refine import propose_refine
     from ...analysis.results import Analysis
-    from ...analysis.robustness import run_robustness
-    from ...analysis.sections import run_section
+    from ...run.extra import apply_refine, run_robustness, run_section
     from ...run.loop import run_store
     from ...store.sqlite import Store
 
