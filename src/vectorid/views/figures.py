@@ -58,7 +58,8 @@ __all__ = [
     "trajectory_figure",
 ]
 
-TEMPLATE = "plotly_white"
+from .clouds import TEMPLATE  # a small light template
+
 LIMIT_LINE = {"color": "#444", "width": 1.2, "dash": "dash"}
 _CLASS_LABEL = {"infeasible": "infeasible", "feasible": "feasible", "pareto": "Pareto"}
 _RUN_COLOURS = [
