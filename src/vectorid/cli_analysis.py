@@ -82,7 +82,12 @@ def add_parsers(sub: Any) -> None:
     add_limit_options(p)
     p.add_argument("--out", required=True, help="the .html file to write")
     p.add_argument("--chosen", type=int, action="append", default=[], help="chosen trial id")
-    p.add_argument("--max-points", type=positive_int, default=30_000, help="per point cloud")
+    p.add_argument(
+        "--max-points",
+        type=positive_int,
+        default=3_000,
+        help="points per set in each point cloud (default 3000)",
+    )
     p.add_argument("--top", type=positive_int, default=10, help="test table rows (10)")
 
     c = sub.add_parser("correlation", help="parameter correlation among near-optimal vectors")

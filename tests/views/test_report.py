@@ -76,9 +76,17 @@ def test_report_contents(report):
     titles = [f["layout"]["title"]["text"] for f in figs]
     assert any(t.startswith("Double tuning: x") for t in titles)  # stage comparison
     assert any(t.startswith("Section through trial") for t in titles)
-    # decimated point clouds say so, in the figure and in the report's notes
-    assert res.notes and all("decimated for display" in n for n in res.notes)
-    assert "Decimation</h2>" in text
+    # thinned point clouds say so, in the legend and in the report's notes
+    assert res.notes and all("thinned for display" in n for n in res.notes)
+    assert "Thinning</h2>" in text
+    for heading in ("Parallel coordinates", "History"):
+        assert f">{heading}" in text, heading
+    # point clouds in SVG (every figure drawn at load, few WebGL contexts)
+    kinds = {t["type"] for f in figs for t in f["data"]}
+    assert "scattergl" not in kinds and "parcoords" in kinds
+    assert any(t.startswith("Double tuning: ranges per parameter") for t in titles)
+    # wide tables scroll in their container
+    assert text.count('<div class="scroll"><table>') >= 5
 
 
 def _driver(tmpdir):
