@@ -334,6 +334,75 @@ def browser_latency(path: Path, changes: list[str], loads: int = 3) -> dict[str,
             shutil.rmtree(profile, ignore_errors=True)
 
 
+def jobs_throughput(folder: Path, trials: int) -> None:
+    """Trials per second of a run started from the UI (the job worker) against
+    ``vectorid run`` with the same executor on the same study, and the latency of saving
+    the constraints with the study."""
+    import subprocess
+
+    from vectorid import Study
+    from vectorid.demo import study_toml
+    from vectorid.spec import load_study
+    from vectorid.views.ui import callbacks as cb
+    from vectorid.views.ui.data import StoreCache
+    from vectorid.views.ui.jobs import JobManager
+
+    toml = folder / "jobs.toml"
+    toml.write_text(study_toml("binh-korn", trials=64), encoding="utf-8")
+    spec = load_study(toml)
+    rates = {}
+    for how in ("vectorid run", "UI job"):
+        path = folder / f"jobs-{how.replace(' ', '-')}.db"
+        with Study.create(spec, path) as st:
+            st.run(executor="serial")
+        t0 = time.perf_counter()
+        if how == "vectorid run":
+            subprocess.run(
+                [
+                    sys.executable,
+                    "-m",
+                    "vectorid.cli",
+                    "run",
+                    str(path),
+                    "--trials",
+                    str(64 + trials),
+                    "--executor",
+                    "serial",
+                    "--quiet",
+                ],
+                check=True,
+                capture_output=True,
+            )
+        else:
+            cache = StoreCache(path)
+            jobs = JobManager(path, executor="serial", progress_of=cache.count_sample)
+            jobs.warm()
+            time.sleep(3)  # the worker starts with the UI, before any button is pressed
+            ctx = cb.UIContext(cache=cache, jobs=jobs)
+            t0 = time.perf_counter()
+            cb.start_job(ctx, "continue", trials=str(trials))
+            while jobs.status().running:
+                time.sleep(0.01)
+            st = jobs.status()
+            assert st.state == "done", st.message
+        rates[how] = trials / (time.perf_counter() - t0)
+        if how == "UI job":
+            t0 = time.perf_counter()
+            cb.start_job(ctx, "limits", limit_texts=["40", ""], roles=["pure", "pure"])
+            while jobs.status().running:
+                time.sleep(0.005)
+            save = time.perf_counter() - t0
+            jobs.shutdown()
+    print(
+        f"\njobs ({trials} binh-korn trials, serial executor, wall time including the "
+        "process start of `vectorid run`):"
+    )
+    for how, r in rates.items():
+        print(f"  {how:<14} {r:12,.0f} trials/s")
+    print(f"  ratio UI job / vectorid run: {rates['UI job'] / rates['vectorid run']:.2f}")
+    print(f"  saving the constraints with the study (UI job): {1e3 * save:.0f} ms")
+
+
 GOALS = {
     100_000: {
         "page load": 2.0,
@@ -357,6 +426,7 @@ def main() -> None:
     ap.add_argument("--params", type=int, default=12)
     ap.add_argument("--changes", type=int, default=8)
     ap.add_argument("--browser", action="store_true", help="also measure in headless Chromium")
+    ap.add_argument("--job-trials", type=int, default=200_000, help="trials of the run jobs")
     ap.add_argument(
         "--browser-trials",
         type=int,
@@ -375,6 +445,7 @@ def main() -> None:
         f"({time.perf_counter() - t0:.1f} s to write)"
     )
     server_side(path, args.changes)
+    jobs_throughput(Path(tmp.name), args.job_trials)
     if not args.browser:
         return
     from vectorid.views.ui.data import StoreCache

@@ -120,8 +120,8 @@ def _render_and_check(res, name: str) -> Path:
         d = _driver(tmp)
         try:
             d.get(res.path.resolve().as_uri())
-            d.execute_script("window.vectoridPlotAll()")
-            deadline = time.time() + 60
+            # every figure draws at load, without scrolling (so printing shows them all)
+            deadline = time.time() + 90
             n = len(res.figures)
             while time.time() < deadline:
                 done = d.execute_script(
@@ -148,6 +148,13 @@ def _render_and_check(res, name: str) -> Path:
                 assert gl > 0 or marks > 0, f"figure {i} ({res.figures[i]}) has no marks"
             errors = [e for e in d.get_log("browser") if e["level"] == "SEVERE"]
             assert errors == []
+            # printed to PDF (what a browser's print does), every figure is on the pages
+            import base64
+
+            pdf = base64.b64decode(d.execute_cdp_cmd("Page.printToPDF", {})["data"])
+            assert pdf[:5] == b"%PDF-"
+            (ARTIFACTS / name.replace(".png", ".pdf")).write_bytes(pdf)
+            assert len(pdf) > 50_000 * min(n, 10)
             height = d.execute_script("return document.body.scrollHeight")
             d.set_window_size(1300, min(int(height), 16000))
             time.sleep(1.0)

@@ -367,7 +367,7 @@ def test_saved_constraints_are_in_force_after_reload(browser, server):
         except TimeoutException:
             if attempt == 2:
                 raise AssertionError("timed out waiting for ND under the new bounds") from None
-    assert "g1 <= 20" in _text(drv, "#in-force")
+    _until(drv, lambda d: "g1 <= 20" in _text(d, "#in-force"), "the bounds in force")
     # a malformed bound is marked and named, and nothing is saved while it is
     _type(drv, lambda d: _bound_input(d, "g2", "low"), "seven")
     _until(drv, lambda d: "low bound of g2" in _text(d, "#messages"), "the bound's message")
@@ -469,3 +469,49 @@ def test_parallel_brush_sets_the_constraint(browser, server):
     _until(drv, lambda d: _limit_input(d, "f1").get_attribute("value") == f"{lim:.5g}", "field")
     _type(drv, _limit("f1"), prev)
     _until(drv, lambda d: _text(d, "#count-nd") == nd0, "ND back")
+
+
+def test_counts_in_the_page_equal_the_analysis(browser, server):
+    """N/ND/NP computed in the page (vectorid.views.ui.client) from the shipped columns are
+    the server's, for criteria limits, functional bounds and a pseudo criterion."""
+    url, store = server
+    drv = browser
+    _until(
+        drv, lambda d: d.execute_script("return !!(window.__vid && window.__vid.ready)"), "columns"
+    )
+    version = drv.execute_script("return window.__vid.head.version")
+    cases = [
+        (["20", ""], ["pure", "pure"], ["", ""], ["25", ""], {"f1": 20.0, "g1": (None, 25.0)}),
+        (["60", "25"], ["pure", "pseudo"], ["", "7.7"], ["20", ""], None),
+        (["inf", "12.5"], ["pure", "pure"], ["1", ""], ["", ""], None),
+    ]
+    for texts, roles, lows, highs, _ in cases:
+        got = drv.execute_script(
+            "return window.vid.counts(arguments[0], arguments[1])",
+            texts + roles + lows + highs,
+            version,
+        )
+        limits = {
+            "f1": None if texts[0] in ("", "inf") else float(texts[0]),
+            "f2": None if texts[1] == "" else float(texts[1]),
+            "g1": (float(lows[0]) if lows[0] else None, float(highs[0]) if highs[0] else None),
+            "g2": (float(lows[1]) if lows[1] else None, float(highs[1]) if highs[1] else None),
+        }
+        with Study.open(store) as st:
+            a = st.analysis(limits, dict(zip(["f1", "f2"], roles)))
+        assert got == {
+            "n": a.n,
+            "nd": a.n_feasible,
+            "np": a.n_pareto,
+            "failed": a.n_failed,
+            "functional": a.n_functional,
+        }, (texts, roles, lows, highs)
+    # text the page does not parse strictly is left to the server
+    assert (
+        drv.execute_script(
+            "return window.vid.counts(arguments[0], arguments[1])",
+            ["1_0", "", "pure", "pure", "", "", "", ""],
+            version,
+        )
+        is None
+    )

@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from . import callbacks as cb
+from . import client
 from .data import StoreCache
 from .jobs import JobManager
 from .pages import detail, explore, sets
@@ -69,7 +70,7 @@ _INDEX = (
     "<!DOCTYPE html><html><head>{%metas%}<title>{%title%}</title>{%favicon%}{%css%}"
     "<style>" + _CSS + "</style>"
     "</head><body>{%app_entry%}<footer>{%config%}"
-    '<script src="/_vid/plotly.js"></script>{%scripts%}'
+    '<script src="/_vid/plotly.js"></script><script src="/_vid/vid.js"></script>{%scripts%}'
     "{%renderer%}</footer></body></html>"
 )
 
@@ -88,6 +89,7 @@ def _layout(ctx: cb.UIContext) -> Any:
                     dcc.Store(id="version", data=list(ctx.cache.version())),
                     dcc.Store(id="selection", data=None),
                     dcc.Store(id="job-note", data=None),
+                    dcc.Store(id="vid-load", data=None),
                     dcc.Tabs(
                         id="tabs",
                         value="tables",
@@ -194,8 +196,15 @@ def create_app(
 
     @server.route("/_vid/plotly.js")
     def plotly_bundle():  # the partial plotly.js bundle, cached by the browser
-        resp = flask.send_file(PLOTLY_BUNDLE, mimetype="text/javascript", max_age=86400)
-        return resp
+        return flask.send_file(PLOTLY_BUNDLE, mimetype="text/javascript", max_age=86400)
+
+    @server.route("/_vid/vid.js")
+    def vid_js():  # the page's counting library (vectorid.views.ui.client)
+        return flask.Response(client.VID_JS, mimetype="text/javascript")
+
+    @server.route("/_vid/columns.bin")
+    def columns_bin():  # every trial's criteria and functionals, float64, for the counts
+        return flask.Response(client.columns_payload(cache), mimetype="application/octet-stream")
 
     app = dash.Dash(
         "vectorid.ui",

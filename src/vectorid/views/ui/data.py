@@ -319,6 +319,11 @@ class StoreCache:
         with self.open() as st:
             return self._key_of(st)
 
+    def count_sample(self) -> int:
+        """Sample trials now in the store (one query; the progress of run jobs)."""
+        with self.open() as st:
+            return st.count_sample()
+
     def _refresh(self) -> None:
         with self.open() as st:
             key = self._key_of(st)

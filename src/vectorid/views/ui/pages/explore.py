@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from .. import client
 from ..context import UIContext, fmt
 from ..data import bounds_text, limits_text, parse_number
 from ..explore import (
@@ -376,7 +377,25 @@ def register(app: Any, ctx: UIContext, w: Wiring) -> None:
             return [*keep, *keep, err(exc)]
         raise PreventUpdate
 
-    # -- counts (the fast path) -----------------------------------------------------------------
+    # -- counts: in the page first (vectorid.views.ui.client), then from the server -------------
+    app.clientside_callback(client.LOAD_JS, Output("vid-load", "data"), Input("version", "data"))
+    app.clientside_callback(
+        client.COUNTS_JS,
+        Output("vid-counts", "children", allow_duplicate=True),
+        *CON,
+        Input("version", "data"),
+        prevent_initial_call=True,
+    )
+    app.clientside_callback(
+        client.BRUSH_JS,
+        Output("vid-counts", "children", allow_duplicate=True),
+        Input("par-graph", "restyleData"),
+        State("par-graph", "figure"),
+        State("version", "data"),
+        *CON_S,
+        prevent_initial_call=True,
+    )
+
     @app.callback(Output("vid-counts", "children"), *CON, Input("version", "data"))
     def counts(*values):
         texts, roles, pairs = w.split(list(values[:-1]))
