@@ -84,6 +84,8 @@ def test_report_contents(report):
     # point clouds in SVG (every figure drawn at load, few WebGL contexts)
     kinds = {t["type"] for f in figs for t in f["data"]}
     assert "scattergl" not in kinds and "parcoords" in kinds
+    gl = {"splom", "parcoords", "scatter3d", "scattergl"}
+    assert sum(any(t["type"] in gl for t in f["data"]) for f in figs) <= 3  # matrix, parallel
     assert any(t.startswith("Double tuning: ranges per parameter") for t in titles)
     # wide tables scroll in their container
     assert text.count('<div class="scroll"><table>') >= 5
