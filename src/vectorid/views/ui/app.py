@@ -32,6 +32,8 @@ log = logging.getLogger("vectorid.ui")
 
 STATIC = Path(__file__).resolve().parents[1] / "static"
 PLOTLY_BUNDLE = STATIC / "plotly-vectorid.min.js"
+#: Tabs whose views get the constraint fields only while shown (see ``Wiring.gate``).
+GATED = ("parallel", "table", "trial", "refine")
 
 _CSS = """
 body{font-family:system-ui,-apple-system,Segoe UI,Roboto,sans-serif;margin:0;color:#222;
@@ -90,6 +92,7 @@ def _layout(ctx: cb.UIContext) -> Any:
                     dcc.Store(id="selection", data=None),
                     dcc.Store(id="job-note", data=None),
                     dcc.Store(id="vid-load", data=None),
+                    *[dcc.Store(id=f"vid-con-{t}", data=None) for t in GATED],
                     dcc.Tabs(
                         id="tabs",
                         value="tables",

@@ -88,6 +88,22 @@ class Wiring:
     def n_constraints(self) -> int:
         return 2 * len(self.crit) + 2 * len(self.cons)
 
+    def gate(self, app: Any, tab: str) -> Any:
+        """An Input carrying the constraint fields to a view on tab ``tab`` only while that tab
+        is shown (a clientside callback fills ``vid-con-<tab>``), so that a constraint change
+        sends no request for the views that are hidden. The value is ``[fields, stamp]``."""
+        from dash import Input, Output
+
+        app.clientside_callback(
+            "function(tab, ...v) { return tab === "
+            + repr(tab)
+            + " ? [v, Date.now()] : dash_clientside.no_update; }",
+            Output(f"vid-con-{tab}", "data"),
+            Input("tabs", "value"),
+            *self.constraint_inputs(Input),
+        )
+        return Input(f"vid-con-{tab}", "data")
+
     def split(self, values: list[Any]) -> tuple[list[Any], list[Any], list[list[Any]] | None]:
         """``(limit texts, roles, functional pairs)`` from the values of
         :meth:`constraint_inputs`."""

@@ -192,11 +192,8 @@ def overview_layout(ctx: UIContext) -> Any:
 
 
 def register(app: Any, ctx: UIContext, w: Wiring) -> None:
-    from dash import Input, Output, dcc, html
+    from dash import Input, Output, State, dcc, html
     from dash.exceptions import PreventUpdate
-
-    CON = w.constraint_inputs(Input)
-    n = w.n_constraints
 
     def cols(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
         return [{"id": k, "name": k} for k in (rows[0] if rows else {})]
@@ -213,17 +210,16 @@ def register(app: Any, ctx: UIContext, w: Wiring) -> None:
         Output("trial-ident", "children"),
         Output("trial-rms", "columns"),
         Output("trial-rms", "data"),
-        *CON,
+        w.gate(app, "trial"),
         Input("trial-id", "value"),
         Input("trial-overlay", "value"),
-        Input("tabs", "value"),
+        State("tabs", "value"),
         Input("version", "data"),
     )
-    def trial(*values):
-        texts, roles, pairs = w.split(list(values[:n]))
-        tid, overlay, tab, _v = values[n:]
-        if tab != "trial":
+    def trial(cons, tid, overlay, tab, _v):
+        if tab != "trial" or not cons:
             raise PreventUpdate
+        texts, roles, pairs = w.split(list(cons[0]))
         empty = {"data": [], "layout": {}}
         try:
             v = trial_view(ctx, tid, texts, roles, pairs, overlay)
@@ -272,18 +268,17 @@ def register(app: Any, ctx: UIContext, w: Wiring) -> None:
         Output("ref-table", "columns"),
         Output("ref-table", "data"),
         Output("ref-graph", "figure"),
-        *CON,
-        Input("tabs", "value"),
+        w.gate(app, "refine"),
+        State("tabs", "value"),
         Input("ref-basis", "value"),
         Input("ref-q", "value"),
         Input("ref-margin", "value"),
         Input("version", "data"),
     )
-    def refine(*values):
-        texts, roles, pairs = w.split(list(values[:n]))
-        tab, basis, q, margin, _v = values[n:]
-        if tab != "refine":
+    def refine(cons, tab, basis, q, margin, _v):
+        if tab != "refine" or not cons:
             raise PreventUpdate
+        texts, roles, pairs = w.split(list(cons[0]))
         try:
             v = refine_view(ctx, texts, roles, basis, q, margin, pairs)
         except Exception as exc:

@@ -10,7 +10,7 @@ import numpy as np
 
 from .. import client
 from ..context import UIContext, fmt
-from ..data import bounds_text, limits_text, parse_number
+from ..data import bounds_text, limits_text
 from ..explore import (
     box_to_limits,
     counts_view,
@@ -323,18 +323,6 @@ def layout(ctx: UIContext) -> Any:
     )
 
 
-def _slider(text: Any, name: str) -> Any:
-    from dash import no_update
-
-    from ....errors import VectoridError
-
-    try:
-        v = parse_number(text, name)
-    except VectoridError:
-        return no_update
-    return no_update if v is None else v
-
-
 def register(app: Any, ctx: UIContext, w: Wiring) -> None:
     from dash import Input, Output, State, no_update
     from dash import ctx as dctx
@@ -345,37 +333,50 @@ def register(app: Any, ctx: UIContext, w: Wiring) -> None:
     CON_S = w.constraint_inputs(State)
     lim_ids, sld_ids = w.ids("limit"), w.ids("slider")
 
-    # -- constraints typed, dragged, or from a box --------------------------------------------
-    @app.callback(
+    # -- constraints typed or dragged (in the page), or from a box (server) --------------------
+    app.clientside_callback(
+        """function(...v) {
+          const k = v.length / 2, texts = v.slice(0, k), sliders = v.slice(k);
+          const nc = dash_clientside.no_update;
+          const t = dash_clientside.callback_context.triggered_id;
+          const outT = texts.map(() => nc), outS = sliders.map(() => nc);
+          const ids = """
+        + repr(lim_ids)
+        + """, sids = """
+        + repr(sld_ids)
+        + """;
+          let j = ids.indexOf(t);
+          if (j >= 0) {
+            const x = Number(String(texts[j] || '').trim());
+            if (String(texts[j] || '').trim() !== '' && isFinite(x)) outS[j] = x;
+            return outT.concat(outS);
+          }
+          j = sids.indexOf(t);
+          if (j >= 0 && sliders[j] !== null && sliders[j] !== undefined) {
+            outT[j] = String(Number(Number(sliders[j]).toPrecision(5)));
+          }
+          return outT.concat(outS);
+        }""",
         [Output(i, "value", allow_duplicate=True) for i in lim_ids]
-        + [Output(i, "value") for i in sld_ids]
-        + [Output("box-msg", "children")],
-        w.deps(Input, "limit") + w.deps(Input, "slider") + [Input("box-limits", "n_clicks")],
-        State("selection", "data"),
+        + [Output(i, "value") for i in sld_ids],
+        w.deps(Input, "limit") + w.deps(Input, "slider"),
         prevent_initial_call=True,
     )
-    def sync_limits(*values):
-        texts, sliders = list(values[:K]), list(values[K : 2 * K])
-        selected = values[-1]
-        keep = [no_update] * K
-        trig = dctx.triggered_id
+
+    @app.callback(
+        [Output(i, "value", allow_duplicate=True) for i in lim_ids]
+        + [Output("box-msg", "children")],
+        Input("box-limits", "n_clicks"),
+        State("selection", "data"),
+        *w.deps(State, "limit"),
+        prevent_initial_call=True,
+    )
+    def box_limits(_n, selected, *texts):
         try:
-            if trig == "box-limits":
-                new, msg = box_to_limits(ctx, selected, texts)
-                return [*new, *[_slider(t, n) for n, t in zip(w.crit, new)], msg]
-            if trig in sld_ids:
-                j = sld_ids.index(trig)
-                out = list(keep)
-                out[j] = fmt(float(sliders[j]))
-                return [*out, *keep, ""]
-            if trig in lim_ids:
-                j = lim_ids.index(trig)
-                out = list(keep)
-                out[j] = _slider(texts[j], w.crit[j])
-                return [*keep, *out, ""]
+            new, msg = box_to_limits(ctx, selected, list(texts))
         except Exception as exc:
-            return [*keep, *keep, err(exc)]
-        raise PreventUpdate
+            return [*([no_update] * K), err(exc)]
+        return [*new, msg]
 
     # -- counts: in the page first (vectorid.views.ui.client), then from the server -------------
     app.clientside_callback(client.LOAD_JS, Output("vid-load", "data"), Input("version", "data"))

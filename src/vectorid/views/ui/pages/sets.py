@@ -140,21 +140,20 @@ def register(app: Any, ctx: UIContext, w: Wiring, tokens: CsvTokens) -> None:
     from dash import Input, Output, State, no_update
     from dash.exceptions import PreventUpdate
 
-    CON = w.constraint_inputs(Input)
     CON_S = w.constraint_inputs(State)
-    n = w.n_constraints
 
     @app.callback(
         Output("par-graph", "figure"),
         Output("hist-history", "figure"),
-        *CON,
+        w.gate(app, "parallel"),
         Input("selection", "data"),
-        Input("tabs", "value"),
+        State("tabs", "value"),
         Input("version", "data"),
     )
-    def parallel(*values):
-        texts, roles, pairs = w.split(list(values[:n]))
-        sel, tab, _v = values[n:]
+    def parallel(cons, sel, tab, _v):
+        if not cons:
+            raise PreventUpdate
+        texts, roles, pairs = w.split(list(cons[0]))
         if tab != "parallel":
             raise PreventUpdate
         try:
@@ -200,21 +199,20 @@ def register(app: Any, ctx: UIContext, w: Wiring, tokens: CsvTokens) -> None:
         Output("tab-note", "children"),
         Output("tab-msg", "children"),
         Output("tab-csv", "href"),
-        *CON,
+        w.gate(app, "table"),
         Input("tab-set", "value"),
         Input("selection", "data"),
         Input("vid-table", "page_current"),
         Input("vid-table", "page_size"),
         Input("vid-table", "filter_query"),
         Input("vid-table", "sort_by"),
-        Input("tabs", "value"),
+        State("tabs", "value"),
         Input("version", "data"),
     )
-    def trial_table(*values):
-        texts, roles, pairs = w.split(list(values[:n]))
-        which, sel, page, size, query, sort_by, tab, _v = values[n:]
-        if tab != "table":
+    def trial_table(cons, which, sel, page, size, query, sort_by, tab, _v):
+        if tab != "table" or not cons:
             raise PreventUpdate
+        texts, roles, pairs = w.split(list(cons[0]))
         try:
             p = table_page(ctx, texts, roles, pairs, which, sel, page, size, query, sort_by)
         except Exception as exc:
