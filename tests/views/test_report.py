@@ -267,3 +267,29 @@ def test_identification_report_renders_in_headless_chromium(ident_report):
     res, _, _ = ident_report
     shot = _render_and_check(res, "report-identification.png")
     assert shot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_ui_chosen_trial_flies_against_the_flight_and_nominal_is_the_models(ident_report):
+    """On the demo's step 2 (it shares this module's demo run): the UI's chosen-trial view
+    simulates the trial and two overlays against the measured flight with the RMS per channel
+    component, and "nominal" is the model's value (0.45 for x6), as `vectorid demo` prints."""
+    pytest.importorskip("dash", reason="the UI needs the ui extra (dash)")
+    from vectorid.views.ui import callbacks as cb
+    from vectorid.views.ui.data import StoreCache
+    from vectorid.views.ui.jobs import JobManager
+
+    _, a, out = ident_report
+    path = out / "g12-step2-controlled.db"
+    ctx = cb.UIContext(cache=StoreCache(path), jobs=JobManager(path))
+    ids = [int(i) for i in a.trials.id[:3]]
+    v = cb.trial_view(ctx, str(ids[0]), None, None, None, f"{ids[1]}, {ids[2]}")
+    assert v["identification"] is not None and len(v["rms"]) == 3
+    assert [r["trial"] for r in v["rms"]] == [f"trial {i}" for i in ids]
+    row = v["rms"][0]
+    assert row["position.north RMS [m]"] >= 0 and "euler.yaw RMS [deg]" in row
+    nominal = {p["name"]: p["nominal"] for p in v["params"]}
+    assert nominal["x6"] == 0.45
+    meaning = {p["name"]: p["meaning"] for p in v["params"]}
+    assert "C_D" in meaning["x6"]
+    with pytest.raises(Exception, match="at most two"):
+        cb.trial_view(ctx, str(ids[0]), None, None, None, "2, 3, 4")

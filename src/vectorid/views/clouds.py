@@ -721,7 +721,7 @@ def histograms_figure(
             shapes=shapes,
             height=max(320, 210 * nrow + 60),
             margin={"t": 100, "b": 40, "l": 50, "r": 20},
-            legend={"orientation": "h", "y": 1.0, "yanchor": "bottom", "x": 0, "yref": "container"},
+            legend={"orientation": "h", "y": 1.0, "yanchor": "top", "x": 0, "yref": "container"},
             hovermode="closest",
         )
     )

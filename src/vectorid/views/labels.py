@@ -4,7 +4,7 @@ for every axis, field and table header a person reads."""
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 __all__ = ["Labels", "labels_of"]
@@ -22,11 +22,16 @@ class Labels:
         Name -> what it is, in words ("" when unknown).
     kind : dict
         Name -> ``"criterion"``, ``"functional"`` or ``"parameter"``.
+    nominal : dict
+        Parameter -> its nominal value: the study's, else (identification studies) the
+        model's, the value ``vectorid demo`` and the report call nominal; None when neither
+        gives one.
     """
 
     unit: dict[str, str]
     meaning: dict[str, str]
     kind: dict[str, str]
+    nominal: dict[str, float | None] = field(default_factory=dict)
 
     def axis(self, name: str) -> str:
         """An axis title: ``name, unit — meaning`` (the parts that are known)."""
@@ -57,9 +62,11 @@ def labels_of(spec: Any) -> Labels:
     unit: dict[str, str] = {}
     meaning: dict[str, str] = {}
     kind: dict[str, str] = {}
+    nominal: dict[str, float | None] = {}
     for v in spec.space:
         unit[v.name] = v.unit or ""
         kind[v.name] = "parameter"
+        nominal[v.name] = None if v.nominal is None else float(v.nominal)
     for c in spec.criteria:
         unit[c.name] = getattr(c, "unit", "") or ""
         kind[c.name] = f"criterion ({c.sense}, {c.role})"
@@ -69,18 +76,21 @@ def labels_of(spec: Any) -> Labels:
     ident = spec.extra.get("identification") if isinstance(spec.extra, Mapping) else None
     if isinstance(ident, Mapping):
         try:  # best effort: the names are the model's and the library's
-            from ...models import get as get_model
+            from ..models import get as get_model
 
             model = get_model(str(ident.get("model", spec.model)))
+            fixed = dict(ident.get("parameters") or {})
             for p in model.parameters:
                 if p.name in unit:
                     meaning[p.name] = p.meaning
+                    if nominal.get(p.name) is None:
+                        nominal[p.name] = float(fixed.get(p.name, p.nominal))
                     if not unit[p.name] and p.unit and p.unit != "-":
                         unit[p.name] = p.unit
         except Exception:  # an unknown model: the names stay without meanings
             pass
         try:
-            from ...identify.criteria import CRITERIA
+            from ..identify.criteria import CRITERIA
 
             table = ident.get("criteria") if isinstance(ident.get("criteria"), Mapping) else {}
             for c in spec.criteria:
@@ -92,4 +102,4 @@ def labels_of(spec: Any) -> Labels:
                         unit[c.name] = d.unit
         except Exception:
             pass
-    return Labels(unit, meaning, kind)
+    return Labels(unit, meaning, kind, nominal)

@@ -398,7 +398,7 @@ def scatter_view(
         uirevision=f"{x}|{y}",
         height=480,
         clickmode="event+select",
-        margin={"t": 30, "b": 10, "l": 60, "r": 10},
+        margin={"t": 30, "b": 50, "l": 60, "r": 10},
         title={"text": f"N={a.n:,}, ND={a.n_feasible:,}, NP={a.n_pareto:,}", "font": {"size": 12}},
     )
     return fig, describe_selection(selection, int(sel.sum()))

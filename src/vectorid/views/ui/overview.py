@@ -39,7 +39,7 @@ def overview_view(ctx: UIContext) -> dict[str, Any]:
             "kind": v.kind,
             "low": num(v.low),
             "high": num(v.high),
-            "nominal": num(v.nominal),
+            "nominal": num(ctx.labels.nominal.get(v.name)),
             "unit": v.unit or "",
             "meaning": ctx.labels.meaning.get(v.name, ""),
         }

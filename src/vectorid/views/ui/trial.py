@@ -90,7 +90,7 @@ def trial_view(
     verdict = verdicts_of(a)
     lab = ctx.labels
     for j, v in enumerate(space):
-        nom = v.nominal
+        nom = lab.nominal.get(v.name)
         params.append(
             {
                 "name": v.name,
@@ -104,10 +104,9 @@ def trial_view(
                 "identifiability": verdict.get(v.name, "n/a (not computed yet)"),
             }
         )
+    noms = np.array([np.nan if lab.nominal.get(n) is None else lab.nominal[n] for n in space.names])
     spread = fg.spread_figure(
-        parameter_spread(
-            x[None, :], space.names, space.nominal, space.lows, space.highs, [f"trial {tid}"]
-        )
+        parameter_spread(x[None, :], space.names, noms, space.lows, space.highs, [f"trial {tid}"])
     )
     with ctx.cache.open() as st:
         sections = [s for s in load_sections(st) if s.trial == tid]
