@@ -127,7 +127,7 @@ def parallel_figure(
             [
                 part("pareto", "Pareto (green)"),
                 part("feasible", "feasible (blue)"),
-                part("infeasible", "infeasible (red)"),
+                part("infeasible", "infeasible (red, grey outside a brush)"),
             ]
         )
     )
