@@ -27,7 +27,10 @@ redrawn DOM (two animation frames after the last change):
 * ``limit -> counts+scatter+histograms``: the same change to the criterion plot's title and the
   histograms' legend showing the new ND;
 * ``brush -> counts``: releasing the mouse after a brush on the first criterion axis of the
-  parallel coordinates to ND redrawn.
+  parallel coordinates to ND redrawn (a brush that does not change ND is not counted).
+
+Each action starts when the page is quiet (no callback loading for 0.8 s), so one change's
+requests do not overlap the next one's.
 
 The CPU, its vector ISA and the load average (before and after) are printed: the machine may
 be shared, and the figures are upper bounds when the load is high.
@@ -195,6 +198,18 @@ function check() {
 check();
 """
 
+_QUIET = """
+const done = arguments[arguments.length - 1];
+let since = performance.now();
+function check() {
+  const now = performance.now();
+  if (document.querySelector('[data-dash-is-loading="true"]')) { since = now; }
+  if (now - since > 800) { done(true); } else if (now - since > 60000) { done(false); }
+  else { setTimeout(check, 50); }
+}
+check();
+"""
+
 _LOADED = """
 const done = arguments[arguments.length - 1];
 function check() {
@@ -291,9 +306,7 @@ def browser_latency(path: Path, changes: list[str], loads: int = 3) -> dict[str,
             ms = drv.execute_async_script(_WAIT, prev, what)
             key = "limit -> counts" if what == "counts" else "limit -> counts+scatter+histograms"
             out[key].append(ms / 1e3 if ms >= 0 else float("nan"))
-            if what == "all":  # the counts of the same change are drawn no later than all
-                pass
-            time.sleep(0.5)
+            drv.execute_async_script(_QUIET)  # every view of this change drawn: no overlap
         for el in drv.find_elements(By.CSS_SELECTOR, ".tab"):
             if el.text.strip().startswith("Parallel"):
                 el.click()
@@ -320,7 +333,7 @@ def browser_latency(path: Path, changes: list[str], loads: int = 3) -> dict[str,
             ).release().perform()
             ms = drv.execute_async_script(_WAIT, prev, "counts")
             out["brush -> counts"].append(ms / 1e3 if ms >= 0 else float("nan"))
-            time.sleep(1.5)
+            drv.execute_async_script(_QUIET)
         return out
     finally:
         if drv is not None:

@@ -3,7 +3,6 @@ criterion plot, the lower panels (histograms, criterion vs parameter) and the te
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import numpy as np
@@ -94,9 +93,11 @@ def _cards(ctx: UIContext) -> list[Any]:
     texts = limits_text(spec)
     cards = []
     for j, c in enumerate(spec.criteria):
-        t = a.test_table(c.name) if a.n else None
-        lo = t.min if t is not None and math.isfinite(t.min) else 0.0
-        hi = t.max if t is not None and math.isfinite(t.max) else 1.0
+        # the range over the trials meeting the functional constraints (the test table's)
+        col = a.trials.F[a.functional_ok, j]
+        col = col[np.isfinite(col)]
+        lo = float(col.min()) if len(col) else 0.0
+        hi = float(col.max()) if len(col) else 1.0
         if hi <= lo:
             hi = lo + 1.0
         worse = hi if c.sense == "min" else lo
