@@ -93,6 +93,15 @@ def test_matrix_and_vs_params(user):
     assert v.data[1].meta["shown"] == min(30, a.n_feasible - a.n_pareto)
     with pytest.raises(StudyDefinitionError, match="unknown"):
         fg.scatter_figure(a, "f1", "nope")
+    # grids of any size stay inside the figure (15 panels: 4 rows, float residue clipped)
+    from vectorid.views.clouds import grid_layout
+
+    for n in (1, 2, 5, 12, 15, 33):
+        lay, axes = grid_layout(n, 4, [str(i) for i in range(n)])
+        for key, ax in lay.items():
+            if key != "annotations":
+                assert 0.0 <= ax["domain"][0] < ax["domain"][1] <= 1.0, (n, key)
+        assert len(axes) == n
     raw = fg.scatter_figure(a, "f1", "f2", max_points=30, raw=True)
     assert isinstance(raw, dict) and raw["data"][1]["x"]["dtype"] == "f4"
 

@@ -125,8 +125,9 @@ def grid_layout(
         x0 = c * (w + hspace)
         y1 = 1.0 - r * (h + vspace)
         xa, ya = f"xaxis{k}", f"yaxis{k}"
-        layout[xa] = {"domain": [x0, x0 + w], "anchor": f"y{k}"}
-        layout[ya] = {"domain": [y1 - h, y1], "anchor": f"x{k}"}
+        clip = lambda v: min(1.0, max(0.0, round(v, 9)))  # noqa: E731 - float residue
+        layout[xa] = {"domain": [clip(x0), clip(x0 + w)], "anchor": f"y{k}"}
+        layout[ya] = {"domain": [clip(y1 - h), clip(y1)], "anchor": f"x{k}"}
         if shared_y and c > 0:
             first = "" if r * ncol == 0 else str(r * ncol + 1)
             layout[ya]["matches"] = f"y{first}"
