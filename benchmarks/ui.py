@@ -26,8 +26,9 @@ redrawn DOM (two animation frames after the last change):
   N/ND/NP redrawn (``#vid-counts``);
 * ``limit -> counts+scatter+histograms``: the same change to the criterion plot's title and the
   histograms' legend showing the new ND;
-* ``brush -> counts``: releasing the mouse after a brush on the first criterion axis of the
-  parallel coordinates to ND redrawn (a brush that does not change ND is not counted).
+* ``brush -> counts``: releasing the mouse after a brush on a criterion axis of the parallel
+  coordinates (the first four, one each) to ND redrawn (a brush that does not change ND is not
+  counted). plotly.js emits the brush only after redrawing its WebGL lines, which is part of it.
 
 Each action starts when the page is quiet (no callback loading for 0.8 s), so one change's
 requests do not overlap the next one's.
@@ -321,14 +322,13 @@ def browser_latency(path: Path, changes: list[str], loads: int = 3) -> dict[str,
             "document.addEventListener('mouseup', () => { window.__t0 = performance.now(); },"
             " true);"
         )
-        for k in range(4):
-            b = drv.find_elements(By.CSS_SELECTOR, "#par-graph .axis-brush rect.background")[0]
+        for k in range(4):  # one brush on each of the first four criterion axes
+            b = drv.find_elements(By.CSS_SELECTOR, "#par-graph .axis-brush rect.background")[k]
             h = b.size["height"]
             prev = drv.find_element(By.ID, "count-nd").text
-            top = -(h // 2) + 20 + 25 * k
             ActionChains(drv).move_to_element_with_offset(b, 0, h // 2 - 3).click_and_hold().pause(
                 0.1
-            ).move_by_offset(0, -30).pause(0.1).move_to_element_with_offset(b, 0, top).pause(
+            ).move_by_offset(0, -30).pause(0.1).move_to_element_with_offset(b, 0, h // 10).pause(
                 0.1
             ).release().perform()
             ms = drv.execute_async_script(_WAIT, prev, "counts")

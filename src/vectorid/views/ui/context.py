@@ -70,7 +70,7 @@ class UIContext:
     panel_points: int = 3_000
     table_rows: int = 50
     set_rows: int = 25
-    parallel_lines: int = 1_500
+    parallel_lines: int = 600
     extra: dict[str, Any] = field(default_factory=dict)
 
     @property
