@@ -294,7 +294,11 @@ def cloud_traces(
                     "x": enc(compact(cx)),
                     "y": enc(compact(cy)),
                     "z": enc(compact(zl)),
-                    "customdata": z.astype(np.int32).tolist() if enc is not _plain else z,
+                    "customdata": (
+                        z.astype(np.int32).tolist()
+                        if enc is not _plain
+                        else z.astype(np.int16 if z.max(initial=0) < 32767 else np.int32)
+                    ),
                     "colorscale": _DENSITY_SCALE,
                     "showscale": False,
                     "name": legend,
@@ -499,7 +503,7 @@ def criterion_vs_parameter_figure(
             axes=axes[i],
             showlegend=i == 0,
             size=3,
-            bins=40,
+            bins=30,
             selected=selected,
             gl=gl,
             enc=enc,

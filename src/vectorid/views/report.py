@@ -582,7 +582,7 @@ def build_report(
     if drawable:
         page.h2("Parallel coordinates")
         page.fig(
-            fg.parallel_figure(a, lines=min(max_points, 1500), seed=seed, labels=lab),
+            fg.parallel_figure(a, lines=min(max_points, 500), seed=seed, labels=lab),
             "criteria, functionals and parameters; the constraints in force are the brushes on "
             "the criterion axes (in the browser UI, brushing an axis sets the constraint)",
         )
