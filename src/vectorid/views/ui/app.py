@@ -55,8 +55,7 @@ font-size:13px;margin:4px 0;padding:0 6px}.msg:empty{display:none}
 .row{display:flex;gap:14px;align-items:flex-start;flex-wrap:wrap}
 .col{flex:1 1 560px;min-width:420px}
 .bar{display:flex;gap:8px;align-items:center;flex-wrap:wrap;margin:4px 0}
-.bar label{font-size:13px;display:inline-flex;align-items:center;gap:4px}
-.bar input[type=text]{min-width:70px}
+.bar label{font-size:13px}
 button,a.button{padding:3px 9px;cursor:pointer;font-size:13px}
 a.button{border:1px solid #888;border-radius:3px;background:#f3f3f3;color:#222;
 text-decoration:none}
