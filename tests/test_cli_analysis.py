@@ -120,7 +120,7 @@ def test_report_correlation_sensitivity_plot(store, capsys, tmp_path):
     assert code == 0, err
     assert "report written" in out
     text = out_html.read_text()
-    assert "№110" in text and "decimated for display" in text
+    assert "№110" in text and "thinned for display" in text
     code, out, _ = run_cli(capsys, "correlation", store, "--set", "feasible", "--json")
     doc = json.loads(out)
     assert doc["names"] == ["x1", "x2"] and len(doc["matrix"]) == 2

@@ -78,7 +78,12 @@ def add_parsers(sub: Any) -> None:
     add_limit_options(p)
     p.add_argument("--out", required=True, help="the .html file to write")
     p.add_argument("--chosen", type=int, action="append", default=[], help="chosen trial id")
-    p.add_argument("--max-points", type=positive_int, default=30_000, help="per point cloud")
+    p.add_argument(
+        "--max-points",
+        type=positive_int,
+        default=3_000,
+        help="points per set in each point cloud (default 3000)",
+    )
     p.add_argument("--top", type=positive_int, default=10, help="test table rows (10)")
 
     c = sub.add_parser("correlation", help="parameter correlation among near-optimal vectors")
@@ -183,7 +188,7 @@ def _write_fig(fig: Any, out: str) -> None:
 
 
 def _cmd_section(args: argparse.Namespace) -> int:
-    from .analysis.sections import run_section
+    from .run.extra import run_section
 
     study = _open(args.store, write=True)
     with study:
@@ -226,7 +231,8 @@ def _parse_bounds(texts: list[str]) -> dict[str, tuple[float, float]]:
 
 
 def _cmd_refine(args: argparse.Namespace) -> int:
-    from .analysis.refine import apply_refine, propose_refine
+    from .analysis.refine import propose_refine
+    from .run.extra import apply_refine
 
     study = _open(args.store, write=args.apply)
     with study:
@@ -275,7 +281,8 @@ def _cmd_refine(args: argparse.Namespace) -> int:
 
 
 def _cmd_robustness(args: argparse.Namespace) -> int:
-    from .analysis.robustness import chosen_table, run_robustness
+    from .analysis.robustness import chosen_table
+    from .run.extra import run_robustness
 
     study = _open(args.store, write=True)
     with study:

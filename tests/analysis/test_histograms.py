@@ -6,7 +6,8 @@ import pytest
 from tests.analysis_helpers import make_store
 from vectorid import Study
 from vectorid.analysis.histograms import default_bins, histogram, histograms, stage_histograms
-from vectorid.analysis.refine import apply_refine, propose_refine
+from vectorid.analysis.refine import propose_refine
+from vectorid.run.extra import apply_refine
 from vectorid.space import Integer
 
 

@@ -7,8 +7,9 @@ from hypothesis import strategies as st
 
 from tests.analysis_helpers import make_store
 from vectorid import Study
-from vectorid.analysis.refine import apply_refine, propose_refine, refine_history
+from vectorid.analysis.refine import propose_refine, refine_history
 from vectorid.errors import StudyDefinitionError
+from vectorid.run.extra import apply_refine
 from vectorid.sampling import Sampler
 
 

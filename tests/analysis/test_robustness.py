@@ -10,10 +10,10 @@ from vectorid.analysis.robustness import (
     load_robustness,
     neighbourhood,
     robustness_stats,
-    run_robustness,
 )
 from vectorid.errors import StudyDefinitionError
 from vectorid.problem import FAILED, OK
+from vectorid.run.extra import run_robustness
 from vectorid.space import Continuous, Integer, Space
 
 

@@ -5,8 +5,9 @@ import pytest
 
 from tests.analysis_helpers import make_store
 from vectorid import Study, analytic
-from vectorid.analysis.sections import load_sections, run_section, section_points
+from vectorid.analysis.sections import load_sections, section_points
 from vectorid.errors import StudyDefinitionError
+from vectorid.run.extra import run_section
 from vectorid.space import Choice, Continuous, Integer, Space
 
 

@@ -11,10 +11,9 @@ from vectorid import Study
 from vectorid.analysis.correlation import correlation, parameter_spread
 from vectorid.analysis.histograms import histograms
 from vectorid.analysis.refine import propose_refine
-from vectorid.analysis.robustness import run_robustness
-from vectorid.analysis.sections import run_section
 from vectorid.analysis.sensitivity import sensitivity
 from vectorid.errors import StudyDefinitionError
+from vectorid.run.extra import run_robustness, run_section
 from vectorid.views import figures as fg
 
 
@@ -54,21 +53,30 @@ def test_scatter_counts_per_colour_class(user):
     # criteria constraints drawn as lines: f1 <= 0.8 (vertical), f2 <= 1.0 (horizontal)
     lines = [s for s in fig.layout.shapes if s.type == "line"]
     assert any(s.x0 == 0.8 == s.x1 for s in lines) and any(s.y0 == 1.0 == s.y1 for s in lines)
-    assert not fig.layout.annotations or not any(
-        (x.text or "").startswith("decimated") for x in fig.layout.annotations
-    )
+    assert "drawn" not in tr["feasible"].name  # nothing thinned: no fraction in the legend
 
 
-def test_decimation_is_labelled_and_keeps_pareto(user):
+def test_thinning_is_per_set_and_labelled_and_infeasible_becomes_a_density(user):
     a, _ = user
-    fig = fg.scatter_figure(a, "f1", "f2", max_points=60)
+    budget = 20
+    fig = fg.scatter_figure(a, "f1", "f2", max_points=budget)
     tr = _by_class(fig)
-    shown = sum(t.meta["shown"] for t in tr.values())
-    assert shown == 60 and sum(len(t.x) for t in tr.values()) == 60
-    assert tr["pareto"].meta["shown"] == min(a.n_pareto, 20)
-    notes = [x.text for x in fig.layout.annotations if (x.text or "").startswith("decimated")]
-    assert len(notes) == 1 and "random subset" in notes[0]
-    assert fg.allocate({"a": 5, "b": 100, "c": 100}, 65) == {"a": 5, "b": 30, "c": 30}
+    feas = a.n_feasible - a.n_pareto
+    # each set above the budget keeps exactly the budget, and the legend names the fraction
+    assert tr["feasible"].meta["shown"] == min(feas, budget) == len(tr["feasible"].x)
+    if feas > budget:
+        assert f"{budget} drawn" in tr["feasible"].name
+    assert tr["pareto"].meta["shown"] == min(a.n_pareto, budget)
+    # infeasible trials beyond the budget: a 2-D histogram of every one of them
+    inf = tr["infeasible"]
+    assert inf.type == "heatmap" and inf.meta["drawn_as"] == "density"
+    assert int(np.asarray(inf.customdata).sum()) == a.n - a.n_feasible - a.n_failed
+    # a selection is drawn in the set colours, on top
+    sel = np.zeros(a.n, bool)
+    sel[np.flatnonzero(a.pareto)[:2]] = True
+    fig = fg.scatter_figure(a, "f1", "f2", max_points=budget, selected=sel)
+    drawn = [t for t in fig.data if (t.meta or {}).get("class") == "selected"]
+    assert [t.marker.color for t in drawn] == ["#2ca02c"] and len(drawn[0].x) == 2
 
 
 def test_matrix_and_vs_params(user):
@@ -80,10 +88,22 @@ def test_matrix_and_vs_params(user):
     assert len(tr["pareto"].dimensions[0].values) == a.n_pareto
     assert any(s.x0 == 0.8 for s in m.layout.shapes)
     v = fg.criterion_vs_parameter_figure(a, "f1", max_points=30)
-    assert len(v.data) == 3 * 3  # three classes in each of three panels
-    assert sum(t.meta["shown"] for t in v.data[:3]) == 30
+    assert len(v.data) == 3 * 3  # three sets in each of three panels
+    assert {t.xaxis for t in v.data} == {"x", "x2", "x3"}
+    assert v.data[1].meta["shown"] == min(30, a.n_feasible - a.n_pareto)
     with pytest.raises(StudyDefinitionError, match="unknown"):
         fg.scatter_figure(a, "f1", "nope")
+    # grids of any size stay inside the figure (15 panels: 4 rows, float residue clipped)
+    from vectorid.views.clouds import grid_layout
+
+    for n in (1, 2, 5, 12, 15, 33):
+        lay, axes = grid_layout(n, 4, [str(i) for i in range(n)])
+        for key, ax in lay.items():
+            if key != "annotations":
+                assert 0.0 <= ax["domain"][0] < ax["domain"][1] <= 1.0, (n, key)
+        assert len(axes) == n
+    raw = fg.scatter_figure(a, "f1", "f2", max_points=30, raw=True)
+    assert isinstance(raw, dict) and raw["data"][1]["x"]["dtype"] == "f4"
 
 
 def test_matrix_for_eight_criteria(tmp_path):
@@ -103,8 +123,13 @@ def test_histogram_figure_totals(user):
     feas = [t for t in fig.data if t.meta["class"] == "feasible"]
     par = [t for t in fig.data if t.meta["class"] == "pareto"]
     assert len(feas) == len(par) == 3
-    assert all(sum(t.y) == a.n_feasible for t in feas)
-    assert all(sum(t.y) == a.n_pareto for t in par)
+    assert all(t.meta["total"] == a.n_feasible for t in feas)
+    assert all(t.meta["total"] == a.n_pareto for t in par)
+    # each set on its own scale: the step heights are shares of the set, summing to 100 %
+    for t in feas + par:
+        assert np.isclose(np.asarray(t.y)[::2].sum(), 100.0)
+        counts = np.asarray(t.customdata)[::2, 0]
+        assert counts.sum() == t.meta["total"]
     s = fg.stage_histograms_figure(hs[:1])
     assert sum(s.data[0].y) == a.n
 

@@ -16,9 +16,8 @@ pytest.importorskip("plotly", reason="the report needs the plot extra (plotly)")
 from tests.analysis_helpers import make_store
 from vectorid import Study
 from vectorid.analysis import parse_limits
-from vectorid.analysis.refine import apply_refine, propose_refine
-from vectorid.analysis.robustness import run_robustness
-from vectorid.analysis.sections import run_section
+from vectorid.analysis.refine import propose_refine
+from vectorid.run.extra import apply_refine, run_robustness, run_section
 from vectorid.views.report import write_report
 
 ARTIFACTS = Path(__file__).resolve().parents[2] / "test-artifacts"
@@ -77,9 +76,19 @@ def test_report_contents(report):
     titles = [f["layout"]["title"]["text"] for f in figs]
     assert any(t.startswith("Double tuning: x") for t in titles)  # stage comparison
     assert any(t.startswith("Section through trial") for t in titles)
-    # decimated point clouds say so, in the figure and in the report's notes
-    assert res.notes and all("decimated for display" in n for n in res.notes)
-    assert "Decimation</h2>" in text
+    # thinned point clouds say so, in the legend and in the report's notes
+    assert res.notes and all("thinned for display" in n for n in res.notes)
+    assert "Thinning</h2>" in text
+    for heading in ("Parallel coordinates", "History"):
+        assert f">{heading}" in text, heading
+    # point clouds in SVG (every figure drawn at load, few WebGL contexts)
+    kinds = {t["type"] for f in figs for t in f["data"]}
+    assert "scattergl" not in kinds and "parcoords" in kinds
+    gl = {"splom", "parcoords", "scatter3d", "scattergl"}
+    assert sum(any(t["type"] in gl for t in f["data"]) for f in figs) <= 3  # matrix, parallel
+    assert any(t.startswith("Double tuning: ranges per parameter") for t in titles)
+    # wide tables scroll in their container
+    assert text.count('<div class="scroll"><table>') >= 5
     # identifiability: a verdict per variable, and where each limit in force came from
     from vectorid.analysis import identifiability
 
@@ -122,8 +131,8 @@ def _render_and_check(res, name: str) -> Path:
         d = _driver(tmp)
         try:
             d.get(res.path.resolve().as_uri())
-            d.execute_script("window.vectoridPlotAll()")
-            deadline = time.time() + 60
+            # every figure draws at load, without scrolling (so printing shows them all)
+            deadline = time.time() + 90
             n = len(res.figures)
             while time.time() < deadline:
                 done = d.execute_script(
@@ -150,6 +159,13 @@ def _render_and_check(res, name: str) -> Path:
                 assert gl > 0 or marks > 0, f"figure {i} ({res.figures[i]}) has no marks"
             errors = [e for e in d.get_log("browser") if e["level"] == "SEVERE"]
             assert errors == []
+            # printed to PDF (what a browser's print does), every figure is on the pages
+            import base64
+
+            pdf = base64.b64decode(d.execute_cdp_cmd("Page.printToPDF", {})["data"])
+            assert pdf[:5] == b"%PDF-"
+            (ARTIFACTS / name.replace(".png", ".pdf")).write_bytes(pdf)
+            assert len(pdf) > 50_000 * min(n, 10)
             height = d.execute_script("return document.body.scrollHeight")
             d.set_window_size(1300, min(int(height), 16000))
             time.sleep(1.0)
@@ -260,3 +276,29 @@ def test_identification_report_renders_in_headless_chromium(ident_report):
     res, _, _ = ident_report
     shot = _render_and_check(res, "report-identification.png")
     assert shot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_ui_chosen_trial_flies_against_the_flight_and_nominal_is_the_models(ident_report):
+    """On the demo's step 2 (it shares this module's demo run): the UI's chosen-trial view
+    simulates the trial and two overlays against the measured flight with the RMS per channel
+    component, and "nominal" is the model's value (0.45 for x6), as `vectorid demo` prints."""
+    pytest.importorskip("dash", reason="the UI needs the ui extra (dash)")
+    from vectorid.views.ui import callbacks as cb
+    from vectorid.views.ui.data import StoreCache
+    from vectorid.views.ui.jobs import JobManager
+
+    _, a, out = ident_report
+    path = out / "g12-step2-controlled.db"
+    ctx = cb.UIContext(cache=StoreCache(path), jobs=JobManager(path))
+    ids = [int(i) for i in a.trials.id[:3]]
+    v = cb.trial_view(ctx, str(ids[0]), None, None, None, f"{ids[1]}, {ids[2]}")
+    assert v["identification"] is not None and len(v["rms"]) == 3
+    assert [r["trial"] for r in v["rms"]] == [f"trial {i}" for i in ids]
+    row = v["rms"][0]
+    assert row["position.north RMS [m]"] >= 0 and "euler.yaw RMS [deg]" in row
+    nominal = {p["name"]: p["nominal"] for p in v["params"]}
+    assert nominal["x6"] == 0.45
+    meaning = {p["name"]: p["meaning"] for p in v["params"]}
+    assert "C_D" in meaning["x6"]
+    with pytest.raises(Exception, match="at most two"):
+        cb.trial_view(ctx, str(ids[0]), None, None, None, "2, 3, 4")

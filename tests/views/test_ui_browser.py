@@ -156,9 +156,7 @@ def _until(drv, fn, what: str):
 
 
 def _limit_input(drv, name: str):
-    return drv.find_element(
-        By.CSS_SELECTOR, f'input[id*=\'"name":"{name}"\'][id*=\'"type":"limit"\']'
-    )
+    return drv.find_element(By.ID, f"vid-limit-{name}")
 
 
 def _type(drv, locate, text: str) -> None:
@@ -188,9 +186,7 @@ def _limit(name: str):
 
 def _bound_input(drv, name: str, side: str):
     """The low or high field of a functional constraint."""
-    return drv.find_element(
-        By.CSS_SELECTOR, f'input[id*=\'"name":"{name}"\'][id*=\'"type":"con-{side}"\']'
-    )
+    return drv.find_element(By.ID, f"vid-{side}-{name}")
 
 
 def _tab(drv, label: str) -> None:
@@ -371,7 +367,7 @@ def test_saved_constraints_are_in_force_after_reload(browser, server):
         except TimeoutException:
             if attempt == 2:
                 raise AssertionError("timed out waiting for ND under the new bounds") from None
-    assert "g1 <= 20" in _text(drv, "#in-force")
+    _until(drv, lambda d: "g1 <= 20" in _text(d, "#in-force"), "the bounds in force")
     # a malformed bound is marked and named, and nothing is saved while it is
     _type(drv, lambda d: _bound_input(d, "g2", "low"), "seven")
     _until(drv, lambda d: "low bound of g2" in _text(d, "#messages"), "the bound's message")
@@ -400,3 +396,122 @@ def test_saved_constraints_are_in_force_after_reload(browser, server):
     _until(drv, lambda d: _text(d, "#count-nd") == str(a1.n_feasible), "ND after the reload")
     assert "f1 <= 30" in _text(drv, "#in-force")
     drv.save_screenshot(str(ARTIFACTS / "ui_saved.png"))
+
+
+def test_trial_table_sorts_filters_and_downloads_all_rows(browser, server):
+    url, store = server
+    drv = browser
+    a = _analysis(store)
+    _tab(drv, "Trial table")
+    _until(drv, lambda d: "trials in the pareto set" in _text(d, "#tab-note"), "the table")
+    assert f"{a.n_pareto:,} trials in the pareto set" in _text(drv, "#tab-note")
+    # all trials, sorted by f1 ascending on the server: the first row is the true minimum
+    drv.find_element(By.CSS_SELECTOR, "#tab-set input[value='all']").click()
+    _until(drv, lambda d: f"{a.n:,} trials in the all set" in _text(d, "#tab-note"), "all set")
+    head = drv.find_element(
+        By.CSS_SELECTOR, "#vid-table th.dash-header.column-3 .column-header--sort"
+    )
+    head.click()
+    ok = a.trials.F[:, 0][a.ok]
+    first = f"{ok.min():.5g}"
+    _until(
+        drv,
+        lambda d: (
+            d.find_element(By.CSS_SELECTOR, "#vid-table td[data-dash-column='f1']").text == first
+        ),
+        "the smallest f1 first",
+    )
+    # a filter typed in the f2 header cell: resolved over every trial
+    cell = drv.find_element(By.CSS_SELECTOR, "#vid-table th.dash-filter.column-4 input")
+    cell.click()
+    cell.send_keys("< 20", Keys.ENTER)
+    want = int((a.trials.F[:, 1] < 20).sum())
+    _until(
+        drv,
+        lambda d: f"{want:,} trials in the all set after the filter" in _text(d, "#tab-note"),
+        "the filter",
+    )
+    drv.save_screenshot(str(ARTIFACTS / "ui_table.png"))
+    href = drv.find_element(By.ID, "tab-csv").get_attribute("href")
+    with urllib.request.urlopen(href, timeout=30) as r:
+        lines = r.read().decode().strip().splitlines()
+    assert len(lines) == 2 + want and lines[0].startswith("id,set,stage,f1,f2")
+    drv.find_element(By.CSS_SELECTOR, "#tab-set input[value='pareto']").click()
+
+
+def test_parallel_brush_sets_the_constraint(browser, server):
+    url, store = server
+    drv = browser
+    _tab(drv, "Test tables & plots")
+    prev = _limit_input(drv, "f1").get_attribute("value")
+    nd0 = _text(drv, "#count-nd")
+    _tab(drv, "Parallel coordinates & history")
+    _until(drv, lambda d: d.find_elements(By.CSS_SELECTOR, "#par-graph .axis-brush"), "the axes")
+    _until(
+        drv, lambda d: d.find_elements(By.CSS_SELECTOR, "#hist-history .scatterlayer"), "history"
+    )
+    brushes = drv.find_elements(By.CSS_SELECTOR, "#par-graph .axis-brush rect.background")
+    f1 = brushes[0]
+    h = f1.size["height"]
+    # drag along the f1 axis over its lower half: the upper edge becomes f1's limit
+    ActionChains(drv).move_to_element_with_offset(
+        f1, 0, h // 2 - 2
+    ).click_and_hold().move_by_offset(0, -h // 2 + 10).release().perform()
+    _until(drv, lambda d: "f1 <=" in _text(d, "#par-msg"), "the brush message")
+    msg = _text(drv, "#par-msg")
+    lim = float(msg.split("f1 <= ")[1].split(";")[0])
+    want = _analysis(store, {"f1": lim})
+    _until(drv, lambda d: _text(d, "#count-nd") == str(want.n_feasible), "ND under the brush")
+    assert _text(drv, "#count-np") == str(want.n_pareto)
+    drv.save_screenshot(str(ARTIFACTS / "ui_parallel.png"))
+    # the constraint field shows the brushed limit (five significant digits)
+    _tab(drv, "Test tables & plots")
+    _until(drv, lambda d: _limit_input(d, "f1").get_attribute("value") == f"{lim:.5g}", "field")
+    _type(drv, _limit("f1"), prev)
+    _until(drv, lambda d: _text(d, "#count-nd") == nd0, "ND back")
+
+
+def test_counts_in_the_page_equal_the_analysis(browser, server):
+    """N/ND/NP computed in the page (vectorid.views.ui.client) from the shipped columns are
+    the server's, for criteria limits, functional bounds and a pseudo criterion."""
+    url, store = server
+    drv = browser
+    _until(
+        drv, lambda d: d.execute_script("return !!(window.__vid && window.__vid.ready)"), "columns"
+    )
+    version = drv.execute_script("return window.__vid.head.version")
+    cases = [
+        (["20", ""], ["pure", "pure"], ["", ""], ["25", ""], {"f1": 20.0, "g1": (None, 25.0)}),
+        (["60", "25"], ["pure", "pseudo"], ["", "7.7"], ["20", ""], None),
+        (["inf", "12.5"], ["pure", "pure"], ["1", ""], ["", ""], None),
+    ]
+    for texts, roles, lows, highs, _ in cases:
+        got = drv.execute_script(
+            "return window.vid.counts(arguments[0], arguments[1])",
+            texts + roles + lows + highs,
+            version,
+        )
+        limits = {
+            "f1": None if texts[0] in ("", "inf") else float(texts[0]),
+            "f2": None if texts[1] == "" else float(texts[1]),
+            "g1": (float(lows[0]) if lows[0] else None, float(highs[0]) if highs[0] else None),
+            "g2": (float(lows[1]) if lows[1] else None, float(highs[1]) if highs[1] else None),
+        }
+        with Study.open(store) as st:
+            a = st.analysis(limits, dict(zip(["f1", "f2"], roles)))
+        assert got == {
+            "n": a.n,
+            "nd": a.n_feasible,
+            "np": a.n_pareto,
+            "failed": a.n_failed,
+            "functional": a.n_functional,
+        }, (texts, roles, lows, highs)
+    # text the page does not parse strictly is left to the server
+    assert (
+        drv.execute_script(
+            "return window.vid.counts(arguments[0], arguments[1])",
+            ["1_0", "", "pure", "pure", "", "", "", ""],
+            version,
+        )
+        is None
+    )

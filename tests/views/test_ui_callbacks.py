@@ -34,6 +34,25 @@ from vectorid.views.ui.data import (
 from vectorid.views.ui.jobs import JobBusy, JobManager, run_job
 
 PURE2 = ["pure", "pure"]
+
+
+def _fig(d):
+    """A figure the UI sends as a plain dict (base64 arrays), as a go.Figure to inspect."""
+    import plotly.graph_objects as go
+
+    return go.Figure(d)
+
+
+def _arr(v):
+    """An array of a figure: plain, or plotly.js's base64 typed-array spec."""
+    import base64
+
+    if isinstance(v, dict) and "bdata" in v:
+        dt = {"f4": np.float32, "i4": np.int32, "i1": np.int8, "u1": np.uint8}[v["dtype"]]
+        return np.frombuffer(base64.b64decode(v["bdata"]), dtype=dt)
+    return np.asarray(v)
+
+
 STUDY_G = [["", "25"], ["7.7", ""]]  # binh-korn's own functional bounds as the fields show them
 
 
@@ -159,8 +178,18 @@ def test_test_tables_best_first_with_infeasible_marked(ctx, bk):
     assert [r["c1_id"] for r in data] == [int(i) for i in t.ids[: len(data)]]
     v = [r["c1_v"] for r in data]
     assert v == sorted(v)
-    red = {st["if"]["row_index"] for st in styles if st["if"]["column_id"] == "c1_v"}
+    red, blue = set(), set()
+    for st in styles:
+        if st["if"]["column_id"] == "c1_v":
+            (red if st["color"] == "#d62728" else blue).update(st["if"]["row_index"])
     assert red == {i for i in range(len(data)) if not t.feasible[i]} and red
+    assert blue == set(range(len(data))) - red
+    blue0 = set()  # f1's best trials meet f1 <= 15: feasible rows are blue
+    for st in styles:
+        if st["if"]["column_id"] == "c0_v" and st["color"] == "#1f77b4":
+            blue0.update(st["if"]["row_index"])
+    t0 = a.test_table("f1")
+    assert blue0 == {i for i in range(len(data)) if t0.feasible[i]} and blue0
 
 
 def test_functional_bounds_update_counts_and_tables(ctx, bk):
@@ -197,8 +226,9 @@ def test_functional_bounds_reach_every_view(ctx, bk):
     g = [["", "10"], ["7.7", ""]]
     a = _direct(bk, {"g1": (None, 10.0)})
     fig, _ = cb.scatter_view(ctx, ["", ""], PURE2, "f1", "f2", None, None, functional=g)
+    fig = _fig(fig)
     green = [t for t in fig.data if (t.meta or {}).get("class") == "pareto"]
-    assert sum(len(t.x) for t in green) == a.n_pareto
+    assert sum(len(_arr(t.x)) for t in green) == a.n_pareto
     tid = int(a.trials.id[np.flatnonzero(a.trials.G[:, 0] > 10)[0]])
     v = cb.trial_view(ctx, str(tid), ["", ""], PURE2, g)
     assert v["summary"].startswith(f"trial {tid}: infeasible")
@@ -213,14 +243,110 @@ def test_empty_d_is_diagnosed(ctx):
     assert any("empty" in m for m in s["messages"])
 
 
-def test_set_table_lists_pareto_first(ctx, bk):
-    s = cb.summary_view(ctx, ["50", ""], PURE2)
+def test_trial_table_sorts_filters_and_pages_over_all_trials(ctx, bk):
     a = _direct(bk, {"f1": 50.0})
-    rows = s["sets"]["data"]
-    n_par = min(a.n_pareto, ctx.set_rows)
-    assert [r["set"] for r in rows[:n_par]] == ["Pareto"] * n_par
-    assert {r["id"] for r in rows[:n_par]} <= set(a.trials.id[a.pareto].tolist())
-    assert all(r["set"] == "feasible" for r in rows[n_par:])
+    # sorted by f2 over the whole feasible set (not only the rows shown)
+    p = cb.table_page(
+        ctx,
+        ["50", ""],
+        PURE2,
+        None,
+        "feasible",
+        None,
+        0,
+        5,
+        "",
+        [{"column_id": "f2", "direction": "asc"}],
+    )
+    f2 = a.trials.F[a.feasible, 1]
+    assert p["total"] == a.n_feasible and len(p["data"]) == 5
+    assert p["data"][0]["f2"] == float(f"{f2.min():.5g}")
+    assert [r["f2"] for r in p["data"]] == sorted(r["f2"] for r in p["data"])
+    # descending, second page
+    p2 = cb.table_page(
+        ctx,
+        ["50", ""],
+        PURE2,
+        None,
+        "feasible",
+        None,
+        1,
+        5,
+        "",
+        [{"column_id": "f2", "direction": "desc"}],
+    )
+    want = np.sort(f2)[::-1][5:10]
+    assert [r["f2"] for r in p2["data"]] == [float(f"{v:.5g}") for v in want]
+    # a filter typed in a header cell, resolved over every trial of the set
+    p3 = cb.table_page(
+        ctx, ["50", ""], PURE2, None, "all", None, 0, 25, "{x1} s< 1 && {f1} >= 10", []
+    )
+    X, F = a.trials.X, a.trials.F
+    with np.errstate(invalid="ignore"):
+        assert p3["total"] == int(((X[:, 0] < 1) & (F[:, 0] >= 10)).sum()) > 0
+    # default order: Pareto first; rows carry their set for the colours
+    p4 = cb.table_page(ctx, ["50", ""], PURE2, None, "feasible", None, 0, 500, "", [])
+    sets = [r["set"] for r in p4["data"]]
+    assert sets[: a.n_pareto] == ["Pareto"] * a.n_pareto
+    assert set(sets[a.n_pareto :]) <= {"feasible"}
+    with pytest.raises(StudyDefinitionError, match="cannot read"):
+        cb.table_page(ctx, ["", ""], PURE2, None, "all", None, 0, 5, "{x1} ~~ 3", [])
+    # the CSV holds every filtered row at full precision, with a units line
+    text = "".join(
+        cb.csv_rows(
+            ctx,
+            ["50", ""],
+            PURE2,
+            None,
+            "feasible",
+            None,
+            "",
+            [{"column_id": "f2", "direction": "asc"}],
+        )
+    )
+    lines = text.strip().splitlines()
+    assert lines[0].startswith("id,set,stage,f1,f2") and len(lines) == 2 + a.n_feasible
+    assert float(lines[2].split(",")[4]) == f2.min()
+
+
+def test_parallel_brushes_set_constraints_and_select_a_sub_box(ctx, bk):
+    fig = _fig(cb.parallel_view(ctx, ["40", ""], PURE2))
+    names = list(fig.layout.meta["names"])
+    assert names == ["f1", "f2", "g1", "g2", "x1", "x2"]
+    dims = fig.data[0].dimensions
+    assert dims[0].constraintrange[1] == 40.0  # the constraint in force is the brush
+    ev = [{"dimensions[1].constraintrange": [[5.0, 20.0]]}, [0]]
+    t, lo, hi, sel, msg = cb.brush_to_fields(ctx, ev, names, ["40", ""], ["", ""], ["25", ""], None)
+    assert t == ["40", "20"] and "f2 <= 20" in msg  # min criterion: the upper edge
+    ev = [
+        {"dimensions[2].constraintrange": [0.0, 10.0], "dimensions[4].constraintrange": [[1, 2]]},
+        [0],
+    ]
+    t, lo, hi, sel, msg = cb.brush_to_fields(ctx, ev, names, t, lo, hi, None)
+    assert (lo[0], hi[0]) == ("0", "10") and sel == {"kind": "ranges", "ranges": {"x1": [1.0, 2.0]}}
+    a = _direct(bk)
+    m = cb.selection_mask(ctx, a, sel)
+    assert np.array_equal(m, (a.trials.X[:, 0] >= 1) & (a.trials.X[:, 0] <= 2))
+    # the counts follow the brushed fields
+    c = cb.counts_view(ctx, t, PURE2, [[lo[0], hi[0]], ["7.7", ""]])
+    d = _direct(bk, {"f1": 40.0, "f2": 20.0, "g1": (0.0, 10.0)})
+    assert (c["nd"], c["np"]) == (d.n_feasible, d.n_pareto)
+    # removing a brush removes the limit / the range
+    ev = [{"dimensions[1].constraintrange": None, "dimensions[4].constraintrange": None}, [0]]
+    t, lo, hi, sel, _ = cb.brush_to_fields(ctx, ev, names, t, lo, hi, sel)
+    assert t[1] == "" and sel is None
+
+
+def test_history_counts_grow_with_the_trials(ctx, bk):
+    fig = _fig(cb.history_view(ctx, ["40", ""], PURE2))
+    n, nd, npar = (np.asarray(t.y, float) for t in fig.data)
+    x = np.asarray(fig.data[0].x)
+    a = _direct(bk, {"f1": 40.0})
+    assert x[-1] == a.n and nd[-1] == a.n_feasible and npar[-1] == a.n_pareto
+    assert np.all(np.diff(nd[np.isfinite(nd)]) >= 0)
+    order = np.argsort(a.trials.id)
+    k = len(x) // 2
+    assert nd[k] == a.feasible[order][: int(x[k])].sum() or not np.isfinite(nd[k])
 
 
 # -- plots, selection, box to constraints ---------------------------------------------------------
@@ -235,16 +361,16 @@ def test_box_selection_covers_all_trials_not_only_drawn(ctx, bk):
     want = (F[:, 0] >= 0) & (F[:, 0] <= 30) & (F[:, 1] >= 10) & (F[:, 1] <= 25)
     assert np.array_equal(cb.selection_mask(ctx, a, spec), want) and want.sum() > 0
     fig, text = cb.scatter_view(ctx, ["", ""], PURE2, "f1", "f2", spec, None)
+    fig = _fig(fig)
     sel = [t for t in fig.data if (t.meta or {}).get("class") == "selected"]
-    assert len(sel) == 1 and len(sel[0].x) == want.sum()  # max_points 300 > selection
+    assert sum(len(_arr(t.x)) for t in sel) == want.sum()  # max_points 300 > selection
+    # the selection keeps the set colours
+    assert {t.marker.color for t in sel} <= {"#d62728", "#1f77b4", "#2ca02c"}
     assert f"{int(want.sum())} trials" in text
     # drawn points are decimated to max_points, the selection still counts every trial
-    drawn = sum(
-        len(t.x)
-        for t in fig.data
-        if (t.meta or {}).get("class") in ("infeasible", "feasible", "pareto")
-    )
-    assert drawn <= ctx.max_points
+    for t in fig.data:
+        if (t.meta or {}).get("class") in ("feasible", "pareto"):
+            assert len(_arr(t.x)) <= ctx.max_points
 
 
 def test_lasso_and_histogram_selection(ctx, bk):
@@ -253,13 +379,13 @@ def test_lasso_and_histogram_selection(ctx, bk):
     )
     a = _direct(bk)
     assert set(a.trials.id[cb.selection_mask(ctx, a, spec)]) == {3, 17}
-    click = {"points": [{"curveNumber": 2, "pointNumber": 4}]}  # panel 1 (x2), feasible
+    click = {"points": [{"customdata": [12, 1, 1, 2]}]}  # count, panel 1 (x2), feasible, bin 2
     spec = cb.selection_from_event(ctx, "hist", click, limit_texts=["", ""], roles=PURE2)
     assert spec["param"] == "x2" and spec["class"] == "feasible"
     m = cb.selection_mask(ctx, a, spec)
     x2 = a.trials.X[:, 1]
     assert np.array_equal(m, a.feasible & (x2 >= spec["lo"]) & (x2 < spec["hi"]))
-    fig = cb.panel_view(ctx, ["", ""], PURE2, "histograms", None, spec, None)
+    fig = _fig(cb.panel_view(ctx, ["", ""], PURE2, "histograms", None, spec, None))
     outlined = [t for t in fig.data if (t.meta or {}).get("class") == "selected"]
     assert sum(t.meta["total"] for t in outlined) == len(a.spec.space) * int(m.sum())
     assert cb.selection_from_event(ctx, "hist", None) is None
@@ -273,7 +399,7 @@ def test_cvp_box_selection_maps_panel_to_parameter(ctx, bk):
     ev = {"range": {"x2": [0.5, 1.5], "y2": [0, 30]}}
     spec = cb.selection_from_event(ctx, "cvp", ev, y="f1")
     assert spec["x"] == "x2" and spec["y"] == "f1"
-    fig = cb.panel_view(ctx, ["", ""], PURE2, "cvp", "f1", spec, "5")
+    fig = _fig(cb.panel_view(ctx, ["", ""], PURE2, "cvp", "f1", spec, "5"))
     assert sum(1 for t in fig.data if (t.meta or {}).get("class") == "chosen") == 2
 
 
@@ -305,7 +431,7 @@ def test_trial_view(ctx, bk):
     v = cb.trial_view(ctx, str(tid), ["40", ""], PURE2)
     assert v["summary"].startswith(f"trial {tid}: Pareto")
     row = int(np.flatnonzero(a.trials.id == tid)[0])
-    assert [p["value"] for p in v["params"]] == [float(f"{x:.6g}") for x in a.trials.X[row]]
+    assert [p["value"] for p in v["params"]] == [float(f"{x:.5g}") for x in a.trials.X[row]]
     assert v["criteria"][0]["meets"] == "yes" and v["criteria"][0]["bound"] == 40.0
     assert v["identification"] is None and "Not an identification" in v["identification_note"]
     with pytest.raises(StudyDefinitionError, match="no sample trial has id 999999"):
@@ -324,12 +450,14 @@ def test_refine_view_and_edited_rows(ctx, bk):
     a = ctx.cache.analysis(parse_constraints(ctx.spec, ["40", ""], PURE2))
     _, _, stages = ctx.cache.state()
     args = {"basis": "feasible", "quantile": 0.05, "margin": 0.1}
-    assert cb._overrides(ctx, a, stages, args, rows) == {}  # unedited rows are no override
+    from vectorid.views.ui.refine import _overrides
+
+    assert _overrides(ctx, a, stages, args, rows) == {}  # unedited rows are no override
     rows[1] = dict(rows[1], new_low=0.5, new_high=2.0)
-    assert cb._overrides(ctx, a, stages, args, rows) == {"x2": (0.5, 2.0)}
+    assert _overrides(ctx, a, stages, args, rows) == {"x2": (0.5, 2.0)}
     rows[1] = dict(rows[1], new_low="2", new_high="1")
     with pytest.raises(StudyDefinitionError, match="low < high"):
-        cb._overrides(ctx, a, stages, args, rows)
+        _overrides(ctx, a, stages, args, rows)
     with pytest.raises(StudyDefinitionError, match="quantile"):
         cb.refine_view(ctx, ["", ""], PURE2, "feasible", "lots", "0.1")
 
@@ -448,8 +576,13 @@ def test_page_reload_starts_from_the_saved_limits(tmp_path):
 
     def fields(node, out):
         i = getattr(node, "id", None)
-        if isinstance(i, dict) and i.get("type") in ("limit", "con-low", "con-high"):
-            out[(i["type"], i["name"])] = node.value
+        for kind, prefix in (
+            ("limit", "vid-limit-"),
+            ("con-low", "vid-low-"),
+            ("con-high", "vid-high-"),
+        ):
+            if isinstance(i, str) and i.startswith(prefix):
+                out[(kind, i[len(prefix) :])] = node.value
         kids = getattr(node, "children", None)
         for k in kids if isinstance(kids, list | tuple) else [kids]:
             if hasattr(k, "to_plotly_json"):
@@ -485,17 +618,17 @@ def test_job_manager_runs_one_job_at_a_time(tmp_path):
     path = make_store(tmp_path, "binh-korn", trials=64)
     c = _ctx(path)
     try:
-        out = cb.start_job(c, "continue", trials="64")
+        out = cb.start_job(c, "continue", trials="200000")
         assert out.startswith("started")
         with pytest.raises(JobBusy, match="already running"):
             cb.start_job(c, "section", trial="5", param="x1", points="5")
         # through the button: a note that lasts while the running job runs
         busy = cb.job_action(c, "section", trial="5", param="x1", points="5")
         assert busy["busy"] == c.jobs.status().id and "already running" in busy["text"]
-        assert cb.job_message(c, busy) == busy["text"]  # still running (64 serial trials)
+        assert cb.job_message(c, busy) == busy["text"]  # still running (2e5 serial trials)
         bad = cb.job_action(c, "section", trial="5", param="x9", points="5")
         assert bad["busy"] is None and "unknown parameter" in bad["text"]
-        deadline = time.monotonic() + 60
+        deadline = time.monotonic() + 120
         while c.jobs.status().running and time.monotonic() < deadline:
             time.sleep(0.2)
         assert cb.job_message(c, busy) == ""  # cleared once that job finished
@@ -503,8 +636,8 @@ def test_job_manager_runs_one_job_at_a_time(tmp_path):
         assert cb.job_message(c, None) == ""
         st = cb.job_view(c)
         assert st["state"] == "done", st
-        assert st["progress"] == 1.0 and "64 trials computed" in st["message"]
-        assert len(c.cache.trials()) == 128
+        assert st["progress"] == 1.0 and "200000 trials computed" in st["message"]
+        assert len(c.cache.trials()) == 200064
     finally:
         c.jobs.shutdown()
 

@@ -1,20 +1,18 @@
-"""Helpers shared by the modules that add auxiliary stages (sections, robustness checks):
-finding a stored trial by id, evaluating new trials through the study's Problem, and the
-``key=value`` notes that describe an auxiliary stage."""
+"""Helpers shared by the modules that read auxiliary stages (sections, robustness checks):
+finding a stored trial by id and the ``key=value`` notes that describe an auxiliary stage.
+Evaluating and storing them is :mod:`vectorid.run.extra`'s."""
 
 from __future__ import annotations
 
 import re
-import time
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import StoreError, StudyDefinitionError
-from ..problem import EvalResult, Problem
+from ..errors import StudyDefinitionError
 from ..store.sqlite import Store, Trials
 
-__all__ = ["StoredTrial", "evaluate_and_store", "find_trial", "load_all", "parse_note"]
+__all__ = ["StoredTrial", "find_trial", "load_all", "parse_note"]
 
 _NOTE_ITEM = re.compile(r"(\w+)=(\S+)")
 
@@ -68,26 +66,6 @@ def find_trial(store: Store, trial_id: int, trials: Trials | None = None) -> Sto
         g=t.G[i].copy(),
         status=int(t.status[i]),
     )
-
-
-def evaluate_and_store(
-    store: Store, stage: int, X: np.ndarray, problem: Problem | None = None
-) -> EvalResult:
-    """Evaluate ``X`` (n, p) through the study's Problem and store it as stage ``stage``
-    starting at sequence index 0."""
-    if not store.writable:
-        raise StoreError(
-            f"store {store.path} was opened read-only; open it with write=True to add trials"
-        )
-    prob = problem if problem is not None else store.spec.problem()
-    t0 = time.perf_counter()
-    res = prob.evaluate(X)
-    if res.wall is None:
-        res.wall = np.full(res.n, (time.perf_counter() - t0) / max(res.n, 1))
-    store.write_batch(
-        stage, 0, X, res.criteria, res.functionals, res.status, res.wall, res.messages
-    )
-    return res
 
 
 def parse_note(note: str) -> dict[str, str]:

@@ -37,7 +37,7 @@ from ..space import Space
 from ..store.sqlite import Stage, Store
 from .results import Analysis
 
-__all__ = ["RefineProposal", "apply_refine", "propose_refine", "refine_history"]
+__all__ = ["RefineProposal", "propose_refine", "refine_history"]
 
 
 @dataclass
@@ -107,7 +107,7 @@ class RefineProposal:
         ]
 
     def note(self) -> str:
-        """The stage note written by :func:`apply_refine`."""
+        """The stage note written by :func:`vectorid.run.extra.apply_refine`."""
         lim = ",".join(s.replace(" ", "") for s in self.limits) or "study"
         return (
             f"refine basis={self.basis} quantile={self.quantile:g} margin={self.margin:g} "
@@ -258,15 +258,6 @@ def propose_refine(
         overrides=bounds,
         limits=[str(b) for b in a.active_bounds()],
     )
-
-
-def apply_refine(store: Store, proposal: RefineProposal) -> Stage:
-    """Add the proposed box as a new sample stage starting where the sequence ends.
-
-    ``vectorid run STORE --trials N`` (or :func:`vectorid.run.run_store`) then draws the
-    next sequence indices in the new box.
-    """
-    return store.add_stage(proposal.new, kind="sample", note=proposal.note())
 
 
 def refine_history(store: Store) -> list[dict[str, Any]]:

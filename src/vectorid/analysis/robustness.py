@@ -2,9 +2,9 @@
 
 Before the final choice the seed compares a few Pareto vectors (their criteria side by
 side with the minimum and maximum over them: :func:`chosen_table`) and checks that each
-one's criteria respond smoothly in its vicinity. :func:`run_robustness` evaluates a small
-neighbourhood of a trial and stores it as an auxiliary stage of kind ``"robustness"`` (never
-mixed into the sample's statistics); the stage note records
+one's criteria respond smoothly in its vicinity. :func:`vectorid.run.extra.run_robustness`
+evaluates a small neighbourhood of a trial and stores it as an auxiliary stage of kind
+``"robustness"`` (never mixed into the sample's statistics); the stage note records
 ``trial=ID radius=R points=N seed=S``.
 
 Neighbourhood (two scales): the trial itself, then ``x0 ± d_i`` and ``x0 ± d_i / 2`` for
@@ -39,20 +39,20 @@ from typing import Any
 import numpy as np
 
 from ..errors import StudyDefinitionError
-from ..problem import OK, Problem
+from ..problem import OK
 from ..space import Choice, Integer, Space
 from ..store.sqlite import Store
-from ._stages import evaluate_and_store, find_trial, load_all, parse_note
+from ._stages import find_trial, load_all, parse_note
 from .results import Analysis
 
 __all__ = [
     "ChosenTable",
     "Robustness",
+    "build_robustness",
     "chosen_table",
     "load_robustness",
     "neighbourhood",
     "robustness_stats",
-    "run_robustness",
 ]
 
 
@@ -319,8 +319,7 @@ def _in_d(a: Analysis, F: np.ndarray, G: np.ndarray, status: np.ndarray) -> np.n
     return m
 
 
-def _build(
-    spec_space: Space,
+def build_robustness(
     crit_names: list[str],
     stage: int,
     trial: int,
@@ -333,6 +332,8 @@ def _build(
     f0: np.ndarray,
     a: Analysis | None,
 ) -> Robustness:
+    """The :class:`Robustness` of a neighbourhood already evaluated (rows as
+    :func:`neighbourhood` makes them), judged against the constraints of ``a`` when given."""
     span = None
     if a is not None:
         base = a.feasible if a.n_feasible >= 2 else a.ok
@@ -363,57 +364,6 @@ def _build(
     )
 
 
-def run_robustness(
-    store: Store,
-    trial: int,
-    *,
-    radius: float = 0.02,
-    points: int | None = None,
-    seed: int = 0,
-    analysis: Analysis | None = None,
-    problem: Problem | None = None,
-) -> Robustness:
-    """Evaluate and store the neighbourhood of a stored trial; return its verdict.
-
-    Parameters
-    ----------
-    store : Store
-        Opened with ``write=True``.
-    trial : int
-        Id of a stored trial.
-    radius, points, seed
-        See :func:`neighbourhood`.
-    analysis : Analysis, optional
-        Constraints in force: gives ``feasible_fraction`` and scales ``relative_range`` by
-        each criterion's span over D.
-    problem : Problem, optional
-        Evaluate with this Problem instead of the study's model.
-    """
-    spec = store.spec
-    t = find_trial(store, trial)
-    X = neighbourhood(spec.space, t.x, radius=radius, points=points, seed=seed)
-    stage = store.add_stage(
-        spec.space,
-        kind="robustness",
-        note=f"robustness trial={t.id} radius={radius!r} points={len(X) - 1} seed={seed}",
-    )
-    res = evaluate_and_store(store, stage.stage, X, problem)
-    return _build(
-        spec.space,
-        spec.criterion_names,
-        stage.stage,
-        t.id,
-        radius,
-        seed,
-        X,
-        res.criteria,
-        res.functionals,
-        res.status,
-        t.f,
-        analysis,
-    )
-
-
 def load_robustness(store: Store, analysis: Analysis | None = None) -> list[Robustness]:
     """Every robustness check stored in ``store``, in stage order."""
     spec = store.spec
@@ -433,8 +383,7 @@ def load_robustness(store: Store, analysis: Analysis | None = None) -> list[Robu
         except StudyDefinitionError:
             f0 = t.F[np.flatnonzero(m)[0]]
         out.append(
-            _build(
-                spec.space,
+            build_robustness(
                 spec.criterion_names,
                 s.stage,
                 trial,

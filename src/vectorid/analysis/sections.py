@@ -2,9 +2,10 @@
 
 Around a chosen trial, one parameter is varied over its range (or a chosen sub-range) with
 all others fixed at the trial's values; the new trials are evaluated through the study's
-Problem and stored as an auxiliary stage of kind ``"section"``, which never mixes into the
-Sobol sample's statistics (``Store.load()`` reads sample stages only). The stage's note
-records ``trial=ID param=NAME low=LO high=HI points=N`` so the section can be read back.
+Problem (:func:`vectorid.run.extra.run_section`) and stored as an auxiliary stage of kind
+``"section"``, which never mixes into the Sobol sample's statistics (``Store.load()`` reads
+sample stages only). The stage's note records ``trial=ID param=NAME low=LO high=HI points=N``
+so the section can be read back.
 
 The grid is ``points`` evenly spaced values over ``[low, high]`` plus the chosen trial's own
 value when it lies inside, so the section passes through the trial (integer variables: the
@@ -20,12 +21,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import StudyDefinitionError
-from ..problem import Problem
 from ..space import Choice, Integer, Space
 from ..store.sqlite import Store
-from ._stages import evaluate_and_store, find_trial, load_all, parse_note
+from ._stages import find_trial, load_all, parse_note
 
-__all__ = ["Section", "load_sections", "run_section", "section_points"]
+__all__ = ["Section", "check_range", "load_sections", "section_points"]
 
 
 @dataclass
@@ -89,7 +89,8 @@ class Section:
         }
 
 
-def _check_range(param: str, value_range: Sequence[float]) -> tuple[float, float]:
+def check_range(param: str, value_range: Sequence[float]) -> tuple[float, float]:
+    """``(lo, hi)`` of a section range, checked (two finite numbers, lo < hi)."""
     if len(value_range) != 2:
         raise StudyDefinitionError(
             "--range", f"expected two numbers LO HI, got {list(value_range)}", "e.g. --range 0 1.5"
@@ -140,7 +141,7 @@ def section_points(
         )
     j = space.index(param)
     var = space.variables[j]
-    lo, hi = (var.low, var.high) if value_range is None else _check_range(param, value_range)
+    lo, hi = (var.low, var.high) if value_range is None else check_range(param, value_range)
     if isinstance(var, Integer):
         ints = np.arange(math.ceil(lo), math.floor(hi) + 1, dtype=float)
         if len(ints) > points:
@@ -162,69 +163,6 @@ def section_points(
     X = np.repeat(x0[None, :], len(values), axis=0)
     X[:, j] = values
     return values, X
-
-
-def run_section(
-    store: Store,
-    trial: int,
-    param: str,
-    *,
-    points: int = 21,
-    value_range: Sequence[float] | None = None,
-    problem: Problem | None = None,
-) -> Section:
-    """Evaluate and store a section through a stored trial.
-
-    Parameters
-    ----------
-    store : Store
-        Opened with ``write=True``.
-    trial : int
-        Id of a stored trial (``vectorid pareto`` lists ids).
-    param : str
-        Variable to vary.
-    points : int
-        Evenly spaced values (see :func:`section_points`).
-    value_range : (lo, hi), optional
-        Range of ``param`` (default: its box in the study).
-    problem : Problem, optional
-        Evaluate with this Problem instead of the study's model (tests, notebooks).
-
-    Returns
-    -------
-    Section
-    """
-    spec = store.spec
-    t = find_trial(store, trial)
-    values, X = section_points(spec.space, t.x, param, points, value_range)
-    lo, hi = float(values.min()), float(values.max())
-    if value_range is not None:
-        lo, hi = _check_range(param, value_range)
-    box = spec.space
-    if lo < hi:
-        box = spec.space.with_bounds({param: (lo, hi)})
-    stage = store.add_stage(
-        box,
-        kind="section",
-        note=f"section trial={t.id} param={param} low={lo!r} high={hi!r} points={len(values)}",
-    )
-    res = evaluate_and_store(store, stage.stage, X, problem)
-    return Section(
-        stage=stage.stage,
-        trial=t.id,
-        param=param,
-        values=values,
-        X=X,
-        F=res.criteria,
-        G=res.functionals,
-        status=res.status,
-        ids=stage.stage * 1_000_000_000 + np.arange(len(values), dtype=np.int64) + 1,
-        x0=t.x,
-        f0=t.f,
-        crit_names=spec.criterion_names,
-        con_names=spec.constraint_names,
-        messages=dict(res.messages),
-    )
 
 
 def load_sections(store: Store) -> list[Section]:

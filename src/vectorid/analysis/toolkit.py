@@ -2,7 +2,8 @@
 double tuning, correlation and spread, robustness, sensitivity, signal tools and choice.
 
 Every function returns plain data (numpy arrays, dataclasses); :mod:`vectorid.views`
-draws them.
+draws them. Nothing here writes the store: the extra runs (sections, robustness checks,
+refined stages) are :mod:`vectorid.run.extra`'s.
 """
 
 from .choice import best_per_criterion, suggest_choice
@@ -10,17 +11,17 @@ from .classes import CLASS_COLOURS, PointClasses, point_classes, subsample
 from .correlation import CorrelationResult, Spread, correlation, correlation_of, parameter_spread
 from .histograms import Histogram, default_bins, histogram, histograms, stage_histograms
 from .identifiability import ParameterVerdict, identifiability, verdicts_json
-from .refine import RefineProposal, apply_refine, propose_refine, refine_history
+from .refine import RefineProposal, propose_refine, refine_history
 from .robustness import (
     ChosenTable,
     Robustness,
+    build_robustness,
     chosen_table,
     load_robustness,
     neighbourhood,
     robustness_stats,
-    run_robustness,
 )
-from .sections import Section, load_sections, run_section, section_points
+from .sections import Section, check_range, load_sections, section_points
 from .sensitivity import Sensitivity, ks_filtering, rank_correlation, sensitivity
 from .signals import dominant_frequency, envelope, power_spectrum, uniform
 
@@ -36,8 +37,9 @@ __all__ = [
     "Section",
     "Sensitivity",
     "Spread",
-    "apply_refine",
     "best_per_criterion",
+    "build_robustness",
+    "check_range",
     "chosen_table",
     "correlation",
     "correlation_of",
@@ -58,8 +60,6 @@ __all__ = [
     "rank_correlation",
     "refine_history",
     "robustness_stats",
-    "run_robustness",
-    "run_section",
     "section_points",
     "sensitivity",
     "stage_histograms",

@@ -1,12 +1,12 @@
 """Two-step identification (seed 001 §VI) and the control-contribution analysis.
 
 Step 1 identifies the model on the *uncontrolled* drop; step 2 identifies it on the
-*controlled* drop, starting from step 1's refined box (the step-1 variables keep that box and
-take step 1's chosen vector as nominal) and adding the variables that only control excites
-(x15, the riser force gain, in the seed). Each step uses the "double tuning" of the seed: a
-coarse run in the initial box, a narrower box proposed from the feasible set
-(:func:`vectorid.analysis.refine.propose_refine`), and the main run in that box, continuing
-the same Sobol sequence in the same store (no trial is lost).
+*controlled* drop, starting from step 1's refined box (the step-1 variables keep that box;
+"nominal" stays the model's value everywhere, step 1's chosen vector is a result) and adding
+the variables that only control excites (x15, the riser force gain, in the seed). Each step
+uses the "double tuning" of the seed: a coarse run in the initial box, a narrower box
+proposed from the feasible set (:func:`vectorid.analysis.refine.propose_refine`), and the
+main run in that box, continuing the same Sobol sequence in the same store (no trial is lost).
 
 Criteria constraints Φ** are the expert's choice. Where a study gives none, a step sets each
 criterion's limit at a quantile of its values over the successful trials (``auto_quantile``,
@@ -39,9 +39,10 @@ from numpy.typing import NDArray
 
 from vectorid.analysis.choice import suggest_choice
 from vectorid.analysis.identifiability import ParameterVerdict, identifiability
-from vectorid.analysis.refine import RefineProposal, apply_refine, propose_refine
+from vectorid.analysis.refine import RefineProposal, propose_refine
 from vectorid.analysis.results import Analysis
 from vectorid.errors import StudyDefinitionError
+from vectorid.run.extra import apply_refine
 from vectorid.space import Continuous, Space
 from vectorid.spec import StudySpec
 from vectorid.study import Study
@@ -387,18 +388,20 @@ def parameter_meanings(spec: StudySpec) -> dict[str, str]:
 
 
 def step2_spec(step2: StudySpec, step1: StepResult, control: StepResult | None = None) -> StudySpec:
-    """Step 2's study with the step-1 variables in step 1's refined box, nominal = chosen.
+    """Step 2's study with the step-1 variables in step 1's refined box.
 
-    ``control`` (the control step): its variables (x15) take its refined box and chosen
-    value in the same way."""
-    boxes = {v.name: (v, step1.chosen) for v in step1.final_box}
+    ``control`` (the control step): its variables (x15) take its refined box in the same
+    way. Each variable keeps step 2's own ``nominal`` (the model's value, the one every view
+    and the CLI call "nominal") where it lies inside the new box, else none; step 1's chosen
+    vector stays in step 1's store and in :class:`StepResult` (it is not a nominal)."""
+    boxes = {v.name: v for v in step1.final_box}
     if control is not None:
-        boxes.update({v.name: (v, control.chosen) for v in control.final_box})
+        boxes.update({v.name: v for v in control.final_box})
     new_vars = []
     for v in step2.space:
         if v.name in boxes and isinstance(v, Continuous):
-            b, chosen = boxes[v.name]
-            nominal = chosen.get(v.name, v.nominal)
+            b = boxes[v.name]
+            nominal = v.nominal
             if nominal is not None and not b.low <= nominal <= b.high:
                 nominal = None
             new_vars.append(Continuous(v.name, b.low, b.high, nominal, v.unit))
@@ -449,7 +452,7 @@ def run_two_step(
     control_step : bool
         Run :func:`run_control_step` between the steps (seed 001 §VI.C): the
         ``control_variables`` are identified alone on the control contribution, and their
-        refined box (and chosen value, as nominal) initialises step 2.
+        refined box initialises step 2.
     control_trials : int, optional
         Trials of the control step in its refined box (default ``trials``; its coarse run
         has ``coarse`` trials like the other steps).

@@ -45,6 +45,8 @@ __all__ = [
     "correlation_figure",
     "criterion_vs_parameter_figure",
     "histograms_figure",
+    "history_figure",
+    "parallel_figure",
     "refine_figure",
     "robustness_figure",
     "scatter_figure",
@@ -58,7 +60,15 @@ __all__ = [
     "trajectory_figure",
 ]
 
-TEMPLATE = "plotly_white"
+from .clouds import (  # the point clouds and per-set histograms
+    TEMPLATE,
+    criterion_vs_parameter_figure,
+    histograms_figure,
+    scatter_figure,
+)
+from .history import history_figure
+from .parallel import parallel_figure
+
 LIMIT_LINE = {"color": "#444", "width": 1.2, "dash": "dash"}
 _CLASS_LABEL = {"infeasible": "infeasible", "feasible": "feasible", "pareto": "Pareto"}
 _RUN_COLOURS = [
@@ -204,55 +214,6 @@ def _class_trace(
 # -- criterion plots ---------------------------------------------------------------------------
 
 
-def scatter_figure(
-    a: Analysis,
-    x: str,
-    y: str,
-    *,
-    max_points: int | None = None,
-    seed: int = 0,
-    title: str | None = None,
-) -> go.Figure:
-    """Criterion vs criterion (seed 001 Fig. 6, 11; seed 000 Fig. 8) or criterion vs
-    parameter (seed 000 Fig. 9): every trial, coloured by class, with the constraints on
-    either axis drawn as lines.
-
-    Parameters
-    ----------
-    a : Analysis
-    x, y : str
-        Criterion, functional or parameter names.
-    max_points : int, optional
-        Points drawn in all (see the module docstring); None draws every trial.
-    seed : int
-        Seed of the decimation subset.
-    """
-    xv, _ = _column(a, x)
-    yv, _ = _column(a, y)
-    rows, counts, pc = _selection(a, max_points, seed)
-    fig = go.Figure()
-    for name in ("infeasible", "feasible", "pareto"):
-        fig.add_trace(
-            _class_trace(
-                name, rows[name], xv, yv, a.trials.id, counts[name], int(pc.failed.sum()), x, y
-            )
-        )
-    for v in _limits_of(a, x):
-        fig.add_vline(x=v, line=LIMIT_LINE, annotation_text=f"{x} limit {v:.4g}")
-    for v in _limits_of(a, y):
-        fig.add_hline(y=v, line=LIMIT_LINE, annotation_text=f"{y} limit {v:.4g}")
-    fig.update_layout(
-        template=TEMPLATE,
-        title=title or f"{y} vs {x}   (N={a.n}, ND={a.n_feasible}, NP={a.n_pareto})",
-        xaxis_title=x,
-        yaxis_title=y,
-        legend={"orientation": "h", "y": -0.15},
-        height=520,
-    )
-    _annotate(fig, _decimation_note(rows, counts, seed))
-    return fig
-
-
 def scatter_matrix_figure(
     a: Analysis,
     names: Sequence[str] | None = None,
@@ -343,77 +304,6 @@ def scatter_matrix_figure(
     return fig
 
 
-def criterion_vs_parameter_figure(
-    a: Analysis,
-    criterion: str,
-    params: Sequence[str] | None = None,
-    *,
-    max_points: int | None = None,
-    seed: int = 0,
-    cols: int = 4,
-) -> go.Figure:
-    """One criterion against each parameter over all trials (seed 000 Fig. 9), one panel
-    per parameter; ``max_points`` applies per panel (the same trials in every panel)."""
-    params = list(params) if params is not None else a.spec.space.names
-    yv, _ = _column(a, criterion)
-    rows, counts, pc = _selection(a, max_points, seed)
-    ncol = min(cols, len(params))
-    nrow = math.ceil(len(params) / ncol)
-    fig = make_subplots(
-        rows=nrow,
-        cols=ncol,
-        subplot_titles=params,
-        shared_yaxes=True,
-        horizontal_spacing=0.03,
-        vertical_spacing=min(0.12, 0.5 / max(nrow, 1)),
-    )
-    shapes: list[dict] = []
-    for i, p in enumerate(params):
-        xv, _ = _column(a, p)
-        r, c = i // ncol + 1, i % ncol + 1
-        for name in ("infeasible", "feasible", "pareto"):
-            fig.add_trace(
-                _class_trace(
-                    name,
-                    rows[name],
-                    xv,
-                    yv,
-                    a.trials.id,
-                    counts[name],
-                    int(pc.failed.sum()),
-                    p,
-                    criterion,
-                    showlegend=i == 0,
-                    size=5 if name == "pareto" else 3,
-                ),
-                row=r,
-                col=c,
-            )
-        n = i + 1
-        for v in _limits_of(a, criterion):
-            shapes.append(
-                {
-                    "type": "line",
-                    "xref": f"x{n if n > 1 else ''} domain",
-                    "yref": f"y{n if n > 1 else ''}",
-                    "x0": 0,
-                    "x1": 1,
-                    "y0": v,
-                    "y1": v,
-                    "line": LIMIT_LINE,
-                }
-            )
-    fig.update_layout(
-        template=TEMPLATE,
-        title=f"{criterion} vs parameters   (N={a.n}, ND={a.n_feasible}, NP={a.n_pareto})",
-        shapes=shapes,
-        height=max(360, 260 * nrow),
-        legend={"orientation": "h", "y": -0.08 if nrow > 1 else -0.2},
-    )
-    _annotate(fig, _decimation_note(rows, counts, seed), y=1.02)
-    return fig
-
-
 # -- histograms -------------------------------------------------------------------------------
 
 
@@ -457,38 +347,6 @@ def _hist_traces(h: Histogram, show_all: bool, showlegend: bool) -> list[go.Bar]
         )
     )
     return out
-
-
-def histograms_figure(
-    hists: Sequence[Histogram],
-    *,
-    cols: int = 4,
-    show_all: bool = False,
-    title: str = "Histograms of feasible and Pareto trials per parameter",
-) -> go.Figure:
-    """Histograms (seed 000 Fig. 7, seed 001 Fig. 10), one panel per parameter, feasible
-    and Pareto counts overlaid (Pareto in front)."""
-    ncol = min(cols, len(hists))
-    nrow = math.ceil(len(hists) / ncol)
-    titles = [f"{h.param}" + ("" if h.stage is None else f" (stage {h.stage})") for h in hists]
-    fig = make_subplots(
-        rows=nrow,
-        cols=ncol,
-        subplot_titles=titles,
-        vertical_spacing=min(0.12, 0.5 / max(nrow, 1)),
-    )
-    for i, h in enumerate(hists):
-        for tr in _hist_traces(h, show_all, i == 0):
-            fig.add_trace(tr, row=i // ncol + 1, col=i % ncol + 1)
-    fig.update_layout(
-        template=TEMPLATE,
-        title=title,
-        barmode="overlay",
-        bargap=0,
-        height=max(320, 230 * nrow),
-        legend={"orientation": "h", "y": -0.1 if nrow > 1 else -0.25},
-    )
-    return fig
 
 
 def stage_histograms_figure(hists: Sequence[Histogram], *, show_all: bool = True) -> go.Figure:
@@ -1069,6 +927,7 @@ def spectra_figure(
     *,
     nperseg: int | None = None,
     title: str = "Power spectra of the Euler angles",
+    unit: str = "rad",
 ) -> go.Figure:
     """Power spectral densities (Welch) of the flight's channels and of simulated runs,
     one panel per channel, log scale (seed 000 Sec. VII, seed 001 Table I criteria 13–15).
@@ -1082,6 +941,8 @@ def spectra_figure(
     runs : mapping label -> (time, mapping channel -> values)
     nperseg : int, optional
         Welch segment length.
+    unit : str
+        Unit of the channels (the PSD is in unit²/Hz).
     """
     names = list(flight)
     fig = make_subplots(rows=1, cols=len(names), subplot_titles=names)
@@ -1106,7 +967,7 @@ def spectra_figure(
                 row=1,
                 col=c + 1,
             )
-    fig.update_yaxes(type="log", title_text="PSD, unit²/Hz", col=1)
+    fig.update_yaxes(type="log", title_text=f"PSD, {unit}²/Hz", col=1)
     fig.update_yaxes(type="log")
     fig.update_xaxes(type="log", title_text="frequency, Hz")
     fig.update_layout(template=TEMPLATE, title=title, height=420)

@@ -1,17 +1,21 @@
 """The self-contained HTML report of a study (``vectorid report STORE --out report.html``).
 
 One file that opens offline: Plotly's JavaScript is embedded once, every figure is a JSON
-document in the page, plotted when it scrolls near the viewport (WebGL figures far from it
-are released, since browsers keep only a few WebGL contexts alive). Point clouds are
-decimated to ``max_points`` per figure (Pareto and feasible trials first, see
-:func:`vectorid.views.figures.allocate`) and each decimated figure says so; histograms,
-heatmaps and tables are aggregated, so their size does not grow with N.
+document in the page, and every figure is drawn when the page loads (so printing or saving
+as PDF shows them all; printing waits for any still being drawn). Point clouds are drawn in
+SVG, not WebGL: each set thinned to ``max_points`` (a uniform subset per set, named in the
+legend) and the infeasible bulk as a density, so only the scatter matrix, the parallel
+coordinates and the 3-D trajectories use WebGL contexts, well under the browser's limit.
+Histograms, heatmaps and tables are aggregated, so their size does not grow with N; wide
+tables scroll sideways in their container.
 
 Contents: study definition, stages and refine history, N/ND/NP and the constraints in
 force, test tables (top rows), the Pareto set, the chosen vector(s) with the best trial per
 criterion (seed 001 Table 4 layout), criterion vs criterion pairs and matrix, criterion vs
-parameter, histograms (and by stage after double tuning), the double-tuning proposal,
-correlation and spread, sensitivity, and every stored section and robustness check. A study
+parameter, parallel coordinates, the history of N/ND/NP against the number of trials,
+histograms per set (and by stage after double tuning), the double-tuning proposal with the
+ranges per parameter, correlation and spread, sensitivity, and every stored section and
+robustness check. A study
 with an ``[identification]`` table also gets an "Identification" section: trajectories of the
 flight and of the best trial per criterion (seed 000 Fig. 11), the 3-D projection with the
 worst and best trial (seed 001 Fig. 7), channel time histories with envelopes and power
@@ -43,6 +47,9 @@ from ..analysis.sensitivity import sensitivity
 from ..errors import VectoridError
 from ..store.sqlite import Store
 from . import figures as fg
+from .clouds import PROPOSED_COLOUR
+from .history import history
+from .labels import labels_of
 
 __all__ = ["ReportResult", "build_report", "write_report"]
 
@@ -53,8 +60,11 @@ h1{margin-top:24px}h2{border-bottom:2px solid #ddd;padding-bottom:4px;margin-top
 table{border-collapse:collapse;font-size:13px;margin:8px 0}
 td,th{border:1px solid #ddd;padding:3px 7px;text-align:right}th{background:#f4f4f4}
 td.l,th.l{text-align:left}.muted{color:#777}.x{color:#d62728}.p{color:#2ca02c;font-weight:600}
-.fig{min-height:320px;margin:14px 0;border:1px solid #eee}
-.counts{font-size:18px}.counts b{font-size:22px}.note{color:#a33;font-size:13px}
+.fig{min-height:320px;margin:14px 0;border:1px solid #eee;break-inside:avoid}
+.scroll{overflow-x:auto;max-width:100%}
+@media print{nav{display:none}.fig{border:none}h2{break-after:avoid}}
+.counts{font-size:18px}.counts b{font-size:22px}.note{color:#555;font-size:13px;
+border-left:3px solid #d9a400;padding-left:6px}
 nav a{margin-right:10px}
 """
 
@@ -63,34 +73,24 @@ _LOADER = """
   var gl = (function(){try{var c=document.createElement('canvas');
     return !!(c.getContext('webgl')||c.getContext('experimental-webgl'));}
     catch(e){return false;}})();
-  var live = [];            // WebGL figures currently plotted, oldest first
-  var MAX_GL = 6;
-  function isGL(fig){return fig.data.some(function(t){
-    return t.type==='scattergl'||t.type==='splom'||t.type==='scatter3d';});}
+  var divs = Array.prototype.slice.call(document.querySelectorAll('div.fig'));
   function plot(div){
     if(div.dataset.state==='plotted') return;
     var fig = JSON.parse(document.getElementById(div.id+'-json').textContent);
-    if(!gl){
-      if(fig.data.some(function(t){return t.type==='splom'||t.type==='scatter3d';})){
-        div.innerHTML='<p class="note">This figure needs WebGL, which this browser lacks.</p>';
-        div.dataset.state='plotted'; return;}
-      fig.data.forEach(function(t){if(t.type==='scattergl') t.type='scatter';});
-    }
+    if(!gl && fig.data.some(function(t){
+        return t.type==='splom'||t.type==='scatter3d'||t.type==='parcoords';})){
+      div.innerHTML='<p class="note">This figure needs WebGL, which this browser lacks.</p>';
+      div.dataset.state='plotted'; return;}
     Plotly.newPlot(div, fig.data, fig.layout, {responsive:true, displaylogo:false});
     div.dataset.state='plotted';
-    if(gl && isGL(fig)){
-      div.dataset.gl='1'; live.push(div);
-      while(live.length>MAX_GL){var old=live.shift(); Plotly.purge(old); old.dataset.state='';}
-    }
   }
-  var obs = new IntersectionObserver(function(entries){
-    entries.forEach(function(e){
-      if(e.isIntersecting){plot(e.target);}
-    });
-  }, {rootMargin:'600px 0px'});
-  document.querySelectorAll('div.fig').forEach(function(d){obs.observe(d);});
-  window.vectoridPlotAll = function(){
-    MAX_GL = 1e9; document.querySelectorAll('div.fig').forEach(plot);};
+  // every figure, one per task, from the top: the page stays responsive while they draw
+  var next = 0;
+  function step(){ if(next < divs.length){ plot(divs[next++]); setTimeout(step, 0); } }
+  window.vectoridPlotAll = function(){ divs.forEach(plot); };
+  window.addEventListener('beforeprint', window.vectoridPlotAll);
+  if(document.readyState === 'loading'){ document.addEventListener('DOMContentLoaded', step); }
+  else { step(); }
 })();
 """
 
@@ -130,11 +130,11 @@ def _f(v: Any) -> str:
         return _e(v)
     if math.isnan(v):
         return "nan"
-    return f"{v:.6g}"
+    return f"{v:.5g}"
 
 
 def _table(head: Sequence[str], rows: Iterable[Sequence[Any]], left: int = 1) -> str:
-    out = ["<table><tr>"]
+    out = ['<div class="scroll"><table><tr>']
     out += [f'<th class="{"l" if i < left else ""}">{_e(h)}</th>' for i, h in enumerate(head)]
     out.append("</tr>")
     for r in rows:
@@ -143,7 +143,7 @@ def _table(head: Sequence[str], rows: Iterable[Sequence[Any]], left: int = 1) ->
             cls = ' class="l"' if i < left else ""
             out.append(f"<td{cls}>{c}</td>")
         out.append("</tr>")
-    out.append("</table>")
+    out.append("</table></div>")
     return "".join(out)
 
 
@@ -166,9 +166,13 @@ class _Page:
         i = len(self.figures)
         title = figure.layout.title.text or f"figure {i + 1}"
         self.figures.append(title)
-        for ann in figure.layout.annotations or ():
-            if ann.text and ann.text.startswith("decimated"):
-                self.notes.append(f"{title}: {ann.text}")
+        thinned = [
+            tr.name
+            for tr in figure.data
+            if tr.name and (" drawn, " in tr.name or "as density" in tr.name)
+        ]
+        if thinned:
+            self.notes.append(f"{title}: thinned for display: " + "; ".join(dict.fromkeys(thinned)))
         payload = figure.to_json().replace("</", "<\\/")
         height = int(figure.layout.height or 450)
         self.parts.append(
@@ -536,7 +540,7 @@ def build_report(
     limits: Iterable[Bound] | Mapping[str, Any] | None = None,
     roles: Mapping[str, str] | None = None,
     chosen: Sequence[int] = (),
-    max_points: int = 30_000,
+    max_points: int = 3_000,
     top: int = 10,
     seed: int = 0,
     max_envelope: int = 40,
@@ -546,6 +550,7 @@ def build_report(
 
     spec = store.spec
     a = Analysis(spec, store.load(), limits, roles)
+    lab = labels_of(spec)
     stages = store.stages()
     page = _Page()
     _definition(page, a, store)
@@ -569,8 +574,9 @@ def build_report(
         pairs = [(order[i], order[j]) for i in range(len(order)) for j in range(i + 1, len(order))]
         for x, y in pairs[:3]:
             page.fig(
-                fg.scatter_figure(a, x, y, max_points=max_points, seed=seed),
-                "seed 001 Figs. 6, 11; seed 000 Fig. 8",
+                fg.scatter_figure(a, x, y, max_points=max_points, seed=seed, labels=lab, gl=False),
+                "seed 001 Figs. 6, 11; seed 000 Fig. 8; infeasible trials as a density (every "
+                "one of them), feasible and Pareto trials as points",
             )
         if len(names) >= 3:
             page.fig(
@@ -580,14 +586,32 @@ def build_report(
     if drawable:
         page.h2("Criterion vs parameter")
         p = len(spec.space)
-        per_panel = max(1000, max_points // max(p, 1))
+        per_panel = max(200, max_points // max(p, 1))
         for name in names:
             page.fig(
-                fg.criterion_vs_parameter_figure(a, name, max_points=per_panel, seed=seed),
+                fg.criterion_vs_parameter_figure(
+                    a, name, max_points=per_panel, seed=seed, labels=lab, gl=False
+                ),
                 "seed 000 Fig. 9",
             )
+    if drawable:
+        page.h2("Parallel coordinates")
+        page.fig(
+            fg.parallel_figure(a, lines=min(max_points, 500), seed=seed, labels=lab),
+            "criteria, functionals and parameters; the constraints in force are the brushes on "
+            "the criterion axes (in the browser UI, brushing an axis sets the constraint)",
+        )
+        page.h2("History")
+        page.fig(
+            fg.history_figure(history(a)),
+            "ND and NP among the first n trials under the constraints in force: when NP no "
+            "longer changes as N grows, more trials in this box add little",
+        )
     page.h2("Histograms")
-    page.fig(fg.histograms_figure(histograms(a)), "seed 000 Fig. 7, seed 001 Figs. 5, 10")
+    page.fig(
+        fg.histograms_figure(histograms(a), labels=lab),
+        "seed 000 Fig. 7, seed 001 Figs. 5, 10; each set on its own scale (share of the set)",
+    )
     sample = [s for s in stages if s.kind == "sample"]
     if len(sample) >= 2:
         hist = refine_history(store)
@@ -606,7 +630,23 @@ def build_report(
             f"<code>vectorid refine {_e(store.path)} --apply</code> and continue with "
             "<code>vectorid run STORE --trials N</code>.</p>"
         )
-        page.fig(fg.refine_figure(prop, a))
+        boxes = {
+            r["name"]: [
+                (r["old_low"], r["old_high"], "#7f7f7f", "current box"),
+                (r["new_low"], r["new_high"], PROPOSED_COLOUR, "proposed box"),
+            ]
+            for r in prop.rows()
+        }
+        page.fig(
+            fg.histograms_figure(
+                histograms(a),
+                labels=lab,
+                boxes=boxes,
+                title="Double tuning: ranges per parameter, current box (grey), proposed box "
+                "(purple)",
+            ),
+            "each set on its own scale (share of the set); seed 001 Sec. VI",
+        )
     except VectoridError as exc:
         page.add(f"<p class=note>{_e(exc)}</p>")
     page.h2("Correlation among near-optimal vectors")
@@ -678,7 +718,7 @@ def build_report(
     _identification(page, a, chosen, max_envelope)
     if page.notes:
         page.add(
-            "<h2>Decimation</h2><ul>" + "".join(f"<li>{_e(n)}</li>" for n in page.notes) + "</ul>"
+            "<h2>Thinning</h2><ul>" + "".join(f"<li>{_e(n)}</li>" for n in page.notes) + "</ul>"
         )
     toc = " ".join(f'<a href="#{a_}">{_e(t)}</a>' for a_, t in page.toc)
     title = f"vectorid report: {spec.name}"
@@ -701,7 +741,7 @@ def write_report(
     limits: Iterable[Bound] | Mapping[str, Any] | None = None,
     roles: Mapping[str, str] | None = None,
     chosen: Sequence[int] = (),
-    max_points: int = 30_000,
+    max_points: int = 3_000,
     top: int = 10,
     seed: int = 0,
     max_envelope: int = 40,
@@ -720,8 +760,9 @@ def write_report(
         Trial ids of the chosen vector(s); default: the suggestion of
         :func:`~vectorid.analysis.choice.suggest_choice`.
     max_points : int
-        Points per point-cloud figure (criterion vs criterion, matrix); the criterion vs
-        parameter grids get ``max(1000, max_points / p)`` per panel.
+        Points per set in each point cloud (criterion vs criterion, matrix); the criterion vs
+        parameter grids get ``max(200, max_points / p)`` per set and panel. Infeasible
+        trials beyond it are drawn as a density of all of them.
     top : int
         Rows of the test tables.
     seed : int

@@ -211,9 +211,14 @@ def parse_constraints(
         )
     for name, text in zip(names, texts):
         sense = spec.criteria[names.index(name)].sense
+        exact = _exact(text, spec.criteria[names.index(name)].limit)
         try:
-            limits[name] = parse_number(
-                text, f"constraint on {name} ({'<=' if sense == 'min' else '>='})"
+            limits[name] = (
+                exact
+                if exact is not None
+                else parse_number(
+                    text, f"constraint on {name} ({'<=' if sense == 'min' else '>='})"
+                )
             )
         except StudyDefinitionError as exc:
             errors[name] = str(exc)
@@ -239,6 +244,10 @@ def parse_constraints(
             )
         side: list[float | None] = [con.low, con.high]
         for k, (label, op) in enumerate((("low", ">="), ("high", "<="))):
+            exact = _exact(pair[k], (con.low, con.high)[k])
+            if exact is not None:
+                side[k] = exact
+                continue
             try:
                 side[k] = parse_number(
                     pair[k],
@@ -309,6 +318,11 @@ class StoreCache:
         the store (four cheap queries)."""
         with self.open() as st:
             return self._key_of(st)
+
+    def count_sample(self) -> int:
+        """Sample trials now in the store (one query; the progress of run jobs)."""
+        with self.open() as st:
+            return st.count_sample()
 
     def _refresh(self) -> None:
         with self.open() as st:
@@ -421,11 +435,19 @@ class StoreCache:
 
 
 def _text_of(v: float | None) -> str:
-    """A bound as field text: short, and exact (the text parses back to the same float)."""
+    """A bound as field text: about five significant digits (what a person reads); the
+    parsing keeps the exact stored value while the text is unchanged (see
+    :func:`parse_constraints`)."""
     if v is None:
         return ""
-    short = f"{v:.10g}"
-    return short if float(short) == v else repr(float(v))
+    return f"{float(v):.5g}"
+
+
+def _exact(text: Any, stored: float | None) -> float | None:
+    """The stored bound when ``text`` is still its rounded form, else None."""
+    if stored is None or not isinstance(text, str):
+        return None
+    return float(stored) if text.strip() == _text_of(stored) else None
 
 
 def limits_text(spec: StudySpec) -> list[str]:

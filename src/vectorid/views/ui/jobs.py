@@ -1,13 +1,17 @@
 """Background jobs of the browser UI: sections, robustness checks, new sample stages, and
 saving the constraints in force with the study.
 
-A job runs in a separate process (``multiprocessing`` *spawn* context, so nothing of the
-threaded web server is forked) that opens the store for writing, which takes the store's
-writer lock; the UI process keeps reading with read-only connections. One job at a time: a
-second request while one runs raises :class:`JobBusy`, whose message the UI shows. Progress
+Jobs run in one worker process started once with the UI (``multiprocessing`` *spawn*
+context, so nothing of the threaded web server is forked) and kept for every later job: its
+imports and compiled models stay warm, so a job starts in milliseconds and a run goes at the
+throughput of ``vectorid run`` with the same executor. For each job it opens the store for
+writing, which takes the store's writer lock, and closes it when the job ends; the UI process
+keeps reading with read-only connections. One job at a time: a second request while one runs
+raises :class:`JobBusy`, whose message the UI shows. Progress
 of a run job is read from the store itself (sample trials stored since the job began, out of
 the number asked for); a section or robustness job shows its elapsed time. "Stop" sends the
-job process SIGINT, so a run stores what it finished and logs itself as interrupted.
+worker SIGINT, so a run stores what it finished and logs itself as interrupted; the worker
+then waits for the next job. A worker that died is started again for the next job.
 """
 
 from __future__ import annotations
@@ -109,10 +113,9 @@ def run_job(kind: str, store_path: str, params: Mapping[str, Any]) -> str:
     str
         A one-line summary of what was stored.
     """
-    from ...analysis.refine import apply_refine, propose_refine
+    from ...analysis.refine import propose_refine
     from ...analysis.results import Analysis
-    from ...analysis.robustness import run_robustness
-    from ...analysis.sections import run_section
+    from ...run.extra import apply_refine, run_robustness, run_section
     from ...run.loop import run_store
     from ...store.sqlite import Store
 
@@ -179,21 +182,48 @@ def run_job(kind: str, store_path: str, params: Mapping[str, Any]) -> str:
         return note + summary.describe().splitlines()[0]
 
 
-def _job_main(kind: str, store_path: str, params: dict[str, Any], out: Any) -> None:
-    """Entry point of the job process: run the job and report its outcome on ``out``."""
+def _one_job(kind: str, store_path: str, params: dict[str, Any]) -> tuple[str, str]:
+    """Run one job and return ``(state, message)``; never raises."""
     from ...run.loop import RunInterrupted
 
     try:
-        out.put(("done", run_job(kind, store_path, params)))
+        return "done", run_job(kind, store_path, params)
     except RunInterrupted as exc:
-        out.put(("stopped", str(exc)))
+        return "stopped", str(exc)
     except KeyboardInterrupt:
-        out.put(("stopped", "stopped before anything was stored"))
+        return "stopped", "stopped before anything was stored"
     except VectoridError as exc:
-        out.put(("error", str(exc)))
+        return "error", str(exc)
     except BaseException as exc:  # a bug or a model error: say what, keep the trace on stderr
         traceback.print_exc()
-        out.put(("error", f"{type(exc).__name__}: {exc}"))
+        return "error", f"{type(exc).__name__}: {exc}"
+
+
+def _worker_main(inbox: Any, out: Any) -> None:
+    """The worker process: warm the imports, then run each job from ``inbox`` and report
+    ``(job id, state, message)`` on ``out``, until it receives None."""
+    import vectorid.run.extra
+    import vectorid.run.loop  # noqa: F401
+
+    out.put((0, "ready", ""))
+    while True:
+        try:
+            item = inbox.get()
+        except KeyboardInterrupt:  # a stop that came between jobs
+            continue
+        if item is None:
+            return
+        job_id, kind, store_path, params = item
+        try:
+            state, message = _one_job(kind, store_path, params)
+        except KeyboardInterrupt:
+            state, message = "stopped", "stopped"
+        while True:
+            try:
+                out.put((job_id, state, message))
+                break
+            except KeyboardInterrupt:
+                continue
 
 
 class JobManager:
@@ -227,8 +257,26 @@ class JobManager:
         self._lock = threading.Lock()
         self._proc: Any = None
         self._queue: Any = None
+        self._inbox: Any = None
         self._status = JobStatus()
         self._base = 0  # sample trials stored when the run job began
+
+    def _worker_locked(self) -> None:
+        """Start the worker process when none is alive."""
+        if self._proc is not None and self._proc.is_alive():
+            return
+        self._inbox = self._ctx.Queue()
+        self._queue = self._ctx.Queue()
+        self._proc = self._ctx.Process(
+            target=_worker_main, args=(self._inbox, self._queue), name="vectorid-ui-jobs"
+        )
+        self._proc.daemon = True
+        self._proc.start()
+
+    def warm(self) -> None:
+        """Start the worker now (it imports vectorid once; jobs then start at once)."""
+        with self._lock:
+            self._worker_locked()
 
     def start(self, kind: str, params: Mapping[str, Any], label: str) -> JobStatus:
         """Start a job.
@@ -255,16 +303,11 @@ class JobManager:
                 params.setdefault("executor", self.executor)
                 params.setdefault("workers", self.workers)
                 self._base = self._progress_of() if self._progress_of else 0
-            q = self._ctx.Queue()
-            proc = self._ctx.Process(
-                target=_job_main,
-                args=(kind, self.store_path, params, q),
-                name=f"vectorid-ui-{kind}",
-            )
-            proc.start()
-            self._proc, self._queue = proc, q
+            self._worker_locked()
+            job_id = self._status.id + 1
+            self._inbox.put((job_id, kind, self.store_path, params))
             self._status = JobStatus(
-                id=self._status.id + 1,
+                id=job_id,
                 kind=kind,
                 state="running",
                 label=label,
@@ -278,31 +321,34 @@ class JobManager:
         st = self._status
         if not st.running or self._proc is None:
             return
-        try:
-            state, message = self._queue.get_nowait()
-        except queue_mod.Empty:
-            if self._proc.is_alive():
-                if st.kind in ("refine", "continue") and self._progress_of:
-                    try:
-                        done = self._progress_of() - self._base
-                        st.progress = max(0.0, min(1.0, done / max(int(st.detail["trials"]), 1)))
-                    except Exception:  # the store is busy: keep the last progress
-                        pass
-                return
-            self._proc.join(1)
-            try:  # the result may have arrived between the two checks
-                state, message = self._queue.get(timeout=0.5)
+        while True:
+            try:
+                job_id, state, message = self._queue.get_nowait()
             except queue_mod.Empty:
-                state = "error"
-                message = (
-                    f"the job process ended without a result (exit code {self._proc.exitcode})"
-                )
-        self._proc.join(5)
+                if self._proc.is_alive():
+                    if st.kind in ("refine", "continue") and self._progress_of:
+                        try:
+                            done = self._progress_of() - self._base
+                            st.progress = max(
+                                0.0, min(1.0, done / max(int(st.detail["trials"]), 1))
+                            )
+                        except Exception:  # the store is busy: keep the last progress
+                            pass
+                    return
+                try:  # the result may have arrived before the worker ended
+                    job_id, state, message = self._queue.get(timeout=0.5)
+                except queue_mod.Empty:
+                    job_id, state = st.id, "error"
+                    message = (
+                        "the job worker ended without a result (exit code "
+                        f"{self._proc.exitcode}); it is started again for the next job"
+                    )
+                    self._proc = None
+            if job_id == st.id:
+                break  # 'ready' and results of earlier jobs are skipped
         st.state, st.message, st.finished = state, message, time.time()
         if state == "done" and st.progress is not None:
             st.progress = 1.0
-        self._proc = None
-        self._queue = None
 
     def status(self) -> JobStatus:
         """The current job's status (polls the job process)."""
@@ -311,25 +357,32 @@ class JobManager:
             return self._status
 
     def stop(self) -> bool:
-        """Ask the running job to stop (SIGINT: a run stores what it finished). Returns
-        whether a job was running."""
+        """Ask the running job to stop (SIGINT to the worker: a run stores what it
+        finished). Returns whether a job was running."""
         with self._lock:
+            self._poll_locked()
             proc = self._proc
-            if proc is None or not proc.is_alive():
+            if proc is None or not proc.is_alive() or not self._status.running:
                 return False
             os.kill(proc.pid, signal.SIGINT)
             return True
 
     def shutdown(self, timeout: float = 10.0) -> None:
-        """Stop the running job (if any) and wait for its process to end."""
+        """Stop the running job (if any), then the worker, and wait for it to end."""
         proc = self._proc
         if proc is None:
             return
         if proc.is_alive():
-            os.kill(proc.pid, signal.SIGINT)
+            if self._status.running:
+                os.kill(proc.pid, signal.SIGINT)
+            try:
+                self._inbox.put(None)
+            except Exception:
+                pass
             proc.join(timeout)
             if proc.is_alive():
                 proc.terminate()
                 proc.join(5)
         with self._lock:
             self._poll_locked()
+            self._proc = None

@@ -1,0 +1,733 @@
+"""Point clouds and per-set histograms that stay truthful at any number of trials.
+
+Each set keeps its colour (seed 001 Fig. 6: infeasible red, feasible blue, Pareto green) and
+is drawn so that it stays visible at 1e6 trials:
+
+* **infeasible** trials, usually the bulk, are drawn as a *density* (a 2-D histogram of every
+  infeasible trial, log-scaled red shades) when there are more of them than the point budget,
+  otherwise as points;
+* **feasible** and **Pareto** trials are drawn as points; a set larger than the budget is
+  thinned to a uniform random subset (fixed seed), so one fraction applies to the whole set and
+  its density on screen is proportional to its density in the data; the legend says
+  "N drawn of M (f %)" for every thinned set;
+* the legend toggles each set; the selection is drawn *in the set colours* (larger points
+  with a dark outline) so it never hides which set a trial is in.
+
+Histograms are drawn per set on its own scale (share of the set, %), as step lines, so the
+Pareto set's 30 trials are as readable as the feasible set's 30,000; the counts are in the
+hover text.
+
+Every trace's ``meta`` holds ``{"class", "count", "shown", "drawn_as"}`` (point clouds) or
+``{"class", "total"}`` (histograms).
+"""
+
+from __future__ import annotations
+
+import base64
+import math
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+import plotly.graph_objects as go
+
+from ..analysis.classes import CLASS_COLOURS, PointClasses, point_classes, subsample
+from ..analysis.histograms import Histogram
+from ..analysis.results import Analysis
+from ..errors import StudyDefinitionError, suggest
+
+__all__ = [
+    "HIST_SETS",
+    "SET_LABEL",
+    "axis_title",
+    "cloud_traces",
+    "column",
+    "criterion_vs_parameter_figure",
+    "density_grid",
+    "histograms_figure",
+    "limits_of",
+    "scatter_figure",
+    "thin",
+]
+
+#: A small light template (the full "plotly_white" costs ~40 ms to copy into each figure and
+#: ~10 kB of JSON per figure).
+LIGHT_LAYOUT: dict[str, Any] = {
+    "paper_bgcolor": "white",
+    "plot_bgcolor": "white",
+    "font": {"color": "#2a3f5f"},
+    "colorway": ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b"],
+    "xaxis": {"gridcolor": "#ebf0f8", "zerolinecolor": "#ebf0f8", "linecolor": "#bbb"},
+    "yaxis": {"gridcolor": "#ebf0f8", "zerolinecolor": "#ebf0f8", "linecolor": "#bbb"},
+    "hoverlabel": {"align": "left"},
+}
+TEMPLATE = go.layout.Template(layout=LIGHT_LAYOUT)
+LIMIT_LINE = {"color": "#444", "width": 1.2, "dash": "dash"}
+SET_LABEL = {"infeasible": "infeasible", "feasible": "feasible (in D)", "pareto": "Pareto"}
+#: The chosen trial (orange star) and the proposed refine box (purple).
+CHOSEN_COLOUR = "#ff7f0e"
+PROPOSED_COLOUR = "#9467bd"
+_DENSITY_SCALE = [[0.0, "rgba(214,39,40,0.0)"], [0.001, "rgba(214,39,40,0.12)"], [1.0, "#8b0000"]]
+
+
+def b64(v: Any) -> dict[str, str]:
+    """A numpy array as plotly.js's typed-array spec (``{"dtype", "bdata"}``): a fraction of
+    the JSON text of a list of numbers, and decoded without parsing in the browser."""
+    a = np.ascontiguousarray(v)
+    if a.dtype == np.float64:
+        a = a.astype(np.float32)
+    elif a.dtype == np.int64:
+        a = a.astype(np.int32)
+    elif a.dtype == np.bool_:
+        a = a.astype(np.uint8)
+    code = {"float32": "f4", "int32": "i4", "int8": "i1", "uint8": "u1", "int16": "i2"}[
+        str(a.dtype)
+    ]
+    out = {"dtype": code, "bdata": base64.b64encode(a.tobytes()).decode()}
+    if a.ndim == 2:
+        out["shape"] = f"{a.shape[0]}, {a.shape[1]}"
+    return out
+
+
+def _plain(v: Any) -> Any:
+    return v
+
+
+def figure(d: dict[str, Any], raw: bool) -> Any:
+    """``d`` itself (``raw``: the UI sends it as it is) or a validated ``go.Figure``."""
+    if raw:
+        return d
+    return go.Figure(d)
+
+
+def grid_layout(
+    n: int,
+    ncol: int,
+    titles: Sequence[str] | None = None,
+    *,
+    hspace: float = 0.05,
+    vspace: float | None = None,
+    shared_y: bool = False,
+) -> tuple[dict[str, Any], list[tuple[str, str]]]:
+    """Axes of an ``n``-panel grid (``ncol`` columns) as layout entries, with panel titles
+    as annotations; returns the layout and each panel's ``(xaxis, yaxis)`` names (what
+    ``make_subplots`` does, without its cost)."""
+    ncol = max(1, min(ncol, n))
+    nrow = max(1, math.ceil(n / ncol))
+    vspace = min(0.12, 0.55 / nrow) if vspace is None else vspace
+    w = (1.0 - hspace * (ncol - 1)) / ncol
+    h = (1.0 - vspace * (nrow - 1)) / nrow
+    layout: dict[str, Any] = {"annotations": []}
+    names = []
+    for i in range(n):
+        r, c = divmod(i, ncol)
+        k = "" if i == 0 else str(i + 1)
+        x0 = c * (w + hspace)
+        y1 = 1.0 - r * (h + vspace)
+        xa, ya = f"xaxis{k}", f"yaxis{k}"
+        clip = lambda v: min(1.0, max(0.0, round(v, 9)))  # noqa: E731 - float residue
+        layout[xa] = {"domain": [clip(x0), clip(x0 + w)], "anchor": f"y{k}"}
+        layout[ya] = {"domain": [clip(y1 - h), clip(y1)], "anchor": f"x{k}"}
+        if shared_y and c > 0:
+            first = "" if r * ncol == 0 else str(r * ncol + 1)
+            layout[ya]["matches"] = f"y{first}"
+            layout[ya]["showticklabels"] = False
+        names.append((f"x{k}", f"y{k}"))
+        if titles is not None and i < len(titles):
+            layout["annotations"].append(
+                {
+                    "text": titles[i],
+                    "x": x0 + w / 2,
+                    "y": y1,
+                    "xref": "paper",
+                    "yref": "paper",
+                    "xanchor": "center",
+                    "yanchor": "bottom",
+                    "showarrow": False,
+                    "font": {"size": 11},
+                }
+            )
+    return layout, names
+
+
+def compact(v: np.ndarray) -> np.ndarray:
+    """float32 copy (halves the payload; ~7 significant digits, enough to draw and hover)."""
+    return np.asarray(v, dtype=np.float32)
+
+
+def ids32(v: np.ndarray) -> np.ndarray:
+    v = np.asarray(v)
+    return v.astype(np.int32) if len(v) == 0 or int(v.max()) < 2**31 - 1 else v.astype(float)
+
+
+def column(a: Analysis, name: str) -> tuple[np.ndarray, str]:
+    """Values of a criterion, functional or parameter over the trials, and its kind."""
+    if name in a.crit_names:
+        return a.trials.F[:, a.crit_names.index(name)], "criterion"
+    if name in a.con_names:
+        return a.trials.G[:, a.con_names.index(name)], "functional"
+    names = a.spec.space.names
+    if name in names:
+        return a.trials.X[:, names.index(name)], "parameter"
+    raise StudyDefinitionError(
+        "name",
+        f"unknown criterion, functional or parameter {name!r}",
+        suggest(name, a.crit_names + a.con_names + names),
+    )
+
+
+def limits_of(a: Analysis, name: str) -> list[float]:
+    """Finite constraint values on ``name`` (criteria and functional constraints)."""
+    if name not in a.bounds:
+        return []
+    return [v for v in a.bounds[name] if math.isfinite(v)]
+
+
+def axis_title(name: str, labels: Any = None) -> str:
+    """``labels.axis(name)`` when labels are given (unit and meaning), else the name."""
+    return labels.axis(name) if labels is not None else name
+
+
+def thin(
+    classes: PointClasses, budget: int | None, seed: int = 0
+) -> tuple[dict[str, np.ndarray], dict[str, int]]:
+    """Rows drawn per set (failed trials excluded: their criteria are NaN).
+
+    Each set holding more than ``budget`` drawable trials is thinned to ``budget`` of them
+    (a uniform random subset, ``seed``); a smaller set is drawn whole. So within a set the
+    drawn density is proportional to the data's, and the legend names the fraction.
+
+    Returns
+    -------
+    rows : dict
+        Set name -> row indices drawn.
+    counts : dict
+        Set name -> drawable trials in the set.
+    """
+    rows: dict[str, np.ndarray] = {}
+    counts: dict[str, int] = {}
+    for name, mask in classes.items():
+        m = mask & ~classes.failed
+        counts[name] = int(m.sum())
+        rows[name] = subsample(m, budget, seed)
+    return rows, counts
+
+
+def _legend(name: str, count: int, shown: int, n_failed: int, density: bool) -> str:
+    label = SET_LABEL[name]
+    if density:
+        text = f"{label} ({count:,}, all as density)"
+    elif shown < count:
+        text = f"{label} ({count:,}; {shown:,} drawn, {100.0 * shown / count:.2g} %)"
+    else:
+        text = f"{label} ({count:,})"
+    if name == "infeasible" and n_failed:
+        text += f"; {n_failed:,} failed not drawn"
+    return text
+
+
+def density_grid(
+    x: np.ndarray, y: np.ndarray, bins: int = 80
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """2-D histogram of finite ``(x, y)``: cell centres (bins,), (bins,) and counts
+    (bins, bins) indexed ``[y, x]``."""
+    ok = np.isfinite(x) & np.isfinite(y)
+    x, y = x[ok], y[ok]
+    if len(x) == 0:
+        return np.zeros(0), np.zeros(0), np.zeros((0, 0))
+    xe = np.linspace(float(x.min()), float(x.max()) or 1.0, bins + 1)
+    ye = np.linspace(float(y.min()), float(y.max()) or 1.0, bins + 1)
+    if xe[-1] <= xe[0]:
+        xe = np.linspace(xe[0] - 0.5, xe[0] + 0.5, bins + 1)
+    if ye[-1] <= ye[0]:
+        ye = np.linspace(ye[0] - 0.5, ye[0] + 0.5, bins + 1)
+    h, _, _ = np.histogram2d(x, y, bins=(xe, ye))
+    return 0.5 * (xe[1:] + xe[:-1]), 0.5 * (ye[1:] + ye[:-1]), h.T
+
+
+def cloud_traces(
+    a: Analysis,
+    xv: np.ndarray,
+    yv: np.ndarray,
+    xname: str,
+    yname: str,
+    *,
+    budget: int | None,
+    seed: int = 0,
+    classes: PointClasses | None = None,
+    axes: tuple[str, str] = ("x", "y"),
+    showlegend: bool = True,
+    size: float = 4.0,
+    bins: int = 80,
+    selected: np.ndarray | None = None,
+    gl: bool = True,
+    enc: Any = _plain,
+) -> list[dict[str, Any]]:
+    """The traces (plain dicts) of one point cloud: infeasible density (or points), feasible
+    and Pareto points (thinned per set), and, when ``selected`` is given, the selection in
+    the set colours on top. ``enc`` encodes arrays (:func:`b64` for the browser)."""
+    pc = classes or point_classes(a)
+    rows, counts = thin(pc, budget, seed)
+    n_failed = int(pc.failed.sum())
+    out: list[dict[str, Any]] = []
+    ids = a.trials.id
+    kind = "scattergl" if gl else "scatter"
+    hover = f"trial %{{customdata}}<br>{xname}=%{{x:.5g}}<br>{yname}=%{{y:.5g}}"
+    sel = selected is not None and bool(selected.any())
+    for name in ("infeasible", "feasible", "pareto"):
+        r = rows[name]
+        density = name == "infeasible" and budget is not None and counts[name] > budget
+        meta = {
+            "class": name,
+            "count": counts[name],
+            "shown": counts[name] if density else len(r),
+            "drawn_as": "density" if density else "points",
+        }
+        legend = _legend(name, counts[name], len(r), n_failed, density)
+        if density:
+            m = pc.infeasible & ~pc.failed
+            cx, cy, z = density_grid(xv[m], yv[m], bins)
+            zl = np.where(z > 0, np.log10(np.maximum(z, 1)) + 1, np.nan)
+            out.append(
+                {
+                    "type": "heatmap",
+                    "x": enc(compact(cx)),
+                    "y": enc(compact(cy)),
+                    "z": enc(compact(zl)),
+                    "customdata": (
+                        z.astype(np.int32).tolist()
+                        if enc is not _plain
+                        else z.astype(np.int16 if z.max(initial=0) < 32767 else np.int32)
+                    ),
+                    "colorscale": _DENSITY_SCALE,
+                    "showscale": False,
+                    "name": legend,
+                    "legendgroup": name,
+                    "showlegend": showlegend,
+                    "hoverongaps": False,
+                    "hovertemplate": f"{xname}≈%{{x:.4g}}, {yname}≈%{{y:.4g}}<br>"
+                    "%{customdata} infeasible trials in this cell<extra></extra>",
+                    "xaxis": axes[0],
+                    "yaxis": axes[1],
+                    "meta": meta,
+                }
+            )
+            continue
+        if name == "pareto":
+            opacity = 0.25 if sel else 0.85
+        else:
+            opacity = 0.12 if sel else 0.5
+        out.append(
+            {
+                "type": kind,
+                "x": enc(compact(xv[r])),
+                "y": enc(compact(yv[r])),
+                "customdata": enc(ids32(ids[r])),
+                "mode": "markers",
+                "name": legend,
+                "legendgroup": name,
+                "showlegend": showlegend,
+                "marker": {
+                    "color": CLASS_COLOURS[name],
+                    "size": size + (2 if name == "pareto" else 0),
+                    "opacity": opacity,
+                },
+                "hovertemplate": hover + f"<extra>{SET_LABEL[name]}</extra>",
+                "xaxis": axes[0],
+                "yaxis": axes[1],
+                "meta": meta,
+            }
+        )
+    if sel:
+        assert selected is not None
+        n_sel = int(selected.sum())
+        for name, mask in pc.items():
+            m = mask & selected & np.isfinite(xv) & np.isfinite(yv)
+            r = subsample(m, budget, seed)
+            if not len(r):
+                continue
+            out.append(
+                {
+                    "type": kind,
+                    "x": enc(compact(xv[r])),
+                    "y": enc(compact(yv[r])),
+                    "customdata": enc(ids32(ids[r])),
+                    "mode": "markers",
+                    "name": f"selected: {SET_LABEL[name]} ({int(m.sum()):,})",
+                    "legendgroup": "selected",
+                    "showlegend": showlegend,
+                    "marker": {
+                        "color": CLASS_COLOURS[name],
+                        "size": size + 4,
+                        "line": {"color": "#111", "width": 1.2},
+                    },
+                    "hovertemplate": hover + "<extra>selected</extra>",
+                    "xaxis": axes[0],
+                    "yaxis": axes[1],
+                    "meta": {"class": "selected", "set": name, "count": n_sel, "shown": len(r)},
+                }
+            )
+    return out
+
+
+def _limit_shapes(a: Analysis, x: str, y: str, xref: str = "x", yref: str = "y") -> list[dict]:
+    shapes = []
+    for v in limits_of(a, x) if x else []:
+        shapes.append(
+            {
+                "type": "line",
+                "xref": xref,
+                "yref": f"{yref} domain",
+                "x0": v,
+                "x1": v,
+                "y0": 0,
+                "y1": 1,
+                "line": LIMIT_LINE,
+            }
+        )
+    for v in limits_of(a, y) if y else []:
+        shapes.append(
+            {
+                "type": "line",
+                "xref": f"{xref} domain",
+                "yref": yref,
+                "x0": 0,
+                "x1": 1,
+                "y0": v,
+                "y1": v,
+                "line": LIMIT_LINE,
+            }
+        )
+    return shapes
+
+
+def _base_layout(**kw: Any) -> dict[str, Any]:
+    out: dict[str, Any] = {"template": {"layout": LIGHT_LAYOUT}}
+    out.update(kw)
+    return out
+
+
+def scatter_figure(
+    a: Analysis,
+    x: str,
+    y: str,
+    *,
+    max_points: int | None = None,
+    seed: int = 0,
+    title: str | None = None,
+    labels: Any = None,
+    selected: np.ndarray | None = None,
+    gl: bool = True,
+    raw: bool = False,
+) -> Any:
+    """Criterion vs criterion (seed 001 Figs. 6, 11; seed 000 Fig. 8), or any two of
+    criteria, functionals and parameters: every set in its colour, constraints as dashed
+    lines.
+
+    Parameters
+    ----------
+    a : Analysis
+    x, y : str
+        Criterion, functional or parameter names.
+    max_points : int, optional
+        Points drawn per set (see the module docstring); None draws every trial as a point.
+    seed : int
+        Seed of the thinning subsets.
+    labels : Labels, optional
+        Units and meanings for the axis titles (:func:`vectorid.views.ui.context.labels_of`).
+    selected : (n,) bool, optional
+        Trials to draw on top, in their set colours.
+    gl : bool
+        WebGL points (``Scattergl``); False draws SVG points (the report, where every figure
+        is drawn at once and WebGL contexts are few).
+    raw : bool
+        Return the figure as a plain dict with base64 arrays (what the browser UI sends)
+        instead of a ``go.Figure``.
+    """
+    xv, _ = column(a, x)
+    yv, _ = column(a, y)
+    enc = b64 if raw else _plain
+    data = cloud_traces(
+        a, xv, yv, x, y, budget=max_points, seed=seed, selected=selected, gl=gl, enc=enc
+    )
+    layout = _base_layout(
+        title={
+            "text": title or f"{y} vs {x}   (N={a.n:,}, ND={a.n_feasible:,}, NP={a.n_pareto:,})"
+        },
+        xaxis={"title": {"text": axis_title(x, labels)}},
+        yaxis={"title": {"text": axis_title(y, labels)}},
+        shapes=_limit_shapes(a, x, y),
+        legend={"orientation": "h", "y": 1.02, "yanchor": "bottom", "x": 0},
+        height=520,
+    )
+    return figure({"data": data, "layout": layout}, raw)
+
+
+def criterion_vs_parameter_figure(
+    a: Analysis,
+    criterion: str,
+    params: Sequence[str] | None = None,
+    *,
+    max_points: int | None = None,
+    seed: int = 0,
+    cols: int = 4,
+    labels: Any = None,
+    selected: np.ndarray | None = None,
+    gl: bool = True,
+    raw: bool = False,
+) -> Any:
+    """One criterion against each parameter over all trials (seed 000 Fig. 9), one panel
+    per parameter; ``max_points`` applies per set and panel (the same trials in every
+    panel)."""
+    params = list(params) if params is not None else a.spec.space.names
+    yv, _ = column(a, criterion)
+    pc = point_classes(a)
+    enc = b64 if raw else _plain
+    ncol = min(cols, len(params))
+    nrow = math.ceil(len(params) / ncol)
+    titles = [labels.short(p) if labels is not None else p for p in params]
+    layout, axes = grid_layout(len(params), ncol, titles, hspace=0.03, shared_y=True)
+    data: list[dict[str, Any]] = []
+    shapes: list[dict] = []
+    for i, p in enumerate(params):
+        xv, _ = column(a, p)
+        data += cloud_traces(
+            a,
+            xv,
+            yv,
+            p,
+            criterion,
+            budget=max_points,
+            seed=seed,
+            classes=pc,
+            axes=axes[i],
+            showlegend=i == 0,
+            size=3,
+            bins=30,
+            selected=selected,
+            gl=gl,
+            enc=enc,
+        )
+        shapes += _limit_shapes(a, "", criterion, axes[i][0], axes[i][1])
+    for r in range(nrow):
+        k = "" if r * ncol == 0 else str(r * ncol + 1)
+        layout[f"yaxis{k}"]["title"] = {"text": axis_title(criterion, labels), "font": {"size": 11}}
+    layout.update(
+        _base_layout(
+            title={
+                "text": f"{criterion} vs parameters   (N={a.n:,}, ND={a.n_feasible:,}, "
+                f"NP={a.n_pareto:,})"
+            },
+            shapes=shapes,
+            height=max(360, 250 * nrow),
+            legend={"orientation": "h", "y": -0.08 if nrow > 1 else -0.2},
+        )
+    )
+    return figure({"data": data, "layout": layout}, raw)
+
+
+def _share(counts: np.ndarray) -> np.ndarray:
+    tot = counts.sum()
+    return 100.0 * counts / tot if tot else np.zeros_like(counts, dtype=float)
+
+
+#: Codes of the sets in a histogram click's customdata ``[count, panel, set, bin]``.
+HIST_SETS = ("all", "feasible", "pareto", "selected")
+
+
+def _step(
+    h: Histogram, counts: np.ndarray, set_label: str, cls: str, panel: int, enc: Any, **kw: Any
+) -> dict[str, Any]:
+    """A histogram as a step line over the bin edges (one SVG path, cheap at any size).
+    Each point's customdata is ``[count, panel, set code, bin]`` (a click selects the bin)."""
+    share = _share(counts.astype(float))
+    x = np.repeat(h.edges, 2)[1:-1]
+    y = np.repeat(share, 2)
+    nb = len(counts)
+    cd = np.column_stack(
+        [
+            np.repeat(counts.astype(np.int64), 2),
+            np.full(2 * nb, panel),
+            np.full(2 * nb, HIST_SETS.index(cls)),
+            np.repeat(np.arange(nb), 2),
+        ]
+    ).astype(np.int32)
+    out = {
+        "type": "scatter",
+        "x": enc(compact(x)),
+        "y": enc(compact(y)),
+        "customdata": cd.tolist() if enc is not _plain else cd,
+        "mode": "lines",
+        "hovertemplate": f"{h.param}=%{{x:.4g}}: %{{y:.3g}} % of the set "
+        f"(%{{customdata[0]}} trials)<extra>{set_label}</extra>",
+        "meta": {"class": cls, "total": int(counts.sum())},
+    }
+    out.update(kw)
+    return out
+
+
+def histograms_figure(
+    hists: Sequence[Histogram],
+    *,
+    cols: int = 4,
+    show_all: bool = True,
+    title: str = "Parameters per set (each set on its own scale: share of the set, %)",
+    labels: Any = None,
+    selection: Sequence[np.ndarray] | None = None,
+    chosen: Sequence[float] | None = None,
+    boxes: Mapping[str, Sequence[tuple[float, float, str, str]]] | None = None,
+    raw: bool = False,
+) -> Any:
+    """Histograms per parameter (seed 000 Fig. 7, seed 001 Fig. 10), each set on its own
+    scale: all trials (grey), feasible (blue, filled), Pareto (green) as the share of the
+    set in each bin; counts in the hover.
+
+    Parameters
+    ----------
+    hists : sequence of Histogram
+    selection : sequence of (bins,) int, optional
+        Counts of the selected trials per bin, one per histogram (a dotted black line).
+    chosen : sequence of float, optional
+        The chosen trial's value per parameter (an orange line).
+    boxes : mapping parameter -> [(low, high, colour, label)], optional
+        Intervals shaded on each panel (the refine view: the current and proposed box).
+    raw : bool
+        Return a plain dict with base64 arrays (the browser UI) instead of a ``go.Figure``.
+    """
+    enc = b64 if raw else _plain
+    n = max(1, len(hists))
+    ncol = min(cols, n)
+    nrow = math.ceil(n / ncol)
+    titles = [
+        (labels.short(h.param) if labels is not None else h.param)
+        + ("" if h.stage is None else f" (stage {h.stage})")
+        for h in hists
+    ]
+    layout, axes = grid_layout(n, ncol, titles, hspace=0.05, vspace=min(0.12, 0.55 / nrow))
+    data: list[dict[str, Any]] = []
+    shapes: list[dict] = []
+    for i, h in enumerate(hists):
+        xa, ya = axes[i]
+        first = i == 0
+        common = {"xaxis": xa, "yaxis": ya, "showlegend": first}
+        if show_all:
+            data.append(
+                _step(
+                    h,
+                    h.all,
+                    "all trials",
+                    "all",
+                    i,
+                    enc,
+                    name=f"all trials ({int(h.all.sum()):,})",
+                    legendgroup="all",
+                    line={"color": "#999", "width": 1},
+                    **common,
+                )
+            )
+        data.append(
+            _step(
+                h,
+                h.feasible,
+                SET_LABEL["feasible"],
+                "feasible",
+                i,
+                enc,
+                name=f"{SET_LABEL['feasible']} ({int(h.feasible.sum()):,})",
+                legendgroup="feasible",
+                line={"color": CLASS_COLOURS["feasible"], "width": 1.5},
+                fill="tozeroy",
+                fillcolor="rgba(31,119,180,0.18)",
+                **common,
+            )
+        )
+        data.append(
+            _step(
+                h,
+                h.pareto,
+                "Pareto",
+                "pareto",
+                i,
+                enc,
+                name=f"Pareto ({int(h.pareto.sum()):,})",
+                legendgroup="pareto",
+                line={"color": CLASS_COLOURS["pareto"], "width": 2.2},
+                **common,
+            )
+        )
+        if selection is not None and i < len(selection):
+            sc = np.asarray(selection[i])
+            data.append(
+                _step(
+                    h,
+                    sc,
+                    "selected",
+                    "selected",
+                    i,
+                    enc,
+                    name=f"selected ({int(sc.sum()):,})",
+                    legendgroup="selected",
+                    line={"color": "#111", "width": 1.5, "dash": "dot"},
+                    **common,
+                )
+            )
+        layout[f"yaxis{xa[1:]}"]["rangemode"] = "tozero"
+        if i % ncol == 0:
+            layout[f"yaxis{xa[1:]}"]["title"] = {"text": "% of set", "font": {"size": 11}}
+        if chosen is not None and i < len(chosen) and np.isfinite(chosen[i]):
+            shapes.append(
+                {
+                    "type": "line",
+                    "xref": xa,
+                    "yref": f"{ya} domain",
+                    "x0": float(chosen[i]),
+                    "x1": float(chosen[i]),
+                    "y0": 0,
+                    "y1": 1,
+                    "line": {"color": CHOSEN_COLOUR, "width": 2},
+                }
+            )
+        for lo, hi, colour, _label in (boxes or {}).get(h.param, ()):
+            shapes.append(
+                {
+                    "type": "rect",
+                    "xref": xa,
+                    "yref": f"{ya} domain",
+                    "x0": float(lo),
+                    "x1": float(hi),
+                    "y0": 0,
+                    "y1": 1,
+                    "fillcolor": colour,
+                    "opacity": 0.16,
+                    "line": {"color": colour, "width": 1.5},
+                    "layer": "below",
+                }
+            )
+    if boxes:
+        seen: dict[str, str] = {}
+        for items in boxes.values():
+            for _lo, _hi, colour, label in items:
+                seen.setdefault(label, colour)
+        for label, colour in seen.items():
+            data.append(
+                {
+                    "type": "scatter",
+                    "x": [None],
+                    "y": [None],
+                    "mode": "markers",
+                    "marker": {"symbol": "square", "size": 12, "color": colour, "opacity": 0.5},
+                    "name": label,
+                    "meta": {"class": "box"},
+                }
+            )
+    layout.update(
+        _base_layout(
+            title={"text": title},
+            shapes=shapes,
+            height=max(320, 210 * nrow + 60),
+            margin={"t": 100, "b": 40, "l": 50, "r": 20},
+            legend={"orientation": "h", "y": 1.0, "yanchor": "top", "x": 0, "yref": "container"},
+            hovermode="closest",
+        )
+    )
+    return figure({"data": data, "layout": layout}, raw)

@@ -1,0 +1,105 @@
+"""Units and meanings of the names of a study (criteria, functional constraints, parameters),
+for every axis, field and table header a person reads."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+__all__ = ["Labels", "labels_of"]
+
+
+@dataclass(frozen=True)
+class Labels:
+    """Unit and meaning of every criterion, functional constraint and parameter.
+
+    Attributes
+    ----------
+    unit : dict
+        Name -> unit ("" when the study gives none).
+    meaning : dict
+        Name -> what it is, in words ("" when unknown).
+    kind : dict
+        Name -> ``"criterion"``, ``"functional"`` or ``"parameter"``.
+    nominal : dict
+        Parameter -> its nominal value: the study's, else (identification studies) the
+        model's, the value ``vectorid demo`` and the report call nominal; None when neither
+        gives one.
+    """
+
+    unit: dict[str, str]
+    meaning: dict[str, str]
+    kind: dict[str, str]
+    nominal: dict[str, float | None] = field(default_factory=dict)
+
+    def axis(self, name: str) -> str:
+        """An axis title: ``name, unit — meaning`` (the parts that are known)."""
+        u = self.unit.get(name, "")
+        m = self.meaning.get(name, "")
+        text = f"{name}, {u}" if u and u != "-" else name
+        return f"{text} — {m}" if m else text
+
+    def short(self, name: str) -> str:
+        """``name [unit]`` for table headers and legends."""
+        u = self.unit.get(name, "")
+        return f"{name} [{u}]" if u and u != "-" else name
+
+    def tip(self, name: str) -> str:
+        """A one-line tooltip: kind, unit and meaning."""
+        parts = [self.kind.get(name, "")]
+        if self.unit.get(name):
+            parts.append(f"unit {self.unit[name]}")
+        if self.meaning.get(name):
+            parts.append(self.meaning[name])
+        return "; ".join(p for p in parts if p)
+
+
+def labels_of(spec: Any) -> Labels:
+    """Units and meanings from the study (units of variables, criteria and functional
+    constraints) and, for an identification study, from the model's parameter table and the
+    criteria library (:data:`vectorid.identify.criteria.CRITERIA`)."""
+    unit: dict[str, str] = {}
+    meaning: dict[str, str] = {}
+    kind: dict[str, str] = {}
+    nominal: dict[str, float | None] = {}
+    for v in spec.space:
+        unit[v.name] = v.unit or ""
+        kind[v.name] = "parameter"
+        nominal[v.name] = None if v.nominal is None else float(v.nominal)
+    for c in spec.criteria:
+        unit[c.name] = getattr(c, "unit", "") or ""
+        kind[c.name] = f"criterion ({c.sense}, {c.role})"
+    for g in spec.constraints:
+        unit[g.name] = getattr(g, "unit", "") or ""
+        kind[g.name] = "functional constraint"
+    ident = spec.extra.get("identification") if isinstance(spec.extra, Mapping) else None
+    if isinstance(ident, Mapping):
+        try:  # best effort: the names are the model's and the library's
+            from ..models import get as get_model
+
+            model = get_model(str(ident.get("model", spec.model)))
+            fixed = dict(ident.get("parameters") or {})
+            for p in model.parameters:
+                if p.name in unit:
+                    meaning[p.name] = p.meaning
+                    if nominal.get(p.name) is None:
+                        nominal[p.name] = float(fixed.get(p.name, p.nominal))
+                    if not unit[p.name] and p.unit and p.unit != "-":
+                        unit[p.name] = p.unit
+        except Exception:  # an unknown model: the names stay without meanings
+            pass
+        try:
+            from ..identify.criteria import CRITERIA
+
+            table = ident.get("criteria") if isinstance(ident.get("criteria"), Mapping) else {}
+            for c in spec.criteria:
+                use = table.get(c.name, {}).get("use", c.name) if table else c.name
+                d = CRITERIA.get(str(use))
+                if d is not None:
+                    meaning[c.name] = d.meaning
+                    if not unit[c.name]:
+                        unit[c.name] = d.unit
+        except Exception:
+            pass
+    return Labels(unit, meaning, kind, nominal)

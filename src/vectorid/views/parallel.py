@@ -1,0 +1,185 @@
+"""Parallel coordinates of criteria, functionals and parameters, coloured by set, whose axis
+brushes *are* the constraints: a criterion axis's range is its criteria constraint Φ** (the
+worse side), a functional axis's range its bounds, a parameter axis's range a sub-box
+selection (:func:`brush_to_constraints`).
+
+Lines are thinned per set as the point clouds are (:func:`vectorid.views.clouds.thin`: each
+set above the budget keeps a uniform random subset, and the title says so); the Pareto set is
+drawn last, on top.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from ..analysis.classes import CLASS_COLOURS, point_classes
+from ..analysis.results import Analysis
+from .clouds import _base_layout, _plain, b64, column, figure, thin
+
+__all__ = ["brush_event", "parallel_figure"]
+
+_CODE = {"infeasible": 0, "feasible": 1, "pareto": 2}
+_SCALE = [
+    [0.0, CLASS_COLOURS["infeasible"]],
+    [0.33, CLASS_COLOURS["infeasible"]],
+    [0.34, CLASS_COLOURS["feasible"]],
+    [0.66, CLASS_COLOURS["feasible"]],
+    [0.67, CLASS_COLOURS["pareto"]],
+    [1.0, CLASS_COLOURS["pareto"]],
+]
+
+
+def _range(v: np.ndarray) -> tuple[float, float]:
+    f = v[np.isfinite(v)]
+    if not len(f):
+        return 0.0, 1.0
+    lo, hi = float(f.min()), float(f.max())
+    return (lo, hi) if hi > lo else (lo - 0.5, hi + 0.5)
+
+
+def parallel_figure(
+    a: Analysis,
+    names: Sequence[str] | None = None,
+    *,
+    lines: int | None = 1500,
+    seed: int = 0,
+    labels: Any = None,
+    ranges: Mapping[str, Sequence[float]] | None = None,
+    title: str | None = None,
+    raw: bool = False,
+) -> Any:
+    """Parallel coordinates (criteria, functionals, then parameters), one line per trial,
+    coloured by set (infeasible red, feasible blue, Pareto green).
+
+    Parameters
+    ----------
+    a : Analysis
+    names : sequence of str, optional
+        Axes, in order (default: criteria, functionals, parameters).
+    lines : int, optional
+        Lines drawn per set (thinned beyond; None draws every trial).
+    labels : Labels, optional
+        Units for the axis labels.
+    ranges : mapping name -> (low, high), optional
+        Sub-box selection on parameter axes (drawn as brushes).
+    raw : bool
+        Return a plain dict with base64 arrays (the browser UI) instead of a ``go.Figure``.
+
+    Returns
+    -------
+    go.Figure
+        ``layout.meta`` holds ``{"names": [...]}``, the axis order, so that a brush event
+        (which names the dimension by index) maps back to a name.
+    """
+    names = list(names) if names is not None else a.crit_names + a.con_names + a.spec.space.names
+    enc = b64 if raw else _plain
+    pc = point_classes(a)
+    rows, counts = thin(pc, lines, seed)
+    order = np.concatenate([rows["infeasible"], rows["feasible"], rows["pareto"]])
+    code = np.concatenate(
+        [
+            np.full(len(rows[k]), _CODE[k], dtype=np.int8)
+            for k in ("infeasible", "feasible", "pareto")
+        ]
+    )
+    dims = []
+    for name in names:
+        v, kind = column(a, name)
+        lo, hi = _range(v)
+        d: dict[str, Any] = {
+            "label": labels.short(name) if labels is not None else name,
+            "values": enc(np.asarray(v[order], dtype=np.float32)),
+            "range": [lo, hi],
+        }
+        if kind in ("criterion", "functional"):
+            blo, bhi = a.bounds[name]
+            if math.isfinite(blo) or math.isfinite(bhi):
+                d["constraintrange"] = (
+                    [max(blo, lo), min(bhi, hi)] if blo <= hi and bhi >= lo else [lo, lo]
+                )
+        elif ranges and name in ranges:
+            d["constraintrange"] = [float(ranges[name][0]), float(ranges[name][1])]
+        dims.append(d)
+    shown = {k: len(rows[k]) for k in rows}
+
+    def part(k: str, label: str) -> str:
+        if shown[k] < counts[k]:
+            return f"{label} {shown[k]:,} of {counts[k]:,}"
+        return f"{label} {counts[k]:,}"
+
+    trace = {
+        "type": "parcoords",
+        "line": {"color": enc(code), "colorscale": _SCALE, "cmin": 0, "cmax": 2},
+        "dimensions": dims,
+        "unselected": {"line": {"color": "#bbb", "opacity": 0.08}},
+        "labelangle": -25,
+        "labelfont": {"size": 11},
+        "meta": {"class": "parallel", "shown": shown, "count": counts},
+    }
+    text = title or (
+        f"Parallel coordinates (N={a.n:,}, ND={a.n_feasible:,}, NP={a.n_pareto:,}); lines: "
+        + ", ".join(
+            [
+                part("pareto", "Pareto (green)"),
+                part("feasible", "feasible (blue)"),
+                part("infeasible", "infeasible (red, grey outside a brush)"),
+            ]
+        )
+    )
+    layout = _base_layout(
+        title={"text": text, "font": {"size": 13}},
+        height=460,
+        margin={"t": 110, "l": 60, "r": 60, "b": 30},
+        meta={"names": names},
+    )
+    return figure({"data": [trace], "layout": layout}, raw)
+
+
+_KEY = re.compile(r"^dimensions\[(\d+)\]\.constraintrange$")
+
+
+def brush_event(event: Any, names: Sequence[str]) -> dict[str, tuple[float, float] | None]:
+    """Brushed ranges from a Plotly ``restyleData`` event of :func:`parallel_figure`.
+
+    Parameters
+    ----------
+    event : list
+        ``[{"dimensions[i].constraintrange": [[lo, hi]] | [lo, hi] | None}, [0]]`` as Plotly
+        sends it.
+    names : sequence of str
+        The figure's axis order (``layout.meta["names"]``).
+
+    Returns
+    -------
+    dict
+        Axis name -> ``(low, high)``, or None where the brush was removed. Several ranges on
+        one axis are merged into their hull. Keys that are not brushes are ignored.
+    """
+    out: dict[str, tuple[float, float] | None] = {}
+    if not isinstance(event, list | tuple) or not event or not isinstance(event[0], Mapping):
+        return out
+    for key, value in event[0].items():
+        m = _KEY.match(str(key))
+        if not m:
+            continue
+        i = int(m.group(1))
+        if not 0 <= i < len(names):
+            continue
+        v = value
+        while isinstance(v, list | tuple) and len(v) == 1 and isinstance(v[0], list | tuple):
+            v = v[0]
+        if v is None or (isinstance(v, list | tuple) and not v):
+            out[names[i]] = None
+            continue
+        flat = np.asarray(v, dtype=float).ravel()
+        flat = flat[np.isfinite(flat)]
+        if len(flat) < 2:
+            out[names[i]] = None
+            continue
+        out[names[i]] = (float(flat.min()), float(flat.max()))
+    return out

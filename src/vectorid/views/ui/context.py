@@ -1,0 +1,123 @@
+"""What every view of the UI shares: the :class:`UIContext`, number formatting for people
+(about five significant digits), and the units and meanings of every name of the study.
+
+Nothing here draws or lays out; the views' data functions (:mod:`.explore`, :mod:`.trial`,
+...) use it, and so do their Dash pages (:mod:`.pages`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+from ...analysis.results import Analysis
+from ..labels import Labels, labels_of
+from .data import Constraints, StoreCache, finite, parse_constraints
+from .jobs import JobManager
+
+__all__ = ["DIGITS", "Labels", "UIContext", "analysis_of", "fmt", "labels_of", "num"]
+
+#: Significant digits shown for a number a person reads (limits, table cells, ranges).
+DIGITS = 5
+
+
+def fmt(v: Any, digits: int = DIGITS) -> str:
+    """``v`` with ``digits`` significant digits ("" for None, "nan" for NaN)."""
+    if v is None:
+        return ""
+    try:
+        f = float(v)
+    except (TypeError, ValueError):
+        return str(v)
+    if math.isnan(f):
+        return "nan"
+    if math.isinf(f):
+        return "inf" if f > 0 else "-inf"
+    return f"{f:.{digits}g}"
+
+
+def num(v: Any, digits: int = DIGITS) -> float | None:
+    """``v`` rounded to ``digits`` significant digits, JSON-safe (None for NaN/inf)."""
+    f = finite(v)
+    return None if f is None else float(f"{f:.{digits}g}")
+
+
+@dataclass
+class UIContext:
+    """Everything the callbacks share: the store cache, the job manager and display sizes.
+
+    Attributes
+    ----------
+    cache : StoreCache
+    jobs : JobManager
+    max_points : int
+        Points drawn per set in the criterion-vs-criterion plot (beyond it the set is thinned
+        at one fraction, and the legend says which).
+    panel_points : int
+        Points per set in each panel of the criterion-vs-parameter grid.
+    table_rows : int
+        Rows of each test-table column.
+    set_rows : int
+        Rows per page of the trial table.
+    parallel_lines : int
+        Lines per set in the parallel-coordinates view.
+    """
+
+    cache: StoreCache
+    jobs: JobManager
+    max_points: int = 20_000
+    panel_points: int = 3_000
+    table_rows: int = 50
+    set_rows: int = 25
+    parallel_lines: int = 600
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def spec(self):
+        return self.cache.spec
+
+    @property
+    def labels(self) -> Labels:
+        key = id(self.cache.spec)
+        hit = self.extra.get("labels")
+        if hit is None or hit[0] != key:
+            hit = (key, labels_of(self.cache.spec))
+            self.extra["labels"] = hit
+        return hit[1]
+
+
+def analysis_of(
+    ctx: UIContext, limit_texts: Any, roles: Any, functional: Any = None
+) -> tuple[Analysis, Constraints]:
+    """The analysis under the constraint fields (memoised by the cache) and the parsed
+    constraints."""
+    c = parse_constraints(ctx.spec, limit_texts, roles, functional)
+    return ctx.cache.analysis(c), c
+
+
+def verdicts_of(a: Analysis) -> dict[str, str]:
+    """Identifiability verdict per parameter ('identified', 'weak', 'not identified'), where
+    :mod:`vectorid.analysis.identifiability` provides them; {} until it does. The refine view
+    and the chosen trial's parameter table show them in their "identifiability" column."""
+    try:
+        from ...analysis import identifiability  # type: ignore[attr-defined]
+    except ImportError:
+        return {}
+    fn = getattr(identifiability, "verdicts", None)
+    if fn is None:
+        return {}
+    try:
+        return {str(k): str(v) for k, v in dict(fn(a)).items()}
+    except Exception:  # the verdicts are an extra: never break the view over them
+        return {}
+
+
+def limit_source_of(criterion: Any) -> str:
+    """Where a criterion's limit comes from ("expert", "noise", "quantile" and its note),
+    where the study records it (``Criterion.limit_source``); "" until it does."""
+    src = getattr(criterion, "limit_source", None)
+    if not src:
+        return ""
+    note = getattr(criterion, "limit_note", "") or ""
+    return f"{src}: {note}" if note else str(src)

@@ -1,0 +1,468 @@
+"""Data of the explorer view (test tables & plots): counts, test tables, the criterion plot,
+the lower panels (histograms, criterion vs parameter), selections and the box-to-constraints
+rule. Plain functions: browser values in, plain data and Plotly figures out.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from ...analysis.histograms import histogram, histograms
+from ...analysis.results import Analysis
+from ...errors import StudyDefinitionError, VectoridError
+from .. import clouds
+from .context import UIContext, analysis_of, fmt, num
+from .data import parse_trial_id
+
+__all__ = [
+    "box_to_limits",
+    "counts_view",
+    "panel_view",
+    "scatter_view",
+    "selection_from_event",
+    "selection_mask",
+    "summary_view",
+]
+
+CHOSEN = {"color": clouds.CHOSEN_COLOUR, "symbol": "star", "size": 16, "line": {"width": 1}}
+_MAX_IDS = 5000  # ids a selection may list (lasso); boxes, bins and ranges are kept as ranges
+#: Colour of a test-table cell outside D (the method's red) and inside (blue).
+OUTSIDE, INSIDE = "#d62728", "#1f77b4"
+
+
+def counts_view(ctx: UIContext, limit_texts: Any, roles: Any, functional: Any = None) -> dict:
+    """N, ND, NP, failed trials and trials meeting the functional constraints under the
+    constraint fields (the fast path: nothing else is computed)."""
+    a, _ = analysis_of(ctx, limit_texts, roles, functional)
+    return {
+        "n": a.n,
+        "nd": a.n_feasible,
+        "np": a.n_pareto,
+        "failed": a.n_failed,
+        "functional": a.n_functional,
+    }
+
+
+def summary_view(
+    ctx: UIContext, limit_texts: Any, roles: Any, functional: Any = None
+) -> dict[str, Any]:
+    """Counts, messages, constraints in force and the test tables.
+
+    Parameters
+    ----------
+    limit_texts : sequence
+        One constraint field per criterion (text; empty for no limit).
+    roles : sequence
+        ``"pure"``/``"pseudo"`` per criterion.
+    functional : sequence, optional
+        One ``(low, high)`` pair of field texts per functional constraint (empty for no
+        bound); None keeps the study's bounds.
+
+    Returns
+    -------
+    dict
+        ``counts`` (n, nd, np, failed, functional), ``invalid`` (per criterion),
+        ``invalid_functional`` (``[low, high]`` per functional constraint), ``messages``,
+        ``in_force`` (text), ``pure``, ``ranges`` (min/max per criterion) and ``table``
+        (columns, data, styles of the test tables).
+    """
+    a, c = analysis_of(ctx, limit_texts, roles, functional)
+    messages = list(c.messages)
+    if a.n == 0:
+        messages.append("the store holds no trial yet; start a stage on the Refine tab")
+    elif a.n_feasible == 0:
+        messages.append(a.diagnose_empty().describe())
+    # test tables (seed 000 Fig. 6): ids and values best first, red outside D, blue inside.
+    # The order is cached per store version (it does not depend on criteria constraints).
+    tables = ctx.cache.test_tables(c)
+    lab = ctx.labels
+    columns: list[dict[str, Any]] = []
+    styles: list[dict[str, Any]] = []
+    m = ctx.table_rows
+    data: list[dict[str, Any]] = [
+        {} for _ in range(min(m, max((len(t.ids) for t in tables), default=0)))
+    ]
+    ranges = []
+    for j, t in enumerate(tables):
+        head = f"{lab.short(t.name)} ({t.sense})"
+        columns += [
+            {"id": f"c{j}_id", "name": [head, "trial"], "type": "numeric"},
+            {"id": f"c{j}_v", "name": [head, "value"], "type": "numeric"},
+        ]
+        ranges.append({"name": t.name, "min": num(t.min), "max": num(t.max)})
+        top = min(m, len(t.ids))
+        inside = a.feasible[ctx.cache.rows_of(t.ids[:top])]
+        for i in range(top):
+            data[i][f"c{j}_id"] = int(t.ids[i])
+            data[i][f"c{j}_v"] = num(t.values[i])
+        # two styles per column (rows inside D blue, outside red) keep the payload small
+        rows_in = [i for i in range(top) if inside[i]]
+        rows_out = [i for i in range(top) if not inside[i]]
+        for col in (f"c{j}_id", f"c{j}_v"):
+            for rows, colour in ((rows_in, INSIDE), (rows_out, OUTSIDE)):
+                if rows:
+                    styles.append({"if": {"row_index": rows, "column_id": col}, "color": colour})
+    return {
+        "counts": {
+            "n": a.n,
+            "nd": a.n_feasible,
+            "np": a.n_pareto,
+            "failed": a.n_failed,
+            "functional": a.n_functional,
+        },
+        "invalid": [name in c.errors for name in a.crit_names],
+        "invalid_functional": [
+            [f"{name}.low" in c.errors, f"{name}.high" in c.errors] for name in a.con_names
+        ],
+        "messages": messages,
+        "in_force": ", ".join(_bound_text(b) for b in a.active_bounds()) or "none",
+        "pure": [a.crit_names[i] for i in a.pure],
+        "ranges": ranges,
+        "table": {"columns": columns, "data": data, "styles": styles},
+    }
+
+
+def _bound_text(b: Any) -> str:
+    op = "<=" if b.side == "high" else ">="
+    return f"{b.name} {op} {fmt(b.value)}"
+
+
+# -- selection --------------------------------------------------------------------------------
+
+
+def selection_mask(ctx: UIContext, a: Analysis, spec: Mapping[str, Any] | None) -> np.ndarray:
+    """The trials a selection spec picks (see :func:`selection_from_event`); all False for
+    None."""
+    t = a.trials
+    if not spec:
+        return np.zeros(a.n, bool)
+    kind = spec.get("kind")
+    if kind == "ids":
+        ids = np.asarray([int(i) for i in spec.get("ids", [])[:_MAX_IDS]], dtype=np.int64)
+        return np.isin(t.id, ids)
+    if kind == "box":
+        xv = clouds.column(a, ctx.cache.check_name(spec["x"], "any"))[0]
+        yv = clouds.column(a, ctx.cache.check_name(spec["y"], "any"))[0]
+        (x0, x1), (y0, y1) = sorted(map(float, spec["xr"])), sorted(map(float, spec["yr"]))
+        with np.errstate(invalid="ignore"):
+            return (xv >= x0) & (xv <= x1) & (yv >= y0) & (yv <= y1)
+    if kind == "ranges":
+        m = np.ones(a.n, bool)
+        for name, rng in dict(spec.get("ranges") or {}).items():
+            v = clouds.column(a, ctx.cache.check_name(name, "any"))[0]
+            lo, hi = sorted(map(float, rng))
+            with np.errstate(invalid="ignore"):
+                m &= (v >= lo) & (v <= hi)
+        return m
+    if kind == "bin":
+        xv = clouds.column(a, ctx.cache.check_name(spec["param"], "parameter"))[0]
+        lo, hi = float(spec["lo"]), float(spec["hi"])
+        cls = {"pareto": a.pareto, "all": np.ones(a.n, bool)}.get(
+            str(spec.get("class")), a.feasible
+        )
+        return cls & (xv >= lo) & ((xv < hi) if not spec.get("last") else (xv <= hi))
+    raise StudyDefinitionError("selection", f"unknown selection kind {kind!r}", "clear it")
+
+
+def describe_selection(spec: Mapping[str, Any] | None, count: int) -> str:
+    """The selection in words, with its size."""
+    if not spec:
+        return (
+            "no selection (box- or lasso-select points, click a histogram bin, or brush a "
+            "parameter axis of the parallel coordinates)"
+        )
+    kind = spec.get("kind")
+    if kind == "box":
+        what = f"box on {spec['y']} vs {spec['x']}"
+    elif kind == "bin":
+        what = (
+            f"{spec.get('class', 'feasible')} trials with {spec['param']} in "
+            f"[{fmt(spec['lo'])}, {fmt(spec['hi'])}]"
+        )
+    elif kind == "ranges":
+        what = "sub-box " + ", ".join(
+            f"{n} in [{fmt(r[0])}, {fmt(r[1])}]" for n, r in dict(spec["ranges"]).items()
+        )
+    else:
+        what = "picked points"
+    return f"selection: {count:,} trials ({what})"
+
+
+def selection_from_event(
+    ctx: UIContext,
+    source: str,
+    event: Mapping[str, Any] | None,
+    *,
+    x: str | None = None,
+    y: str | None = None,
+    limit_texts: Any = None,
+    roles: Any = None,
+    functional: Any = None,
+) -> dict[str, Any] | None:
+    """A selection spec from a Plotly selection or click event.
+
+    Parameters
+    ----------
+    source : {"scatter", "cvp", "hist"}
+        The view the event came from.
+    event : dict
+        ``selectedData`` (scatter, cvp) or ``clickData`` (hist) as Plotly sends it.
+    x, y : str
+        Axes of the scatter; for ``cvp``, ``y`` is the criterion.
+    limit_texts, roles, functional
+        The constraint fields (for ``hist``: the bins are those of the histograms shown).
+
+    Returns
+    -------
+    dict or None
+        ``{"kind": "box", "x", "y", "xr", "yr"}`` for a box (resolved over *all* trials,
+        not only those drawn), ``{"kind": "ids", "ids"}`` for a lasso,
+        ``{"kind": "bin", "param", "lo", "hi", "class"}`` for a histogram bin; None when the
+        event selects nothing.
+    """
+    if not event:
+        return None
+    if source == "hist":
+        pt = (event.get("points") or [None])[0]
+        if not pt:
+            return None
+        cd = pt.get("customdata")
+        if not isinstance(cd, list) or len(cd) != 4:
+            return None
+        _, panel, code, b = (int(v) for v in cd)
+        a, _ = analysis_of(ctx, limit_texts, roles, functional)
+        hists = histograms(a)
+        if not 0 <= panel < len(hists):
+            return None
+        h = hists[panel]
+        if not 0 <= b < len(h.edges) - 1:
+            return None
+        cls = clouds.HIST_SETS[code] if 0 <= code < len(clouds.HIST_SETS) else "feasible"
+        return {
+            "kind": "bin",
+            "param": h.param,
+            "lo": float(h.edges[b]),
+            "hi": float(h.edges[b + 1]),
+            "last": b == len(h.edges) - 2,
+            "class": "feasible" if cls == "selected" else cls,
+        }
+    rng = event.get("range")
+    if source == "scatter":
+        x = ctx.cache.check_name(x, "any")
+        y = ctx.cache.check_name(y, "any")
+        if rng and "x" in rng and "y" in rng:
+            return {"kind": "box", "x": x, "y": y, "xr": list(rng["x"]), "yr": list(rng["y"])}
+    elif source == "cvp":
+        y = ctx.cache.check_name(y, "criterion")
+        if rng:
+            xk = next((k for k in rng if k.startswith("x")), None)
+            yk = next((k for k in rng if k.startswith("y")), None)
+            if xk and yk:
+                n = int(xk[1:] or 1)
+                names = ctx.spec.space.names
+                if 1 <= n <= len(names):
+                    return {
+                        "kind": "box",
+                        "x": names[n - 1],
+                        "y": y,
+                        "xr": list(rng[xk]),
+                        "yr": list(rng[yk]),
+                    }
+    else:
+        raise StudyDefinitionError("selection", f"unknown view {source!r}", "reload the page")
+    ids = [p.get("customdata") for p in event.get("points") or []]
+    ids = [int(i) for i in ids if isinstance(i, int | float) and not isinstance(i, bool)]
+    return {"kind": "ids", "ids": ids[:_MAX_IDS]} if ids else None
+
+
+def box_to_limits(
+    ctx: UIContext, selection: Mapping[str, Any] | None, limit_texts: Sequence[Any]
+) -> tuple[list[Any], str]:
+    """New constraint fields from a box selection (a ``"box"`` selection spec of
+    :func:`selection_from_event`): for each of its two axes that is a criterion, the
+    worse-side bound becomes the box's edge on that side (upper edge for ``min``, lower for
+    ``max``), rounded to five significant digits.
+
+    Returns
+    -------
+    texts : list
+        The constraint fields, one per criterion.
+    message : str
+        What was set.
+
+    Raises
+    ------
+    StudyDefinitionError
+        When the selection is not a box or neither axis is a criterion.
+    """
+    if not selection or selection.get("kind") != "box":
+        raise StudyDefinitionError(
+            "box selection",
+            "no box is selected",
+            "choose the box-select tool on the criterion plot, drag a box, then press the button",
+        )
+    spec = ctx.spec
+    names = spec.criterion_names
+    texts = list(limit_texts) if limit_texts else [""] * len(names)
+    done = []
+    for axis, rng in (("x", selection["xr"]), ("y", selection["yr"])):
+        name = selection[axis]
+        if name not in names:
+            continue
+        lo, hi = sorted(float(v) for v in rng)
+        sense = spec.criteria[names.index(name)].sense
+        value = hi if sense == "min" else lo
+        texts[names.index(name)] = fmt(value)
+        done.append(f"{name} {'<=' if sense == 'min' else '>='} {fmt(value)}")
+    if not done:
+        raise StudyDefinitionError(
+            "box selection",
+            f"neither {selection['x']} nor {selection['y']} is a criterion",
+            "select the box on a plot of two criteria",
+        )
+    return texts, "set from the box: " + ", ".join(done)
+
+
+# -- figures -------------------------------------------------------------------------------------
+
+
+def chosen_row(ctx: UIContext, chosen: Any) -> int | None:
+    """Row of the chosen trial in the cached trials (None when none or unknown)."""
+    if chosen in (None, ""):
+        return None
+    try:
+        return ctx.cache.row_of(parse_trial_id(chosen))
+    except VectoridError:
+        return None
+
+
+def _star(fig: dict, a: Analysis, xv: np.ndarray, yv: np.ndarray, row: int | None, **kw: Any):
+    """The chosen trial as an orange star (appended to a figure dict)."""
+    if row is None or not (np.isfinite(xv[row]) and np.isfinite(yv[row])):
+        return
+    fig["data"].append(
+        {
+            "type": "scattergl",
+            "x": [float(xv[row])],
+            "y": [float(yv[row])],
+            "customdata": [int(a.trials.id[row])],
+            "mode": "markers",
+            "marker": CHOSEN,
+            "name": f"chosen trial {int(a.trials.id[row])}",
+            "legendgroup": "chosen",
+            "hovertemplate": "trial %{customdata}<extra>chosen</extra>",
+            "meta": {"class": "chosen"},
+            **kw,
+        }
+    )
+
+
+def scatter_view(
+    ctx: UIContext,
+    limit_texts: Any,
+    roles: Any,
+    x: str,
+    y: str,
+    selection: Mapping[str, Any] | None = None,
+    chosen: Any = None,
+    functional: Any = None,
+) -> tuple[dict[str, Any], str]:
+    """Criterion vs criterion (seed 001 Fig. 6): sets in their colours (infeasible as a
+    density at scale), constraints as lines, the selection in the set colours, the chosen
+    trial as a star.
+
+    Returns
+    -------
+    figure, selection text
+    """
+    x = ctx.cache.check_name(x, "any")
+    y = ctx.cache.check_name(y, "any")
+    a, _ = analysis_of(ctx, limit_texts, roles, functional)
+    sel = selection_mask(ctx, a, selection)
+    fig = clouds.scatter_figure(
+        a,
+        x,
+        y,
+        max_points=ctx.max_points,
+        labels=ctx.labels,
+        selected=sel if sel.any() else None,
+        raw=True,
+    )
+    xv, yv = clouds.column(a, x)[0], clouds.column(a, y)[0]
+    _star(fig, a, xv, yv, chosen_row(ctx, chosen))
+    fig["layout"].update(
+        dragmode="select",
+        uirevision=f"{x}|{y}",
+        height=480,
+        clickmode="event+select",
+        margin={"t": 30, "b": 50, "l": 60, "r": 10},
+        title={"text": f"N={a.n:,}, ND={a.n_feasible:,}, NP={a.n_pareto:,}", "font": {"size": 12}},
+    )
+    return fig, describe_selection(selection, int(sel.sum()))
+
+
+def panel_view(
+    ctx: UIContext,
+    limit_texts: Any,
+    roles: Any,
+    panel: str,
+    criterion: str | None = None,
+    selection: Mapping[str, Any] | None = None,
+    chosen: Any = None,
+    functional: Any = None,
+) -> dict[str, Any]:
+    """The lower panel: ``"histograms"`` (per parameter, each set on its own scale, seed
+    000 Fig. 7, with the selection's own histogram dotted and the chosen trial's value as a
+    line) or ``"cvp"`` (one criterion against every parameter, seed 000 Fig. 9)."""
+    a, _ = analysis_of(ctx, limit_texts, roles, functional)
+    sel = selection_mask(ctx, a, selection)
+    row = chosen_row(ctx, chosen)
+    if panel == "histograms":
+        hists = histograms(a)
+        names = a.spec.space.names
+        sel_counts = None
+        if sel.any():
+            sel_counts = [
+                histogram(
+                    a.trials.X[:, names.index(h.param)], sel, sel, h.edges, param=h.param
+                ).feasible
+                for h in hists
+            ]
+        chosen_x = None
+        if row is not None:
+            chosen_x = [float(a.trials.X[row, names.index(h.param)]) for h in hists]
+        fig = clouds.histograms_figure(
+            hists, labels=ctx.labels, selection=sel_counts, chosen=chosen_x, raw=True
+        )
+        fig["layout"].update(uirevision="hist", clickmode="event")
+        return fig
+    if panel == "cvp":
+        crit = ctx.cache.check_name(criterion or a.crit_names[0], "criterion")
+        fig = clouds.criterion_vs_parameter_figure(
+            a,
+            crit,
+            max_points=ctx.panel_points,
+            labels=ctx.labels,
+            selected=sel if sel.any() else None,
+            raw=True,
+        )
+        if row is not None:
+            yv = clouds.column(a, crit)[0]
+            for i in range(len(a.spec.space)):
+                n = i + 1
+                _star(
+                    fig,
+                    a,
+                    a.trials.X[:, i],
+                    yv,
+                    row,
+                    xaxis=f"x{n if n > 1 else ''}",
+                    yaxis=f"y{n if n > 1 else ''}",
+                    showlegend=i == 0,
+                )
+        fig["layout"].update(dragmode="select", uirevision=f"cvp|{crit}")
+        return fig
+    raise StudyDefinitionError("panel", f"unknown panel {panel!r}", "use the tabs")

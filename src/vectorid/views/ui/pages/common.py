@@ -1,0 +1,116 @@
+"""What the pages share: stable element ids, the constraint inputs as Dash dependencies,
+tables, and how an exception becomes a one-line message."""
+
+from __future__ import annotations
+
+import logging
+import re
+from dataclasses import dataclass
+from typing import Any
+
+from ....errors import VectoridError
+
+__all__ = ["Wiring", "err", "rows_table", "safe", "table"]
+
+log = logging.getLogger("vectorid.ui")
+
+
+def safe(name: str) -> str:
+    """``name`` as a part of an element id (letters, digits, ``_`` and ``-`` kept)."""
+    return re.sub(r"[^A-Za-z0-9_-]", "_", str(name))
+
+
+def err(exc: BaseException) -> str:
+    """The message shown for an exception raised by a callback."""
+    if isinstance(exc, VectoridError):
+        return str(exc)
+    log.exception("unexpected error in a UI callback")
+    return f"internal error ({type(exc).__name__}: {exc}); the server log has the details"
+
+
+def table(id_: str, **kw: Any) -> Any:
+    """A DataTable with the UI's style (scrolls sideways in its container)."""
+    from dash import dash_table
+
+    style = {
+        "style_table": {"overflowX": "auto"},
+        "style_cell": {"fontSize": 12, "padding": "2px 6px", "fontFamily": "monospace"},
+        "style_header": {"fontWeight": 600, "backgroundColor": "#f3f3f3"},
+    }
+    style.update(kw)
+    return dash_table.DataTable(id=id_, **style)
+
+
+def rows_table(rows: list[dict[str, Any]], id_: str | None = None) -> Any:
+    """A static HTML table of rows (dicts with the same keys); "none" when empty."""
+    from dash import html
+
+    if not rows:
+        return html.P("none", className="muted", id=id_ or "")
+    head = list(rows[0])
+    body = [
+        html.Tr([html.Td("" if r.get(k) is None else str(r.get(k))) for k in head]) for r in rows
+    ]
+    kw: dict[str, Any] = {"id": id_} if id_ else {}
+    return html.Div(
+        html.Table([html.Thead(html.Tr([html.Th(k) for k in head])), html.Tbody(body)]),
+        className="scroll",
+        **kw,
+    )
+
+
+@dataclass
+class Wiring:
+    """The constraint fields as Dash dependencies (plain, stable ids:
+    ``vid-limit-<criterion>``, ``vid-role-<criterion>``, ``vid-slider-<criterion>``,
+    ``vid-low-<constraint>``, ``vid-high-<constraint>``)."""
+
+    crit: list[str]
+    cons: list[str]
+
+    def ids(self, kind: str) -> list[str]:
+        names = self.crit if kind in ("limit", "role", "slider") else self.cons
+        return [f"vid-{kind}-{safe(n)}" for n in names]
+
+    def deps(self, cls: Any, kind: str, prop: str = "value") -> list[Any]:
+        return [cls(i, prop) for i in self.ids(kind)]
+
+    def constraint_inputs(self, cls: Any) -> list[Any]:
+        """limit, role, low, high fields (in that order) as ``cls`` (Input or State)."""
+        return (
+            self.deps(cls, "limit")
+            + self.deps(cls, "role")
+            + self.deps(cls, "low")
+            + self.deps(cls, "high")
+        )
+
+    @property
+    def n_constraints(self) -> int:
+        return 2 * len(self.crit) + 2 * len(self.cons)
+
+    def gate(self, app: Any, tab: str) -> Any:
+        """An Input carrying the constraint fields to a view on tab ``tab`` only while that tab
+        is shown (a clientside callback fills ``vid-con-<tab>``), so that a constraint change
+        sends no request for the views that are hidden. The value is ``[fields, stamp]``."""
+        from dash import Input, Output
+
+        app.clientside_callback(
+            "function(tab, ...v) { return tab === "
+            + repr(tab)
+            + " ? [v, Date.now()] : dash_clientside.no_update; }",
+            Output(f"vid-con-{tab}", "data"),
+            Input("tabs", "value"),
+            *self.constraint_inputs(Input),
+        )
+        return Input(f"vid-con-{tab}", "data")
+
+    def split(self, values: list[Any]) -> tuple[list[Any], list[Any], list[list[Any]] | None]:
+        """``(limit texts, roles, functional pairs)`` from the values of
+        :meth:`constraint_inputs`."""
+        k, q = len(self.crit), len(self.cons)
+        texts = list(values[:k])
+        roles = list(values[k : 2 * k])
+        lows = values[2 * k : 2 * k + q]
+        highs = values[2 * k + q : 2 * k + 2 * q]
+        pairs = [[lo, hi] for lo, hi in zip(lows, highs)] if q else None
+        return texts, roles, pairs

@@ -1,0 +1,315 @@
+"""The chosen-trial page, the refine page and the study overview."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from ..context import UIContext
+from ..overview import overview_view
+from ..refine import refine_view
+from ..trial import trial_view
+from .common import Wiring, err, rows_table, table
+
+__all__ = ["overview_layout", "refine_layout", "register", "trial_layout"]
+
+
+def trial_layout(ctx: UIContext) -> Any:
+    from dash import dcc, html
+
+    spec = ctx.spec
+    return html.Div(
+        [
+            html.Div(id="trial-msg", className="msg"),
+            html.Div(id="trial-summary", className="section"),
+            html.Div(
+                className="row",
+                children=[
+                    html.Div(
+                        className="col",
+                        children=[
+                            html.H3("Criteria and functionals against the bounds in force"),
+                            table("trial-criteria"),
+                        ],
+                    ),
+                    html.Div(
+                        className="col",
+                        children=[
+                            html.H3("Parameters against nominal and the box"),
+                            table("trial-params"),
+                        ],
+                    ),
+                ],
+            ),
+            dcc.Graph(id="trial-spread", config={"displaylogo": False}),
+            html.Div(
+                className="section",
+                children=[
+                    html.H3("Flight against the measured one"),
+                    html.Label(
+                        [
+                            "overlay up to two more trials (ids, comma-separated) ",
+                            dcc.Input(id="trial-overlay", type="text", debounce=True, size="14"),
+                        ]
+                    ),
+                    html.Div(id="trial-ident"),
+                    table("trial-rms"),
+                ],
+            ),
+            html.Div(
+                className="section",
+                children=[
+                    html.H3("Run in the background"),
+                    html.Div(
+                        className="bar",
+                        children=[
+                            html.Label("section along "),
+                            dcc.Dropdown(
+                                id="sec-param",
+                                options=[
+                                    {"label": ctx.labels.short(n), "value": n}
+                                    for n in spec.space.names
+                                ],
+                                value=spec.space.names[0],
+                                clearable=False,
+                                style={"width": "170px"},
+                            ),
+                            html.Label(
+                                [
+                                    "points ",
+                                    dcc.Input(id="sec-points", type="text", value="21", size="4"),
+                                ]
+                            ),
+                            html.Label(
+                                [
+                                    "range ",
+                                    dcc.Input(
+                                        id="sec-lo", type="text", placeholder="low", size="6"
+                                    ),
+                                    " .. ",
+                                    dcc.Input(
+                                        id="sec-hi", type="text", placeholder="high", size="6"
+                                    ),
+                                ]
+                            ),
+                            html.Button("Run section", id="sec-run"),
+                        ],
+                    ),
+                    html.Div(
+                        className="bar",
+                        children=[
+                            html.Label(
+                                [
+                                    "robustness radius (fraction of the box) ",
+                                    dcc.Input(id="rob-radius", type="text", value="0.02", size="5"),
+                                ]
+                            ),
+                            html.Label(
+                                [
+                                    "points ",
+                                    dcc.Input(id="rob-points", type="text", value="32", size="4"),
+                                ]
+                            ),
+                            html.Button("Check robustness", id="rob-run"),
+                        ],
+                    ),
+                ],
+            ),
+            html.Div(id="trial-results"),
+        ]
+    )
+
+
+def refine_layout(ctx: UIContext) -> Any:
+    from dash import dcc, html
+
+    return html.Div(
+        [
+            html.Div(
+                className="bar",
+                children=[
+                    html.Label("proposal from the "),
+                    dcc.RadioItems(
+                        id="ref-basis",
+                        options=[
+                            {"label": " feasible set D ", "value": "feasible"},
+                            {"label": " Pareto set", "value": "pareto"},
+                        ],
+                        value="feasible",
+                        inline=True,
+                    ),
+                    html.Label(
+                        [
+                            "quantile ",
+                            dcc.Input(
+                                id="ref-q", type="text", value="0.05", size="5", debounce=True
+                            ),
+                        ]
+                    ),
+                    html.Label(
+                        [
+                            "margin (fraction of the width) ",
+                            dcc.Input(
+                                id="ref-margin", type="text", value="0.1", size="5", debounce=True
+                            ),
+                        ]
+                    ),
+                ],
+            ),
+            html.Div(id="ref-msg", className="msg"),
+            html.Div(id="ref-summary", className="muted"),
+            html.P(
+                "Edit new_low / new_high to move or widen the box (an edited row overrides the "
+                "rule). The identifiability column shows each parameter's verdict where the "
+                "study has one.",
+                className="muted",
+            ),
+            table(
+                "ref-table",
+                editable=True,
+                style_data_conditional=[
+                    {"if": {"column_editable": True}, "backgroundColor": "#fffbe6"}
+                ],
+            ),
+            html.Div(
+                className="bar",
+                children=[
+                    html.Label(
+                        ["trials ", dcc.Input(id="ref-n", type="text", value="1024", size="8")]
+                    ),
+                    html.Button("Apply this box and run the trials", id="ref-apply"),
+                    html.Button("Run the trials in the current box", id="ref-continue"),
+                ],
+            ),
+            dcc.Graph(id="ref-graph", config={"displaylogo": False}),
+        ]
+    )
+
+
+def overview_layout(ctx: UIContext) -> Any:
+    from dash import html
+
+    return html.Div(id="overview")
+
+
+def register(app: Any, ctx: UIContext, w: Wiring) -> None:
+    from dash import Input, Output, State, dcc, html
+    from dash.exceptions import PreventUpdate
+
+    def cols(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
+        return [{"id": k, "name": k} for k in (rows[0] if rows else {})]
+
+    @app.callback(
+        Output("trial-msg", "children"),
+        Output("trial-summary", "children"),
+        Output("trial-criteria", "columns"),
+        Output("trial-criteria", "data"),
+        Output("trial-params", "columns"),
+        Output("trial-params", "data"),
+        Output("trial-spread", "figure"),
+        Output("trial-results", "children"),
+        Output("trial-ident", "children"),
+        Output("trial-rms", "columns"),
+        Output("trial-rms", "data"),
+        w.gate(app, "trial"),
+        Input("trial-id", "value"),
+        Input("trial-overlay", "value"),
+        State("tabs", "value"),
+        Input("version", "data"),
+    )
+    def trial(cons, tid, overlay, tab, _v):
+        if tab != "trial" or not cons:
+            raise PreventUpdate
+        texts, roles, pairs = w.split(list(cons[0]))
+        empty = {"data": [], "layout": {}}
+        try:
+            v = trial_view(ctx, tid, texts, roles, pairs, overlay)
+        except Exception as exc:
+            return (err(exc), "", [], [], [], [], empty, [], "", [], [])
+        results: list[Any] = []
+        if v["robustness_text"]:
+            results.append(
+                html.Div(
+                    [html.H3("Robustness"), *[html.Div(t) for t in v["robustness_text"]]],
+                    className="section",
+                )
+            )
+        if v["robustness"] is not None:
+            results.append(dcc.Graph(figure=v["robustness"]))
+        for f in v["sections"]:
+            results.append(dcc.Graph(figure=f))
+        if not results:
+            results = [
+                html.P(
+                    "No section or robustness check stored for this trial yet.", className="muted"
+                )
+            ]
+        ident = (
+            dcc.Graph(figure=v["identification"])
+            if v["identification"] is not None
+            else html.P(v["identification_note"], className="muted")
+        )
+        return (
+            "",
+            html.Span(v["summary"], id="trial-summary-text"),
+            cols(v["criteria"]),
+            v["criteria"],
+            cols(v["params"]),
+            v["params"],
+            v["spread"],
+            results,
+            ident,
+            cols(v["rms"]),
+            v["rms"],
+        )
+
+    @app.callback(
+        Output("ref-msg", "children"),
+        Output("ref-summary", "children"),
+        Output("ref-table", "columns"),
+        Output("ref-table", "data"),
+        Output("ref-graph", "figure"),
+        w.gate(app, "refine"),
+        State("tabs", "value"),
+        Input("ref-basis", "value"),
+        Input("ref-q", "value"),
+        Input("ref-margin", "value"),
+        Input("version", "data"),
+    )
+    def refine(cons, tab, basis, q, margin, _v):
+        if tab != "refine" or not cons:
+            raise PreventUpdate
+        texts, roles, pairs = w.split(list(cons[0]))
+        try:
+            v = refine_view(ctx, texts, roles, basis, q, margin, pairs)
+        except Exception as exc:
+            return err(exc), "", [], [], {"data": [], "layout": {}}
+        columns = [
+            {"id": k, "name": k, "editable": k in ("new_low", "new_high")}
+            | (
+                {"type": "text"}
+                if k in ("name", "unit", "identifiability")
+                else {"type": "numeric", "format": {"specifier": ".5~g"}}
+            )
+            for k in v["rows"][0]
+        ]
+        return "", v["summary"], columns, v["rows"], v["figure"]
+
+    @app.callback(Output("overview", "children"), Input("tabs", "value"), Input("version", "data"))
+    def overview(tab, _v):
+        if tab != "overview":
+            raise PreventUpdate
+        try:
+            v = overview_view(ctx)
+        except Exception as exc:
+            return html.Div(err(exc), className="msg")
+        sec = lambda title, body: html.Div([html.H3(title), body], className="section")  # noqa: E731
+        return [
+            sec("Study", rows_table(v["study"], "ov-study")),
+            sec("Variables (box Π)", rows_table(v["variables"])),
+            sec("Criteria (limits saved with the study)", rows_table(v["criteria"], "ov-criteria")),
+            sec("Functional constraints", rows_table(v["constraints"], "ov-constraints")),
+            sec("Stages", rows_table(v["stages"], "ov-stages")),
+            sec("Boxes of the sample stages", rows_table(v["boxes"])),
+            sec(f"Failures ({v['n_failed']})", rows_table(v["failures"])),
+            sec("Timing", html.Div([html.P(v["timing"]), rows_table(v["runs"])])),
+        ]

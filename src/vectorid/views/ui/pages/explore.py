@@ -1,0 +1,546 @@
+"""The header (counts, chosen trial, job bar) and the explorer page: constraint cards, the
+criterion plot, the lower panels (histograms, criterion vs parameter) and the test tables."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from .. import client
+from ..context import UIContext, fmt
+from ..data import bounds_text, limits_text
+from ..explore import (
+    box_to_limits,
+    counts_view,
+    panel_view,
+    scatter_view,
+    selection_from_event,
+    summary_view,
+)
+from ..overview import initial_choice
+from .common import Wiring, err, safe, table
+
+__all__ = ["counts_children", "header", "layout", "register"]
+
+
+def counts_children(c: dict[str, int]) -> list[Any]:
+    """The counts line: N, ND (blue), NP (green), failed and functional."""
+    from dash import html
+
+    return [
+        "N ",
+        html.B(f"{c['n']}", id="count-n"),
+        " ND ",
+        html.B(f"{c['nd']}", id="count-nd", className="nd"),
+        " NP ",
+        html.B(f"{c['np']}", id="count-np", className="np"),
+        html.Span(
+            f" (failed {c['failed']}, meeting functional constraints {c['functional']})",
+            className="muted",
+        ),
+    ]
+
+
+def header(ctx: UIContext) -> Any:
+    from dash import dcc, html
+
+    spec = ctx.spec
+    return html.Div(
+        className="top",
+        children=[
+            html.Div(
+                [
+                    html.H1(f"vectorid · {spec.name}"),
+                    html.Span(str(ctx.cache.path), className="muted"),
+                ]
+            ),
+            html.Div(
+                counts_children(counts_view(ctx, None, None)), id="vid-counts", className="counts"
+            ),
+            html.Label(
+                [
+                    "chosen trial ",
+                    dcc.Input(
+                        id="trial-id",
+                        type="text",
+                        debounce=True,
+                        size="8",
+                        value=str(initial_choice(ctx) or ""),
+                    ),
+                ],
+                title="type a trial id, or click a point or a table row",
+            ),
+            html.Div(
+                className="bar",
+                children=[
+                    html.Progress(id="job-progress", max="1", value="0"),
+                    html.Span(id="job-text", className="muted"),
+                    html.Button("Stop job", id="job-stop"),
+                ],
+            ),
+            html.Div(id="job-msg", className="note"),
+        ],
+    )
+
+
+def _cards(ctx: UIContext) -> list[Any]:
+    from dash import dcc, html
+
+    spec = ctx.spec
+    lab = ctx.labels
+    a = ctx.cache.analysis()
+    texts = limits_text(spec)
+    cards = []
+    for j, c in enumerate(spec.criteria):
+        # the range over the trials meeting the functional constraints (the test table's)
+        col = a.trials.F[a.functional_ok, j]
+        col = col[np.isfinite(col)]
+        lo = float(col.min()) if len(col) else 0.0
+        hi = float(col.max()) if len(col) else 1.0
+        if hi <= lo:
+            hi = lo + 1.0
+        worse = hi if c.sense == "min" else lo
+        value = c.limit if c.limit is not None else worse
+        unit = lab.unit.get(c.name, "")
+        cards.append(
+            html.Div(
+                className="card",
+                title=lab.tip(c.name),
+                children=[
+                    html.B(f"{lab.short(c.name)} ({c.sense})"),
+                    html.Div(lab.meaning.get(c.name, ""), className="muted small"),
+                    html.Div(
+                        f"range {fmt(lo)} .. {fmt(hi)}" + (f" {unit}" if unit else ""),
+                        className="muted",
+                    ),
+                    html.Label(
+                        [
+                            f"Φ** {'<=' if c.sense == 'min' else '>='} ",
+                            dcc.Input(
+                                id=f"vid-limit-{safe(c.name)}",
+                                type="text",
+                                value=texts[j],
+                                debounce=True,
+                                placeholder="no limit",
+                                size="9",
+                            ),
+                        ]
+                    ),
+                    dcc.Slider(
+                        id=f"vid-slider-{safe(c.name)}",
+                        min=lo,
+                        max=hi,
+                        step=(hi - lo) / 500,
+                        value=min(max(value, lo), hi),
+                        marks=None,
+                        updatemode="mouseup",
+                    ),
+                    dcc.RadioItems(
+                        id=f"vid-role-{safe(c.name)}",
+                        options=[
+                            {"label": " pure ", "value": "pure"},
+                            {"label": " pseudo", "value": "pseudo"},
+                        ],
+                        value=c.role,
+                        inline=True,
+                    ),
+                ],
+            )
+        )
+    for j, (g, (lo_text, hi_text)) in enumerate(zip(spec.constraints, bounds_text(spec))):
+        col = a.trials.G[a.ok, j]
+        col = col[np.isfinite(col)]
+        unit = lab.unit.get(g.name, "")
+        span = (
+            f"range {fmt(col.min())} .. {fmt(col.max())}" + (f" {unit}" if unit else "")
+            if len(col)
+            else "no value yet"
+        )
+        cards.append(
+            html.Div(
+                className="card",
+                title=lab.tip(g.name),
+                children=[
+                    html.B(f"{lab.short(g.name)} (functional)"),
+                    html.Div(span, className="muted"),
+                    html.Label(
+                        [
+                            dcc.Input(
+                                id=f"vid-low-{safe(g.name)}",
+                                type="text",
+                                value=lo_text,
+                                debounce=True,
+                                placeholder="no low",
+                                size="7",
+                            ),
+                            f" <= {g.name} <= ",
+                            dcc.Input(
+                                id=f"vid-high-{safe(g.name)}",
+                                type="text",
+                                value=hi_text,
+                                debounce=True,
+                                placeholder="no high",
+                                size="7",
+                            ),
+                        ]
+                    ),
+                ],
+            )
+        )
+    return cards
+
+
+def layout(ctx: UIContext) -> Any:
+    from dash import dcc, html
+
+    spec = ctx.spec
+    names = spec.criterion_names
+    axes = [
+        {"label": ctx.labels.short(n), "value": n}
+        for n in names + spec.constraint_names + spec.space.names
+    ]
+    x0 = names[0]
+    y0 = names[1] if len(names) > 1 else spec.space.names[0]
+    return html.Div(
+        [
+            html.Div(id="messages", className="msg"),
+            html.Div(
+                className="bar",
+                children=[
+                    html.Span(id="in-force", className="muted"),
+                    html.Button("Save constraints with the study", id="save-limits"),
+                ],
+            ),
+            html.Div(
+                className="row",
+                children=[
+                    html.Div(_cards(ctx), className="cards colcards"),
+                    html.Div(
+                        className="col",
+                        children=[
+                            html.Div(
+                                className="bar",
+                                children=[
+                                    html.Label("x "),
+                                    dcc.Dropdown(
+                                        id="x-axis",
+                                        options=axes,
+                                        value=x0,
+                                        clearable=False,
+                                        style={"width": "170px"},
+                                    ),
+                                    html.Label("y "),
+                                    dcc.Dropdown(
+                                        id="y-axis",
+                                        options=axes,
+                                        value=y0,
+                                        clearable=False,
+                                        style={"width": "170px"},
+                                    ),
+                                    html.Button(
+                                        "Set the two constraints from the box", id="box-limits"
+                                    ),
+                                    html.Button("Clear selection", id="clear-sel"),
+                                ],
+                            ),
+                            html.Div(id="box-msg", className="note"),
+                            dcc.Graph(
+                                id="scatter",
+                                config={"displaylogo": False},
+                                style={"height": "480px"},
+                            ),
+                            html.Div(id="sel-text", className="muted"),
+                        ],
+                    ),
+                ],
+            ),
+            dcc.Tabs(
+                id="panel",
+                value="histograms",
+                children=[
+                    dcc.Tab(
+                        label="Histograms per parameter",
+                        value="histograms",
+                        children=[
+                            html.P(
+                                "Each set on its own scale (share of the set). Click a step to "
+                                "select that bin's trials of the set; click a legend entry to "
+                                "hide or show a set.",
+                                className="muted",
+                            ),
+                            dcc.Graph(id="hist-graph", config={"displaylogo": False}),
+                        ],
+                    ),
+                    dcc.Tab(
+                        label="Criterion vs parameter",
+                        value="cvp",
+                        children=[
+                            html.Div(
+                                className="bar",
+                                children=[
+                                    html.Label("criterion "),
+                                    dcc.Dropdown(
+                                        id="cvp-crit",
+                                        options=[
+                                            {"label": ctx.labels.short(n), "value": n}
+                                            for n in names
+                                        ],
+                                        value=names[0],
+                                        clearable=False,
+                                        style={"width": "170px"},
+                                    ),
+                                ],
+                            ),
+                            dcc.Graph(id="cvp-graph", config={"displaylogo": False}),
+                        ],
+                    ),
+                    dcc.Tab(
+                        label="Test tables",
+                        value="tables",
+                        children=[
+                            html.P(
+                                "Each criterion's trials meeting the functional constraints, "
+                                "best first (seed 000 Fig. 6); blue: in D, red: outside D. "
+                                "Click a row to choose the trial.",
+                                className="muted",
+                            ),
+                            table(
+                                "test-table",
+                                merge_duplicate_headers=True,
+                                page_size=ctx.table_rows,
+                                style_table={
+                                    "overflowX": "auto",
+                                    "maxHeight": "560px",
+                                    "overflowY": "auto",
+                                },
+                            ),
+                        ],
+                    ),
+                ],
+            ),
+            html.Div(id="panel-msg", className="msg"),
+        ]
+    )
+
+
+def register(app: Any, ctx: UIContext, w: Wiring) -> None:
+    from dash import Input, Output, State, no_update
+    from dash import ctx as dctx
+    from dash.exceptions import PreventUpdate
+
+    K, Q = len(w.crit), len(w.cons)
+    CON = w.constraint_inputs(Input)
+    CON_S = w.constraint_inputs(State)
+    lim_ids, sld_ids = w.ids("limit"), w.ids("slider")
+
+    # -- constraints typed or dragged (in the page), or from a box (server) --------------------
+    app.clientside_callback(
+        """function(...v) {
+          const k = v.length / 2, texts = v.slice(0, k), sliders = v.slice(k);
+          const nc = dash_clientside.no_update;
+          const t = dash_clientside.callback_context.triggered_id;
+          const outT = texts.map(() => nc), outS = sliders.map(() => nc);
+          const ids = """
+        + repr(lim_ids)
+        + """, sids = """
+        + repr(sld_ids)
+        + """;
+          let j = ids.indexOf(t);
+          if (j >= 0) {
+            const x = Number(String(texts[j] || '').trim());
+            if (String(texts[j] || '').trim() !== '' && isFinite(x)) outS[j] = x;
+            return outT.concat(outS);
+          }
+          j = sids.indexOf(t);
+          if (j >= 0 && sliders[j] !== null && sliders[j] !== undefined) {
+            outT[j] = String(Number(Number(sliders[j]).toPrecision(5)));
+          }
+          return outT.concat(outS);
+        }""",
+        [Output(i, "value", allow_duplicate=True) for i in lim_ids]
+        + [Output(i, "value") for i in sld_ids],
+        w.deps(Input, "limit") + w.deps(Input, "slider"),
+        prevent_initial_call=True,
+    )
+
+    @app.callback(
+        [Output(i, "value", allow_duplicate=True) for i in lim_ids]
+        + [Output("box-msg", "children")],
+        Input("box-limits", "n_clicks"),
+        State("selection", "data"),
+        *w.deps(State, "limit"),
+        prevent_initial_call=True,
+    )
+    def box_limits(_n, selected, *texts):
+        try:
+            new, msg = box_to_limits(ctx, selected, list(texts))
+        except Exception as exc:
+            return [*([no_update] * K), err(exc)]
+        return [*new, msg]
+
+    # -- counts: in the page first (vectorid.views.ui.client), then from the server -------------
+    app.clientside_callback(client.LOAD_JS, Output("vid-load", "data"), Input("version", "data"))
+    app.clientside_callback(
+        client.COUNTS_JS,
+        Output("vid-counts", "children", allow_duplicate=True),
+        *CON,
+        Input("version", "data"),
+        prevent_initial_call=True,
+    )
+    app.clientside_callback(
+        client.BRUSH_JS,
+        Output("vid-counts", "children", allow_duplicate=True),
+        Input("par-graph", "restyleData"),
+        State("par-graph", "figure"),
+        State("version", "data"),
+        *CON_S,
+        prevent_initial_call=True,
+    )
+
+    @app.callback(Output("vid-counts", "children"), *CON, Input("version", "data"))
+    def counts(*values):
+        texts, roles, pairs = w.split(list(values[:-1]))
+        try:
+            return counts_children(counts_view(ctx, texts, roles, pairs))
+        except Exception as exc:
+            err(exc)
+            return no_update
+
+    # -- messages, constraints in force, test tables ----------------------------------------
+    @app.callback(
+        Output("messages", "children"),
+        Output("in-force", "children"),
+        Output("test-table", "columns"),
+        Output("test-table", "data"),
+        Output("test-table", "style_data_conditional"),
+        [Output(i, "className") for i in lim_ids]
+        + [Output(i, "className") for i in w.ids("low")]
+        + [Output(i, "className") for i in w.ids("high")],
+        *CON,
+        Input("panel", "value"),
+        Input("version", "data"),
+    )
+    def summary(*values):
+        texts, roles, pairs = w.split(list(values[:-2]))
+        which = values[-2]
+        try:
+            s = summary_view(ctx, texts, roles, pairs)
+        except Exception as exc:
+            keep = [no_update] * (K + 2 * Q)
+            return (err(exc), no_update, no_update, no_update, no_update, *keep)
+        t = s["table"]
+        cls = ["invalid" if bad else "" for bad in s["invalid"]]
+        cls += ["invalid" if lo else "" for lo, _ in s["invalid_functional"]]
+        cls += ["invalid" if hi else "" for _, hi in s["invalid_functional"]]
+        shown = which == "tables"
+        return (
+            "\n".join(s["messages"]),
+            f"constraints in force: {s['in_force']}; Pareto over: "
+            f"{', '.join(s['pure']) or '(none)'}",
+            t["columns"] if shown else no_update,
+            t["data"] if shown else no_update,
+            t["styles"] if shown else no_update,
+            *cls,
+        )
+
+    # -- plots ----------------------------------------------------------------------------------
+    @app.callback(
+        Output("scatter", "figure"),
+        Output("sel-text", "children"),
+        *CON,
+        Input("x-axis", "value"),
+        Input("y-axis", "value"),
+        Input("selection", "data"),
+        Input("trial-id", "value"),
+        Input("version", "data"),
+    )
+    def scatter(*values):
+        texts, roles, pairs = w.split(list(values[: w.n_constraints]))
+        x, y, sel, chosen, _v = values[w.n_constraints :]
+        try:
+            return scatter_view(ctx, texts, roles, x, y, sel, chosen, functional=pairs)
+        except Exception as exc:
+            return no_update, err(exc)
+
+    @app.callback(
+        Output("hist-graph", "figure"),
+        Output("cvp-graph", "figure"),
+        Output("panel-msg", "children"),
+        *CON,
+        Input("panel", "value"),
+        Input("cvp-crit", "value"),
+        Input("selection", "data"),
+        Input("trial-id", "value"),
+        Input("version", "data"),
+    )
+    def panel(*values):
+        texts, roles, pairs = w.split(list(values[: w.n_constraints]))
+        which, crit, sel, chosen, _v = values[w.n_constraints :]
+        if which not in ("histograms", "cvp"):
+            raise PreventUpdate
+        try:
+            fig = panel_view(ctx, texts, roles, which, crit, sel, chosen, functional=pairs)
+        except Exception as exc:
+            return no_update, no_update, err(exc)
+        return (fig, no_update, "") if which == "histograms" else (no_update, fig, "")
+
+    # -- selection and choice --------------------------------------------------------------------
+    @app.callback(
+        Output("selection", "data", allow_duplicate=True),
+        Input("scatter", "selectedData"),
+        Input("cvp-graph", "selectedData"),
+        Input("hist-graph", "clickData"),
+        Input("clear-sel", "n_clicks"),
+        State("x-axis", "value"),
+        State("y-axis", "value"),
+        State("cvp-crit", "value"),
+        *CON_S,
+        prevent_initial_call=True,
+    )
+    def selection(s_sel, c_sel, h_click, _clear, x, y, crit, *cons):
+        trig = dctx.triggered_id
+        if trig == "clear-sel":
+            return None
+        texts, roles, pairs = w.split(list(cons))
+        try:
+            if trig == "scatter":
+                spec = selection_from_event(ctx, "scatter", s_sel, x=x, y=y)
+            elif trig == "cvp-graph":
+                spec = selection_from_event(ctx, "cvp", c_sel, y=crit)
+            else:
+                spec = selection_from_event(
+                    ctx, "hist", h_click, limit_texts=texts, roles=roles, functional=pairs
+                )
+        except Exception as exc:
+            err(exc)
+            raise PreventUpdate from None
+        if spec is None:
+            raise PreventUpdate
+        return spec
+
+    @app.callback(
+        Output("trial-id", "value", allow_duplicate=True),
+        Input("scatter", "clickData"),
+        Input("cvp-graph", "clickData"),
+        Input("test-table", "active_cell"),
+        State("test-table", "data"),
+        prevent_initial_call=True,
+    )
+    def choose(s_click, c_click, t_cell, t_data):
+        trig = dctx.triggered_id
+        tid = None
+        if trig in ("scatter", "cvp-graph"):
+            ev = s_click if trig == "scatter" else c_click
+            pts = (ev or {}).get("points") or []
+            tid = pts[0].get("customdata") if pts else None
+            if isinstance(tid, list):
+                tid = tid[0] if tid else None
+        elif trig == "test-table" and t_cell:
+            col = str(t_cell.get("column_id", ""))
+            row = t_cell.get("row")
+            if col.startswith("c") and isinstance(row, int) and t_data and 0 <= row < len(t_data):
+                tid = t_data[row].get(col.split("_")[0] + "_id")
+        if tid is None or isinstance(tid, bool) or not isinstance(tid, int | float):
+            raise PreventUpdate
+        return str(int(tid))

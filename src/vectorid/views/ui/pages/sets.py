@@ -1,0 +1,245 @@
+"""The parallel-coordinates page (brushes are constraints) with the history of N/ND/NP, and
+the trial table page (server-side sort, filter, page; CSV download)."""
+
+from __future__ import annotations
+
+import secrets
+import threading
+from collections import OrderedDict
+from typing import Any
+
+from ..context import UIContext
+from ..parallel import brush_to_fields, history_view, parallel_view
+from ..table import SETS, TABLE_STYLES, csv_rows, table_columns, table_page
+from .common import Wiring, err, table
+
+__all__ = ["csv_route", "parallel_layout", "register", "table_layout"]
+
+
+def parallel_layout(ctx: UIContext) -> Any:
+    from dash import dcc, html
+
+    return html.Div(
+        [
+            html.P(
+                "Brush an axis (drag along it) to constrain it: a criterion axis sets its "
+                "criteria constraint Φ** (the worse-side edge), a functional axis its bounds, a "
+                "parameter axis selects that sub-box. Click a brush to remove it. Lines: a "
+                "random subset per set (the title says how many); Pareto on top.",
+                className="muted",
+            ),
+            html.Div(id="par-msg", className="note"),
+            dcc.Graph(id="par-graph", config={"displaylogo": False}),
+            html.H3("History: N, ND, NP against the number of trials"),
+            html.P(
+                "ND and NP among the first n trials (sequence order) under the constraints in "
+                "force; dashed lines: where each sample stage starts. When NP no longer "
+                "changes as N grows, more trials in this box add little.",
+                className="muted",
+            ),
+            dcc.Graph(id="hist-history", config={"displaylogo": False}),
+        ]
+    )
+
+
+def table_layout(ctx: UIContext) -> Any:
+    from dash import dcc, html
+
+    return html.Div(
+        [
+            html.Div(
+                className="bar",
+                children=[
+                    html.Label("set "),
+                    dcc.RadioItems(
+                        id="tab-set",
+                        options=[{"label": f" {s} ", "value": s} for s in SETS],
+                        value="pareto",
+                        inline=True,
+                    ),
+                    html.A(
+                        "Download these rows as CSV",
+                        id="tab-csv",
+                        href="",
+                        download="trials.csv",
+                        className="button",
+                    ),
+                ],
+            ),
+            html.P(
+                "Sorted, filtered and paged on the server over every trial of the set. Type a "
+                "condition in a column's filter cell (e.g. < 0.5 or >= 2, Enter to apply); "
+                "click a header to sort; click a row to choose the trial.",
+                className="muted",
+            ),
+            html.Div(id="tab-note", className="muted"),
+            html.Div(id="tab-msg", className="msg"),
+            table(
+                "vid-table",
+                columns=table_columns(ctx),
+                page_current=0,
+                page_size=ctx.set_rows,
+                page_action="custom",
+                sort_action="custom",
+                sort_mode="multi",
+                sort_by=[],
+                filter_action="custom",
+                filter_query="",
+                style_data_conditional=TABLE_STYLES,
+                style_table={"overflowX": "auto"},
+            ),
+        ]
+    )
+
+
+class CsvTokens:
+    """Short-lived tokens naming a table state (constraints, set, filter, sort) for the CSV
+    route: the browser only ever sends the token back, never a query of its own."""
+
+    def __init__(self, size: int = 16) -> None:
+        self._lock = threading.Lock()
+        self._items: OrderedDict[str, dict[str, Any]] = OrderedDict()
+        self._size = size
+
+    def add(self, state: dict[str, Any]) -> str:
+        token = secrets.token_urlsafe(12)
+        with self._lock:
+            self._items[token] = state
+            while len(self._items) > self._size:
+                self._items.popitem(last=False)
+        return token
+
+    def get(self, token: str) -> dict[str, Any] | None:
+        with self._lock:
+            return self._items.get(token)
+
+
+def csv_route(server: Any, ctx: UIContext) -> CsvTokens:
+    """Serve ``/_vid/trials.csv?t=TOKEN``: the rows of a table state, streamed."""
+    import flask
+
+    tokens = CsvTokens()
+
+    @server.route("/_vid/trials.csv")
+    def trials_csv():  # pragma: no cover - exercised through the browser test
+        state = tokens.get(str(flask.request.args.get("t", "")))
+        if state is None:
+            return "this download link has expired; reload the table and try again", 404
+        gen = csv_rows(ctx, **state)
+        name = f"{ctx.spec.name}-{state['which']}.csv".replace(" ", "_")
+        return flask.Response(
+            gen,
+            mimetype="text/csv",
+            headers={"Content-Disposition": f'attachment; filename="{name}"'},
+        )
+
+    return tokens
+
+
+def register(app: Any, ctx: UIContext, w: Wiring, tokens: CsvTokens) -> None:
+    from dash import Input, Output, State, no_update
+    from dash.exceptions import PreventUpdate
+
+    CON_S = w.constraint_inputs(State)
+
+    @app.callback(
+        Output("par-graph", "figure"),
+        Output("hist-history", "figure"),
+        w.gate(app, "parallel"),
+        Input("selection", "data"),
+        State("tabs", "value"),
+        Input("version", "data"),
+    )
+    def parallel(cons, sel, tab, _v):
+        if not cons:
+            raise PreventUpdate
+        texts, roles, pairs = w.split(list(cons[0]))
+        if tab != "parallel":
+            raise PreventUpdate
+        try:
+            return (
+                parallel_view(ctx, texts, roles, pairs, sel),
+                history_view(ctx, texts, roles, pairs),
+            )
+        except Exception as exc:
+            err(exc)
+            return no_update, no_update
+
+    lim, low, high = w.ids("limit"), w.ids("low"), w.ids("high")
+
+    @app.callback(
+        [Output(i, "value", allow_duplicate=True) for i in lim + low + high]
+        + [Output("selection", "data", allow_duplicate=True), Output("par-msg", "children")],
+        Input("par-graph", "restyleData"),
+        State("par-graph", "figure"),
+        State("selection", "data"),
+        *CON_S,
+        prevent_initial_call=True,
+    )
+    def brush(event, fig, sel, *cons):
+        texts, _roles, pairs = w.split(list(cons))
+        lows = [p[0] for p in pairs or []]
+        highs = [p[1] for p in pairs or []]
+        names = ((fig or {}).get("layout") or {}).get("meta", {}).get("names") or []
+        try:
+            t, lo, hi, new_sel, msg = brush_to_fields(ctx, event, names, texts, lows, highs, sel)
+        except Exception as exc:
+            keep = [no_update] * (len(lim) + len(low) + len(high))
+            return [*keep, no_update, err(exc)]
+        if not msg:
+            raise PreventUpdate
+        out = [v if v != old else no_update for v, old in zip(t, texts)]
+        out += [v if v != old else no_update for v, old in zip(lo, lows)]
+        out += [v if v != old else no_update for v, old in zip(hi, highs)]
+        return [*out, new_sel if new_sel != sel else no_update, msg]
+
+    @app.callback(
+        Output("vid-table", "data"),
+        Output("vid-table", "page_count"),
+        Output("tab-note", "children"),
+        Output("tab-msg", "children"),
+        Output("tab-csv", "href"),
+        w.gate(app, "table"),
+        Input("tab-set", "value"),
+        Input("selection", "data"),
+        Input("vid-table", "page_current"),
+        Input("vid-table", "page_size"),
+        Input("vid-table", "filter_query"),
+        Input("vid-table", "sort_by"),
+        State("tabs", "value"),
+        Input("version", "data"),
+    )
+    def trial_table(cons, which, sel, page, size, query, sort_by, tab, _v):
+        if tab != "table" or not cons:
+            raise PreventUpdate
+        texts, roles, pairs = w.split(list(cons[0]))
+        try:
+            p = table_page(ctx, texts, roles, pairs, which, sel, page, size, query, sort_by)
+        except Exception as exc:
+            return no_update, no_update, no_update, err(exc), no_update
+        token = tokens.add(
+            {
+                "limit_texts": texts,
+                "roles": roles,
+                "functional": pairs,
+                "which": which,
+                "selection": sel,
+                "filter_query": query,
+                "sort_by": sort_by,
+            }
+        )
+        return p["data"], p["page_count"], p["note"], "", f"/_vid/trials.csv?t={token}"
+
+    @app.callback(
+        Output("trial-id", "value", allow_duplicate=True),
+        Input("vid-table", "active_cell"),
+        State("vid-table", "data"),
+        prevent_initial_call=True,
+    )
+    def choose(cell, data):
+        if not cell or not data:
+            raise PreventUpdate
+        row = cell.get("row")
+        if not isinstance(row, int) or not 0 <= row < len(data):
+            raise PreventUpdate
+        return str(int(data[row]["id"]))

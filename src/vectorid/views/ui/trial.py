@@ -1,0 +1,189 @@
+"""Data of the chosen-trial view: its set, status, criteria against the bounds in force,
+parameters against nominal and the box, the spread figure, its stored sections and robustness
+checks, and its flight against the measured one (identification studies)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import plotly.graph_objects as go
+
+from ...analysis.classes import point_classes
+from ...analysis.correlation import parameter_spread
+from ...analysis.robustness import load_robustness
+from ...analysis.sections import load_sections
+from ...errors import VectoridError
+from .. import figures as fg
+from .context import UIContext, analysis_of, fmt, limit_source_of, num, verdicts_of
+from .data import parse_trial_id
+
+__all__ = ["identification_view", "trial_view"]
+
+
+def trial_view(
+    ctx: UIContext,
+    trial_text: Any,
+    limit_texts: Any,
+    roles: Any,
+    functional: Any = None,
+    overlay: Any = None,
+) -> dict[str, Any]:
+    """Details of one sample trial: status, criteria against the constraints in force,
+    parameters against nominal (seed 000 Fig. 13), its stored sections and robustness
+    checks, and trajectories against the flight data for an identification study.
+
+    Returns
+    -------
+    dict
+        ``id``, ``summary`` (text), ``criteria`` and ``params`` (table rows), ``spread``
+        (figure), ``sections`` and ``robustness`` (figures), ``robustness_text``,
+        ``identification`` (figure or None) and ``identification_note``.
+    """
+    tid = parse_trial_id(trial_text)
+    row = ctx.cache.row_of(tid)
+    a, _ = analysis_of(ctx, limit_texts, roles, functional)
+    t = a.trials
+    pc = point_classes(a)
+    cls = "Pareto" if pc.pareto[row] else "feasible (in D)" if pc.feasible[row] else "infeasible"
+    status = "ok" if t.status[row] == 0 else f"failed: {t.message(row) or 'no message'}"
+    summary = (
+        f"trial {tid}: {cls}; stage {int(t.stage[row])}, sequence index {int(t.seq[row])}; "
+        f"{status}; model time {t.wall[row]:.3g} s"
+    )
+    crit_rows = []
+    for j, name in enumerate(a.crit_names):
+        lo, hi = a.bounds[name]
+        v = t.F[row, j]
+        ok = bool(np.isfinite(v) and lo <= v <= hi)
+        crit_rows.append(
+            {
+                "name": name,
+                "sense": a.senses[j],
+                "role": a.roles[j],
+                "value": num(v),
+                "bound": num(hi if a.senses[j] == "min" else lo),
+                "unit": ctx.labels.unit.get(name, ""),
+                "meets": "yes" if ok else "no",
+                "limit source": limit_source_of(a.spec.criteria[j]) or "n/a (not recorded)",
+            }
+        )
+    for j, name in enumerate(a.con_names):
+        lo, hi = a.bounds[name]
+        v = t.G[row, j]
+        ok = bool(np.isfinite(v) and lo <= v <= hi)
+        crit_rows.append(
+            {
+                "name": name,
+                "sense": "functional",
+                "role": f"[{fmt(lo)}, {fmt(hi)}]",
+                "value": num(v),
+                "bound": None,
+                "unit": ctx.labels.unit.get(name, ""),
+                "meets": "yes" if ok else "no",
+                "limit source": "",
+            }
+        )
+    space = a.spec.space
+    x = t.X[row]
+    params = []
+    verdict = verdicts_of(a)
+    lab = ctx.labels
+    for j, v in enumerate(space):
+        nom = lab.nominal.get(v.name)
+        params.append(
+            {
+                "name": v.name,
+                "meaning": lab.meaning.get(v.name, ""),
+                "value": num(x[j]),
+                "nominal": num(nom),
+                "relative": num(x[j] / nom, 4) if nom not in (None, 0) else None,
+                "low": num(v.low),
+                "high": num(v.high),
+                "unit": lab.unit.get(v.name, ""),
+                "identifiability": verdict.get(v.name, "n/a (not computed yet)"),
+            }
+        )
+    noms = np.array([np.nan if lab.nominal.get(n) is None else lab.nominal[n] for n in space.names])
+    spread = fg.spread_figure(
+        parameter_spread(x[None, :], space.names, noms, space.lows, space.highs, [f"trial {tid}"])
+    )
+    with ctx.cache.open() as st:
+        sections = [s for s in load_sections(st) if s.trial == tid]
+        checks = [r for r in load_robustness(st, a) if r.trial == tid]
+    ident, note, rms = identification_view(ctx, tid, x, overlay)
+    return {
+        "id": tid,
+        "summary": summary,
+        "criteria": crit_rows,
+        "params": params,
+        "spread": spread,
+        "sections": [fg.section_figure(s, a.bounds) for s in sections],
+        "robustness": fg.robustness_figure(checks) if checks else None,
+        "robustness_text": [f"stage {r.stage}, radius {r.radius:g}: {r.verdict}" for r in checks],
+        "identification": ident,
+        "identification_note": note,
+        "rms": rms,
+    }
+
+
+def overlay_ids(ctx: UIContext, text: Any, tid: int) -> list[int]:
+    """The trials to overlay on the chosen one: up to two more ids, comma-separated."""
+    out = [tid]
+    if text in (None, ""):
+        return out
+    for part in str(text).replace(";", ",").split(","):
+        if part.strip():
+            i = parse_trial_id(part.strip(), "overlay trial")
+            ctx.cache.row_of(i)
+            if i not in out:
+                out.append(i)
+    if len(out) > 3:
+        from ...errors import StudyDefinitionError
+
+        raise StudyDefinitionError(
+            "overlay trials",
+            f"at most two trials beside the chosen one, got {len(out) - 1}",
+            "list one or two ids, e.g. 110, 241",
+        )
+    return out
+
+
+def identification_view(
+    ctx: UIContext, tid: int, x: np.ndarray, overlay: Any = None
+) -> tuple[go.Figure | None, str, list[dict[str, Any]]]:
+    """The chosen trial (and up to two others) simulated over the first drop against the
+    measured flight: position, velocity and attitude over time with the RMS per channel
+    component (:func:`vectorid.views.flight.flight_figure`). For a study without an
+    ``[identification]`` table: None and a note saying why.
+
+    Returns
+    -------
+    figure or None, note, RMS rows (one per trial)
+    """
+    spec = ctx.spec
+    if "identification" not in spec.extra:
+        return None, "Not an identification study (no [identification] table): no flight data.", []
+    ids = overlay_ids(ctx, overlay, tid)
+    try:
+        from ...identify import views_data as vd
+        from ...identify.identification import Identification
+        from ..flight import flight_figure, rms_table
+
+        key = ("ident", ctx.cache.version()[3])
+        ident = ctx.extra.get(key)
+        if ident is None:
+            ident = Identification.from_spec(spec)
+            ctx.extra[key] = ident
+        rows = [ctx.cache.row_of(i) for i in ids]
+        X = ctx.cache.trials().X[rows]
+        drop = ident.drops[0]
+        runs = vd.simulate_trials(ident, X, drop, labels=[f"trial {i}" for i in ids])
+    except (VectoridError, OSError, KeyError) as exc:
+        return None, f"cannot simulate trial {tid} against the flight: {exc}", []
+    idx = list(range(len(ids)))
+    fig = flight_figure(
+        runs, idx, title=f"Drop {drop.name}: flight vs trial " + ", ".join(map(str, ids))
+    )
+    note = "" if len(ident.drops) == 1 else f"first of {len(ident.drops)} drops shown"
+    return fig, note, rms_table(runs, idx)
