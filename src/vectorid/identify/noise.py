@@ -387,17 +387,25 @@ def parse_discrepancy(value: Any, criteria: Sequence[str], where: str = "discrep
 
 _ORDER = 3
 _MAD = 1.482602218505602  # 1 / Φ⁻¹(3/4): MAD -> σ for a normal distribution
+#: Steps within this share of the median step count as regular (jittered time stamps).
+_JITTER = 0.25
 
 
 def estimate_sigma(t: ArrayLike, y: ArrayLike, order: int = _ORDER) -> NDArray[np.float64]:
     """Standard deviation of the white measurement noise of each column of ``y``.
 
     σ̂ = 1.4826 · MAD(Δᵏy) / √C(2k, k): the robust spread of the k-th differences (default
-    k = 3) over runs of evenly spaced samples (steps within 1 % of the median step), scaled
-    by the variance C(2k, k) σ² of the k-th difference of white noise. A smooth signal
-    contributes s⁽ᵏ⁾Δtᵏ, negligible at the sampling rates of flight logs; a correlated error
-    slower than the sampling contributes only its high-frequency share
-    (:func:`highfreq_sigma`).
+    k = 3) over windows of k + 1 samples, scaled by the variance C(2k, k) σ² of the k-th
+    difference of white noise. A smooth signal contributes s⁽ᵏ⁾Δtᵏ, negligible at the
+    sampling rates of flight logs; a correlated error slower than the sampling contributes
+    only its high-frequency share (:func:`highfreq_sigma`).
+
+    Time stamps that jitter (a logger that stamps a 2.5-Hz receiver's fixes 0.38-0.42 s
+    apart) are allowed: in a window whose steps are all within 25 % of the median step, the
+    k-th *divided* difference D = Σ w_j y_j (w_j = 1 / Π_(l≠j) (t_j - t_l)) is divided by
+    its noise spread √(Σ w_j²), which is σ for white noise whatever the spacing (on even
+    steps it is exactly Δᵏy / √C(2k, k)). Windows across a hole (a step off the median by
+    more than that) are skipped.
 
     Parameters
     ----------
@@ -411,7 +419,7 @@ def estimate_sigma(t: ArrayLike, y: ArrayLike, order: int = _ORDER) -> NDArray[n
     Returns
     -------
     (m,) float
-        σ̂ per column, unit of ``y``; NaN when fewer than 10 difference runs exist.
+        σ̂ per column, unit of ``y``; NaN when fewer than 10 windows exist.
     """
     t = np.asarray(t, dtype=float)
     y = np.asarray(y, dtype=float)
@@ -422,16 +430,21 @@ def estimate_sigma(t: ArrayLike, y: ArrayLike, order: int = _ORDER) -> NDArray[n
         return np.full(y.shape[1], np.nan)
     dt = np.diff(t)
     med = float(np.median(dt))
-    even = np.abs(dt - med) <= 0.01 * med
-    # a k-th difference at i uses samples i..i+k: all k steps must be even
+    even = np.abs(dt - med) <= _JITTER * med
+    # a k-th difference at i uses samples i..i+k: all k steps must be regular
     ok = np.ones(t.size - k, dtype=bool)
     for j in range(k):
         ok &= even[j : j + t.size - k]
     if ok.sum() < 10:
         return np.full(y.shape[1], np.nan)
-    d = np.diff(y, n=k, axis=0)[ok]
-    mad = np.median(np.abs(d - np.median(d, axis=0)), axis=0)
-    return _MAD * mad / math.sqrt(math.comb(2 * k, k))
+    win = np.flatnonzero(ok)[:, None] + np.arange(k + 1)[None, :]  # (n, k + 1)
+    tw = (t[win] - t[win][:, :1]) / med  # in steps, for conditioning
+    gap = tw[:, :, None] - tw[:, None, :]
+    gap[:, np.arange(k + 1), np.arange(k + 1)] = 1.0
+    w = 1.0 / np.prod(gap, axis=2)  # divided-difference weights (unit step)
+    z = np.einsum("nj,njm->nm", w, y[win]) / np.sqrt(np.sum(w * w, axis=1))[:, None]
+    mad = np.median(np.abs(z - np.median(z, axis=0)), axis=0)
+    return _MAD * mad
 
 
 def highfreq_sigma(noise: ComponentNoise, dt: float, order: int = _ORDER) -> float:
@@ -787,7 +800,9 @@ def noise_floor(
                 base = _sim_channels(base_res, chans, d.origin_altitude)
                 jac = _jacobian(ident, P, d, w, chans)
                 sims = {
-                    ch: base[ch][0][None] + np.einsum("sTm,ns->nTm", jac[ch], delta) for ch in chans
+                    ch: base[ch][0][None]
+                    + (delta @ jac[ch].reshape(len(jac[ch]), -1)).reshape(draws, *jac[ch].shape[1:])
+                    for ch in chans
                 }
             else:
                 sims = {ch: np.empty((draws, *truth[ch].shape[1:])) for ch in chans}
@@ -803,12 +818,7 @@ def noise_floor(
                 if c.operator is None and c.use in _RESIDUAL_ONLY:
                     v = cdef.fn(sims[ch] - on_grid[ch], tr, grid)
                 else:
-                    v = np.array(
-                        [
-                            cdef.fn(sims[ch][r][None], tr + on_grid[ch][r], grid)[0]
-                            for r in range(draws)
-                        ]
-                    )
+                    v = _per_draw(cdef, c, sims[ch], tr[None] + on_grid[ch], grid)
                 values[:, jj] += v
         values /= len(winds)
         L = float(grid[-1] - grid[0])
@@ -833,6 +843,39 @@ def noise_floor(
 
 
 _FIT_CHANNELS = ("position", "velocity", "euler", "rates", "altitude")
+
+
+def _index_form(use: str, operator: str | None):
+    """(index function, operator) of a criterion that compares one index Φ of the simulated
+    signal with the same index of the measured one (seed 000 eq. 11: the spectral peaks
+    ``peak_*``, and ``index:operator`` criteria), else None."""
+    from vectorid.identify import criteria as cr
+
+    idx = cr.INDICES.get(use)
+    if idx is None and use.startswith("peak_"):
+        idx = cr._spectral_defs(use)[0]
+    if idx is None or (operator is None and not use.startswith("peak_")):
+        return None
+    return idx.fn, cr.OPERATORS["absdiff" if operator is None else operator]
+
+
+def _per_draw(cdef, c, sims: NDArray, meas: NDArray, grid: NDArray) -> NDArray:
+    """One criterion for every draw: ``sims`` and ``meas`` (draws, T, m), each draw's
+    simulation against its own measurement. An index criterion takes two batched calls
+    (the index of every simulation, the index of every measurement), checked against the
+    criterion itself on three draws; any other is evaluated draw by draw."""
+
+    def direct(r: int) -> float:
+        return float(cdef.fn(sims[r][None], meas[r], grid)[0])
+
+    form = _index_form(c.use, c.operator)
+    if form is not None:
+        index, op = form
+        v = np.asarray(op(index(sims, grid), index(meas, grid)), dtype=float)
+        check = [direct(r) for r in range(min(3, len(v)))]
+        if np.allclose(check, v[: len(check)], rtol=1e-9, atol=1e-12, equal_nan=True):
+            return v
+    return np.array([direct(r) for r in range(sims.shape[0])])
 
 
 def _fit_state(fit_in, values: Mapping[str, NDArray], t0: float, span: float):
