@@ -41,10 +41,11 @@ discrepancy allowance is what the model lacks by construction: the wind is unifo
 flight in the model, while the authors' own wind model (data README: gusts integrated over
 height, ``b_w_xy = 8 * 0.0251``, ``b_w_z = 2 * 0.0251``, ``k_w = -0.00385``) varies along the
 descent. :func:`gust_allowance` turns that gust model into a bound on the position deviation
-it causes over each flight (a kinematic Monte Carlo: the canopy drifts with the air). Where the
-flights need more than that (the feasible set D is empty), the script says so, and also
-reports the verdicts under the least allowance that admits trials — labelled as read from
-these flights, a measure of the model's inadequacy rather than the expert's statement.
+it causes over each flight (a kinematic Monte Carlo: the canopy drifts with the air). The study
+runs through the parafoil demo's stage driver (``vectorid.demo_parafoil.run_stage``): where D
+under these limits holds too few trials, the limits are relaxed by the smallest common factor
+that fills it (saved as a stand-in, the factor in its note), and the ranges read are outer
+bounds; the factor measures how far the flights are from what noise and gusts explain.
 
 The script prints, per flight, the horizontal RMS error with the stated parameters (calm air,
 and with the wind fitted alone) and with the identified ones, then each design variable's
@@ -327,9 +328,8 @@ def gust_allowance(
     return out
 
 
-#: Study criterion name of each library criterion, and the allowance key that bounds it.
+#: Study criterion name of each library criterion.
 STUDY_NAMES = {"pos_h_abs": "pos_h", "pos_v_abs": "pos_v", "alt_abs": "alt"}
-ALLOWANCE_KEYS = {"pos_h": "position_h", "pos_v": "position_v", "alt": "altitude"}
 
 
 def noise_limits(
@@ -375,10 +375,11 @@ def run(
     limits: dict[str, tuple[float, str]] | None = None,
 ):
     """One PSI study of ``model`` with double tuning (a coarse run of a quarter of ``trials``,
-    the box narrowed from its feasible set, then ``trials`` more); returns the step result.
-    ``limits``: criterion -> (limit, note) from the noise floors (None: no criteria
-    constraints, so every trial is in D and the Pareto set ranks them)."""
-    from vectorid.identify.twostep import run_step
+    the box narrowed where it identifies a variable, then ``trials`` more), through the demo's
+    stage driver; returns its :class:`~vectorid.demo_parafoil.Stage`. ``limits``: criterion ->
+    (limit, note) from the noise floors (None: no criteria constraints, so every trial is in D
+    and the Pareto set ranks them)."""
+    from vectorid.demo_parafoil import run_stage
 
     global _CURRENT
     _CURRENT = model
@@ -392,12 +393,10 @@ def run(
         name=name, model=evaluate, space=space, criteria=tuple(crit),
         trials=trials, seed=1, executor="serial",
     )  # fmt: skip
-    if store.exists():
-        store.unlink()
     meanings = {**MEANINGS, **{v: "uniform wind of the flight, m/s" for v in model.variables
                                if v.startswith("wind_")}}  # fmt: skip
-    return run_step(spec, store, trials=trials, coarse=max(16, trials // 4), auto_quantile=None,
-                    name=name, meanings=meanings, hints=HINTS)  # fmt: skip
+    return run_stage(spec, store, coarse=max(16, trials // 4), trials=trials, name=name,
+                     meanings=meanings, hints=HINTS)  # fmt: skip
 
 
 #: What would identify each gain that these flights leave open.
@@ -424,22 +423,16 @@ def identify(folder: str | Path, out: str | Path, trials: int = 4096) -> dict:
     allowance = gust_allowance(durations)
     limits, noise = noise_limits(full, allowance)
     rw = run(wind_only, wind_boxes, out / "eth-wind-only.db", max(16, trials // 2), "eth-wind")
-    r = run(full, boxes, out / "eth-glide-turn.db", trials, "eth-glide-turn", limits)
-    read = None
-    if r.analysis.n_feasible < 20:
-        read = least_allowance(full, r.analysis, allowance, limits)
-        r_read = run(full, boxes, out / "eth-glide-turn-read.db", trials, "eth-glide-turn-read",
-                     read["limits"])  # fmt: skip
-        read["step"] = r_read
-    best = r if r.chosen else (read["step"] if read else None)
-    aw = rw.analysis  # the best fit of the winds alone: lowest sum of criterion / median
+    st = run(full, boxes, out / "eth-glide-turn.db", trials, "eth-glide-turn", limits)
+    r = st.result
+    aw = rw.result.analysis  # the best fit of the winds alone: lowest sum of criterion / median
     Fw = aw.trials.F[aw.ok]
     x_w = aw.trials.X[aw.ok][np.argmin(np.sum(Fw / np.median(Fw, axis=0), axis=1))]
     out_rms = {}
-    if best is not None and best.chosen:
-        x_id = np.array([best.chosen[v] for v in full.variables])
+    if r.chosen:
+        x_id = np.array([r.chosen[v] for v in full.variables])
         out_rms = full.horizontal_rms(x_id)
-    a = (best or r).analysis
+    a = r.analysis
     Xd = a.trials.X[a.feasible]
     col = {v: Xd[:, a.spec.space.names.index(v)] for v in names}
 
@@ -454,10 +447,9 @@ def identify(folder: str | Path, out: str | Path, trials: int = 4096) -> dict:
         "flights": flights,
         "model": full.idents[FLIGHTS[0]].model,
         "gains": names,
-        "wind_step": rw,
+        "wind_step": rw.result,
         "step": r,
-        "read": read,
-        "best": best,
+        "stage": st,
         "allowance": allowance,
         "noise": noise,
         "limits": limits,
@@ -468,48 +460,8 @@ def identify(folder: str | Path, out: str | Path, trials: int = 4096) -> dict:
     }
 
 
-def least_allowance(
-    model,
-    a,
-    allowance: dict[str, dict[str, float]],
-    limits: dict[str, tuple[float, str]],
-    min_feasible: int = 20,
-    **kwargs,
-) -> dict:
-    """The smallest common factor f on the gust allowance at which ``min_feasible`` trials of
-    ``a`` meet both limits: what these flights show the model needs (read from the data, so a
-    measure of the model's inadequacy, not a statement made before seeing them).
-
-    An allowance δ on a flight of T s adds δ T to every draw of its criterion, so the limit of
-    the flight-averaged criterion grows by f times the mean of δ T over the flights (the joint
-    quantile level does not move); the limits at f are then computed by the noise floors
-    themselves. Returns ``{"factor", "allowance", "limits"}``."""
-    F = a.trials.F[a.ok]
-    T = {n: float(i.drops[0].grid[-1] - i.drops[0].grid[0]) for n, i in model.idents.items()}
-    crit = list(a.crit_names)
-    step = np.array([np.mean([allowance[n][ALLOWANCE_KEYS[c]] * T[n] for n in T]) for c in crit])
-    base = np.array([limits[c][0] for c in crit])  # at f = 1
-    need = (F - base[None]) / step[None]  # factor - 1 each trial needs, per criterion
-    f = 1.0 + np.sort(np.max(need, axis=1))[min(min_feasible, len(F)) - 1]
-    f = float(np.ceil(max(f, 1.0) * 100) / 100)
-    scaled = {n: {k: f * v for k, v in d.items()} for n, d in allowance.items()}
-    lim, _ = noise_limits(model, scaled, **kwargs)
-    note = f"; {f:g} x the gust allowance: read from these data"
-    return {
-        "factor": f,
-        "allowance": scaled,
-        "limits": {k: (v, n + note) for k, (v, n) in lim.items()},
-    }
-
-
-def _print_limits(r, indent: str = "  ") -> None:
-    for name, lim in r.limits.items():
-        src, note = r.sources.get(name, ("expert", ""))
-        print(f"{indent}{name:<6} <= {lim:8.4g} m·s   {src}: {note}")
-
-
 def main(argv: list[str] | None = None) -> int:
-    from vectorid.demo_parafoil import print_verdicts
+    from vectorid.demo_parafoil import print_stage_limits, print_verdicts
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("data", nargs="?", default=str(DEFAULT_DATA), help="the eth-parafoil folder")
@@ -553,56 +505,34 @@ def main(argv: list[str] | None = None) -> int:
         "  (the authors' simulation assumes GPS 0.1 m horizontal / 0.3 m vertical; a correlated "
         "GNSS error,\n   which the estimator cannot see, is not granted)"
     )
-    r = res["step"]
+    st = res["stage"]
+    r = st.result
     a = r.analysis
     print()
     print(
         f"Identified from the four flights together: N = {a.n}   ND = {a.n_feasible}   "
-        f"NP = {a.n_pareto} ({r.elapsed:.0f} s); criteria constraints (means over the flights):"
+        f"NP = {a.n_pareto} ({r.elapsed:.0f} s)"
     )
-    _print_limits(r)
-    for n in r.notes[-1:]:
-        print(f"  note: {n}")
-    read = res["read"]
-    if read is not None:
-        rr = read["step"]
-        print()
-        print(
-            f"  The flights need more than noise and the authors' gusts: D holds {a.n_feasible} "
-            "trials. The least\n  allowance that admits 20 trials is "
-            f"{read['factor']:g} x the gust allowance (read from these flights: it measures"
-        )
-        print(
-            "  what the model lacks here - the initial attitude, the brake mapping, a wind that is "
-            "not uniform -\n  and is not a statement made before seeing them). Under it: "
-            f"N = {rr.analysis.n}   ND = {rr.analysis.n_feasible}   NP = {rr.analysis.n_pareto}"
-        )
-        _print_limits(rr, "    ")
-    best = res["best"]
+    print_stage_limits(st)
     print()
     print("Horizontal RMS error per flight (m):")
-    print(f"  {'flight':<8}{'stated, calm':>14}{'stated + wind':>15}{'identified':>12}")
+    print(f"  {'flight':<8}{'stated, calm':>14}{'stated + wind':>15}{'chosen':>9}")
     cols = (res["rms_stated_calm"], res["rms_stated_wind"], res["rms_identified"])
     for n in FLIGHTS:
-        ident = f"{cols[2][n]:12.1f}" if n in cols[2] else f"{'-':>12}"
-        print(f"  {n:<8}{cols[0][n]:14.1f}{cols[1][n]:15.1f}{ident}")
+        chosen = f"{cols[2][n]:9.1f}" if n in cols[2] else f"{'-':>9}"
+        print(f"  {n:<8}{cols[0][n]:14.1f}{cols[1][n]:15.1f}{chosen}")
     means = [float(np.mean(list(c.values()))) if c else np.nan for c in cols]
-    print(f"  {'mean':<8}{means[0]:14.1f}{means[1]:15.1f}{means[2]:12.1f}")
+    print(f"  {'mean':<8}{means[0]:14.1f}{means[1]:15.1f}{means[2]:9.1f}")
     print(
         "  (stated + wind: the stated gains with each flight's uniform wind fitted alone, the "
-        "best fit of the\n   wind-only study; "
-        "identified: the chosen\n   vector, the Pareto trial nearest the ideal point"
-        + (", under the allowance read from the flights)" if read is not None else ")")
+        "best fit of the\n   wind-only study; chosen: the Pareto trial of D nearest the ideal "
+        "point - one vector the\n   flights cannot tell from the others in D, an estimate only "
+        "of what is identified below)"
     )
-    if best is None:
-        return 0
     print()
-    print(
-        "Identifiability (a value only where the data identify the variable; else its range over "
-        "D):"
-    )
-    inside = print_verdicts(best.verdicts, best.chosen)
-    del inside
+    print("Identifiability (a value only where the data identify the variable; else its range):")
+    print_verdicts(r.verdicts, r.chosen, units=UNITS)
+    best = r
     by_name = {v.name: v for v in best.verdicts}
     m = res["model"]
     print()

@@ -24,9 +24,10 @@ Criteria (pure): the altitude residual ∫|Δh| dt and the horizontal position r
 drop's barometer and GPS noise estimated from its data (``noise = "estimate"``), the noise
 floors of a perfect model under it, and a discrepancy allowance for the wind the model flies
 as uniform — from the ETH authors' low-level gust model (no wind model is stated for these
-drops; it is a stand-in, named as such), over the height each drop descends. Where the drops
-need more (D empty), the script says so and reports the verdicts under the least allowance
-that admits trials, labelled as read from the drops. It prints the identifiability verdicts
+drops; it is a stand-in, named as such), over the height each drop descends. The study runs
+through the parafoil demo's stage driver (``vectorid.demo_parafoil.run_stage``): where D under
+these limits holds too few trials, they are relaxed by the smallest common factor that fills it
+(saved as a stand-in), and the factor is printed. It prints the identifiability verdicts
 (``vectorid.analysis.identifiability``) and which quantities the data determine and which
 they do not: the sink rate fixes only a combination of wing loading and drag (a ridge in the
 feasible set), and without airspeed or wind the glide ratio is not separable from the wind.
@@ -154,8 +155,8 @@ UNITS = {"payload_mass": "kg", "CD0": "-"}
 
 def run(model: TwoDrops, store: Path, trials: int, limits: dict | None, name: str = "ssi"):
     """One PSI study of the two drops with double tuning, under ``limits`` (criterion ->
-    (limit, note) from the noise floors)."""
-    from vectorid.identify.twostep import run_step
+    (limit, note) from the noise floors), through the demo's stage driver."""
+    from vectorid.demo_parafoil import run_stage
 
     global _CURRENT
     _CURRENT = model
@@ -170,12 +171,10 @@ def run(model: TwoDrops, store: Path, trials: int, limits: dict | None, name: st
         name=name, model=evaluate, space=space, criteria=tuple(crit),
         trials=trials, seed=1, executor="serial",
     )  # fmt: skip
-    if store.exists():
-        store.unlink()
     meanings = {**MEANINGS, **{v: "uniform wind of the drop, m/s" for v in model.variables
                                if v.startswith("wind_")}}  # fmt: skip
-    return run_step(spec, store, trials=trials, coarse=max(16, trials // 4), auto_quantile=None,
-                    name=name, meanings=meanings)  # fmt: skip
+    return run_stage(spec, store, coarse=max(16, trials // 4), trials=trials, name=name,
+                     meanings=meanings, hints={})  # fmt: skip
 
 
 def identify(folder: str | Path, out: str | Path, trials: int = 2048) -> dict:
@@ -207,13 +206,8 @@ def identify(folder: str | Path, out: str | Path, trials: int = 2048) -> dict:
                 est[n] = other.merged(nm)
                 borrowed[n] = (m, missing)
     limits, noise = eth.noise_limits(model, allowance, channels=chans, noise=est)
-    kw = {"channels": chans, "noise": est}
-    r = run(model, out / "ssi-drops.db", trials, limits)
-    read = None
-    if r.analysis.n_feasible < 20:
-        read = eth.least_allowance(model, r.analysis, allowance, limits, **kw)
-        read["step"] = run(model, out / "ssi-drops-read.db", trials, read["limits"], "ssi-read")
-    best = r if r.analysis.n_feasible >= 20 or read is None else read["step"]
+    st = run(model, out / "ssi-drops.db", trials, limits)
+    best = st.result
     a = best.analysis
     x = np.array([best.chosen[v] for v in model.variables]) if best.chosen else None
     Xd = a.trials.X[a.feasible]
@@ -224,9 +218,8 @@ def identify(folder: str | Path, out: str | Path, trials: int = 2048) -> dict:
     slope = np.polyfit(np.log(Xd[:, 1]), np.log(m_c + Xd[:, 0]), 1)[0] if ridge else np.nan
     corr = float(np.corrcoef(np.log(Xd[:, 1]), np.log(m_c + Xd[:, 0]))[0, 1]) if ridge else np.nan
     return {
-        "step": r,
-        "read": read,
-        "best": best,
+        "step": best,
+        "stage": st,
         "model": model,
         "noise": noise,
         "borrowed": borrowed,
@@ -242,7 +235,7 @@ def identify(folder: str | Path, out: str | Path, trials: int = 2048) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from vectorid.demo_parafoil import print_verdicts
+    from vectorid.demo_parafoil import print_stage_limits, print_verdicts
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("data", nargs="?", default=str(DEFAULT_DATA), help="the ssi-parafoil folder")
@@ -257,7 +250,8 @@ def main(argv: list[str] | None = None) -> int:
         )
         return 2
     res = identify(args.data, args.out, args.trials)
-    r = res["step"]
+    st = res["stage"]
+    r = st.result
     a = r.analysis
     print("Stanford SSI parafoil payload, two drops (data README: ssi-parafoil)")
     print(
@@ -277,26 +271,9 @@ def main(argv: list[str] | None = None) -> int:
             f"{al['altitude']:.2f} m altitude"
         )
     print()
-    print(f"  N = {a.n}   ND = {a.n_feasible}   NP = {a.n_pareto} ({r.elapsed:.0f} s); criteria:")
-    for name, lim in r.limits.items():
-        src, note = r.sources.get(name, ("expert", ""))
-        print(f"    {name:<6} <= {lim:8.4g} m·s   {src}: {note}")
-    for n in r.notes[-1:]:
-        print(f"  note: {n}")
-    read = res["read"]
-    if read is not None:
-        rr = read["step"]
-        print(
-            f"  The drops need more than noise and gusts (D holds {a.n_feasible} trials): the "
-            f"least allowance that\n  admits 20 trials is {read['factor']:g} x the gust allowance, "
-            "read from the drops (the payload's continuous\n  rotation, which no gliding model "
-            "without inputs flies, is part of it). Under it:\n"
-            f"  N = {rr.analysis.n}   ND = {rr.analysis.n_feasible}   NP = {rr.analysis.n_pareto}"
-        )
-        for name, lim in rr.limits.items():
-            src, note = rr.sources.get(name, ("expert", ""))
-            print(f"    {name:<6} <= {lim:8.4g} m·s   {src}: {note}")
-    best = res["best"]
+    print(f"  N = {a.n}   ND = {a.n_feasible}   NP = {a.n_pareto} ({r.elapsed:.0f} s)")
+    print_stage_limits(st)
+    best = r
     print()
     print("Identifiability (a value only where the data identify the variable; else its range):")
     print_verdicts(best.verdicts, best.chosen)

@@ -43,7 +43,7 @@ def test_parafoil_demo_end_to_end_reduced(tmp_path, capsys):
     for needle in (
         "sensor noise stated by the generator: position_h 1.5 m Gauss-Markov",
         "Stage 1: delcon, CLalpha, CD0, Rig, CnDanom, Cnr",
-        "criteria constraints: noise floor (stated noise, joint 95 %) + allowance",
+        "criteria constraints: noise floor (joint 95 %) + allowance",
         "discrepancy position_h 26 m",
         "D under them:",
         "Stage 2: all 33 gains (256 trials)",

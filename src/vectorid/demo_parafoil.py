@@ -68,6 +68,7 @@ from .analysis.identifiability import VERDICTS
 __all__ = [
     "DEMO_DATA",
     "DEMO_DISCREPANCY",
+    "print_stage_limits",
     "print_verdicts",
     "relaxed_limits",
     "run_parafoil_demo",
@@ -577,6 +578,8 @@ def run_stage(
     reference: Mapping[str, tuple[float, float]] | None = None,
     progress: bool = False,
     name: str = "stage",
+    meanings: Mapping[str, str] | None = None,
+    hints: Mapping[str, str] | None = None,
 ) -> Stage:
     """Run one stage: ``coarse`` trials in the study box, the box narrowed where the coarse
     run identifies a gain (:func:`vectorid.identify.twostep.noise_refine`), then ``trials``
@@ -584,7 +587,9 @@ def run_stage(
     trials, the smallest common relaxation (:func:`relaxed_limits`) is saved with the study
     as a stand-in (source ``quantile``, the note saying so and giving the noise-grounded
     value). Verdicts: :func:`vectorid.analysis.identifiability`, with the stages' boxes and
-    the boxes the gains were first given (``reference``)."""
+    the boxes the gains were first given (``reference``); ``meanings`` and ``hints`` (default:
+    the 33 gains') say what each variable is and what would identify it. The examples on real
+    parafoils run their studies through it too (one mechanism)."""
     from .analysis.choice import suggest_choice
     from .analysis.identifiability import identifiability
     from .analysis.refine import apply_refine
@@ -647,7 +652,11 @@ def run_stage(
             chosen = {n: float(v) for n, v in zip(a.spec.space.names, a.trials.X[i])}
             crit = {n: float(v) for n, v in zip(a.crit_names, a.trials.F[i])}
         verdicts = identifiability(
-            a, meanings=SHORT, hints=HINTS, stages=stages, reference=reference
+            a,
+            meanings=SHORT if meanings is None else meanings,
+            hints=HINTS if hints is None else hints,
+            stages=stages,
+            reference=reference,
         )
     result = StepResult(
         name=name,
@@ -705,12 +714,12 @@ def _allowance_of(note: str) -> str:
     return ""
 
 
-def _print_limits(st: Stage, indent: str = "  ") -> None:
-    """The noise-grounded criteria constraints with units and how they were obtained, then
-    the relaxation the sampling needed (if any)."""
-    units = {c[0]: c[3] for c in CRITERIA}
+def print_stage_limits(st: Stage, indent: str = "  ") -> None:
+    """Print a stage's noise-grounded criteria constraints with their units and allowances,
+    how many trials meet them, and the relaxation the sampling needed (if any)."""
     r = st.result
-    print(f"{indent}criteria constraints: noise floor (stated noise, joint 95 %) + allowance")
+    units = {c.name: c.unit for c in r.spec.criteria}
+    print(f"{indent}criteria constraints: noise floor (joint 95 %) + allowance")
     heads = []
     for name, lim in st.noise_limits.items():
         note = st.noise_notes.get(name, "")
@@ -748,8 +757,16 @@ def _truth_in_d(st: Stage, ident, true: Mapping[str, float]) -> tuple[bool, str]
         return True, f"meets every noise-grounded limit (closest {c} at {q:.2f}x its limit)"
     text = ", ".join(f"{c} {q:.2f}x its limit" for c, q in over.items())
     inside = "inside" if max(over.values()) <= st.factor else "outside"
+    pn = list(ident.model.parameter_names)
+    held = [
+        f"{n} at {ident.base[pn.index(n)]:.3g} (truth {true[n]:.3g})"
+        for n in pn
+        if n not in names and n in true and not math.isclose(ident.base[pn.index(n)], true[n])
+    ]
+    why = f"; the stage holds {', '.join(held)}" if held else ""
     return False, (
-        f"exceeds the noise-grounded limits ({text}); {inside} the relaxed ones (x{st.factor:g})"
+        f"exceeds the noise-grounded limits ({text}){why}; {inside} the relaxed ones "
+        f"(x{st.factor:g})"
     )
 
 
@@ -757,7 +774,7 @@ def _print_stage(st: Stage, ident, true, *, title: str) -> dict:
     """The block of one stage: header, limits, double tuning, truth in D, verdicts."""
     r = st.result
     _step_header(r, title)
-    _print_limits(st)
+    print_stage_limits(st)
     for proposal in st.proposals:
         narrowed = [
             row for row in proposal.rows()
