@@ -361,7 +361,13 @@ def noise_limits(
                          discrepancy=allowance[name])  # fmt: skip
         samples.append(fl.samples)
         used[name] = est.describe()
-    floor = NoiseFloor(fl.names, fl.units, np.mean(samples, axis=0), {}, {}, draws, seed, used)
+    notes = {}  # the allowance of each criterion, per flight, in words
+    for n, crit in zip(fl.names, (STUDY_NAMES.get(n) for n in fl.names)):
+        key = {"pos_h": "position_h", "pos_v": "position_v", "alt": "altitude"}.get(crit)
+        vals = [allowance[f].get(key, 0.0) for f in model.idents]
+        if key and max(vals) > 0:
+            notes[n] = f"discrepancy {key} {min(vals):.3g}-{max(vals):.3g} m by flight"
+    floor = NoiseFloor(fl.names, fl.units, np.mean(samples, axis=0), {}, notes, draws, seed, used)
     lim = floor.limits(fl.names, coverage=coverage)
     return {STUDY_NAMES[n]: v for n, v in lim.items()}, used
 

@@ -307,11 +307,11 @@ def main(argv: list[str] | None = None) -> int:
         "neither is stated"
     )
     winds = [v for v in best.verdicts if v.name.startswith("wind_")]
-    open_w = sum(not v.identified for v in winds)
+    n_id = sum(v.identified for v in winds)
     print(
         "  - the glide ratio: the horizontal track is airspeed plus an unknown wind, and each "
-        f"drop flies\n    one way, so the winds absorb it ({open_w} of {len(winds)} wind "
-        "components not identified)"
+        f"drop flies\n    one way, so the winds absorb it ({n_id} of {len(winds)} wind "
+        "components identified)"
     )
     print(
         "  - turn parameters: no control record, and the payload turns continuously (the "

@@ -71,8 +71,9 @@ no channel bound limits (frequencies, rate extremes, indices) take an allowance 
 their own name. A criterion-name allowance is added to the limit.
 
 The estimator (``noise = "estimate"``, :func:`estimate_sigma`): σ̂ = 1.4826 MAD(Δ³y) / √20,
-the robust spread of the third differences of each component over runs of evenly spaced
-samples, scaled by Var(Δ³n) = C(6, 3) σ² = 20σ² for white noise n. The third difference
+the robust spread of the third differences of each component over windows of four samples
+(jittered time stamps: divided differences normalised by their noise spread), scaled by
+Var(Δ³n) = C(6, 3) σ² = 20σ² for white noise n. The third difference
 removes a smooth signal (it leaves s'''·Δt³) and the median absolute deviation ignores
 spikes. It sees the *white* part of the noise: a correlated error slower than the sampling
 (a GPS position error of 20 s correlation time) is indistinguishable from motion and is
@@ -467,7 +468,7 @@ def estimate_noise(flight, channels: Sequence[str] | None = None) -> NoiseModel:
 
     ``flight`` is a :class:`~vectorid.identify.FlightData` (e.g. a drop's windowed data);
     ``channels`` default to all. A yaw that wraps is unwrapped first. Components whose
-    estimate is not available (too few evenly spaced samples) stay unstated (None)."""
+    estimate is not available (too few regularly spaced samples) stay unstated (None)."""
     out: dict[str, list[ComponentNoise | None]] = {}
     for name in channels or list(flight.channels):
         if name not in flight.channels:
