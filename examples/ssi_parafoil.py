@@ -20,9 +20,17 @@ Design variables, with both drops at once (criteria averaged over them):
 * per drop, the unknown uniform wind (north, east).
 
 Criteria (pure): the altitude residual ∫|Δh| dt and the horizontal position residual
-∫|ΔP_H| dt. The script prints what the fit gives, and which quantities the data determine and
-which they do not: the sink rate fixes only a combination of wing loading and drag (a ridge in
-the feasible set), and without airspeed or wind the glide ratio is not separable from the wind.
+∫|ΔP_H| dt. Their constraints are noise-grounded as in ``examples/eth_parafoil.py``: each
+drop's barometer and GPS noise estimated from its data (``noise = "estimate"``), the noise
+floors of a perfect model under it, and a discrepancy allowance for the wind the model flies
+as uniform — from the ETH authors' low-level gust model (no wind model is stated for these
+drops; it is a stand-in, named as such), over the height each drop descends. The study runs
+through the parafoil demo's stage driver (``vectorid.demo_parafoil.run_stage``): where D under
+these limits holds too few trials, they are relaxed by the smallest common factor that fills it
+(saved as a stand-in), and the factor is printed. It prints the identifiability verdicts
+(``vectorid.analysis.identifiability``) and which quantities the data determine and which
+they do not: the sink rate fixes only a combination of wing loading and drag (a ridge in the
+feasible set), and without airspeed or wind the glide ratio is not separable from the wind.
 """
 
 from __future__ import annotations
@@ -35,6 +43,7 @@ from pathlib import Path
 import numpy as np
 
 from vectorid.identify import Channel, FlightData, Identification
+from vectorid.identify.noise import estimate_noise
 from vectorid.problem import Criterion
 from vectorid.space import Continuous, Space
 from vectorid.spec import StudySpec
@@ -137,45 +146,87 @@ def evaluate(X: np.ndarray) -> np.ndarray:
     return _CURRENT(X)
 
 
-def identify(folder: str | Path, out: str | Path, trials: int = 2048) -> dict:
-    from vectorid.identify.twostep import run_step
+MEANINGS = {
+    "payload_mass": "payload mass = wing loading on the stand-in canopy",
+    "CD0": "zero-lift drag gain (x the stand-in's c_D0)",
+}
+UNITS = {"payload_mass": "kg", "CD0": "-"}
 
+
+def run(model: TwoDrops, store: Path, trials: int, limits: dict | None, name: str = "ssi"):
+    """One PSI study of the two drops with double tuning, under ``limits`` (criterion ->
+    (limit, note) from the noise floors), through the demo's stage driver."""
+    from vectorid.demo_parafoil import run_stage
+
+    global _CURRENT
+    _CURRENT = model
+    boxes = {**BOXES, **{v: WIND_BOX for v in model.variables if v.startswith("wind_")}}
+    space = Space([Continuous(v, *boxes[v], unit=UNITS.get(v, "m/s")) for v in model.variables])
+    crit = []
+    for c in ("alt", "pos_h"):
+        lim, note = (limits or {}).get(c, (None, ""))
+        src = "noise" if lim is not None else ""
+        crit.append(Criterion(c, unit="m·s", limit=lim, limit_source=src, limit_note=note))
+    spec = StudySpec(
+        name=name, model=evaluate, space=space, criteria=tuple(crit),
+        trials=trials, seed=1, executor="serial",
+    )  # fmt: skip
+    meanings = {**MEANINGS, **{v: "uniform wind of the drop, m/s" for v in model.variables
+                               if v.startswith("wind_")}}  # fmt: skip
+    return run_stage(spec, store, coarse=max(16, trials // 4), trials=trials, name=name,
+                     meanings=meanings, hints={})  # fmt: skip
+
+
+def identify(folder: str | Path, out: str | Path, trials: int = 2048) -> dict:
+    eth = _eth()
     folder, out = Path(folder), Path(out)
     out.mkdir(parents=True, exist_ok=True)
     path = folder / "parafoildata_clean.csv"
     flights = {f"drop{k}": load(path, k) for k in DROPS}
     model = TwoDrops(flights)
-    global _CURRENT
-    _CURRENT = model
-    boxes = {**BOXES, **{v: WIND_BOX for v in model.variables if v.startswith("wind_")}}
-    space = Space([Continuous(v, *boxes[v]) for v in model.variables])
-    spec = StudySpec(
-        name="ssi-drops", model=evaluate, space=space,
-        criteria=(Criterion("alt", unit="m·s"), Criterion("pos_h", unit="m·s")),
-        trials=trials, seed=1, executor="serial",
-    )  # fmt: skip
-    store = out / "ssi-drops.db"
-    if store.exists():
-        store.unlink()
-    r = run_step(spec, store, trials=trials, coarse=max(16, trials // 4), auto_quantile=0.1,
-                 min_feasible=20, name="ssi")  # fmt: skip
-    a = r.analysis
-    x = np.array([r.chosen[v] for v in model.variables])
+    durations, sink = {}, {}
+    for n, ident in model.idents.items():
+        d = ident.drops[0]
+        durations[n] = float(d.grid[-1] - d.grid[0])
+        h = d.measured("altitude")[:, 0]
+        sink[n] = float((h[0] - h[-1]) / durations[n])
+    gust = eth.gust_allowance(durations, sink=sink)
+    allowance = {
+        n: {"position_h": g["position_h"], "altitude": g["position_v"]} for n, g in gust.items()
+    }
+    chans = ("altitude", "position")
+    # drop 1 has 12 GPS fixes, too few for the estimator: its receiver's white noise is
+    # estimated on drop 2 (the same receiver, 41 fixes)
+    est = {n: estimate_noise(i.drops[0].flight, list(chans)) for n, i in model.idents.items()}
+    borrowed = {}
+    for n, nm in est.items():
+        for m, other in est.items():
+            missing = [c for c in chans if nm.component(c, 0) is None]
+            if m != n and missing and all(other.component(c, 0) is not None for c in missing):
+                est[n] = other.merged(nm)
+                borrowed[n] = (m, missing)
+    limits, noise = eth.noise_limits(model, allowance, channels=chans, noise=est)
+    st = run(model, out / "ssi-drops.db", trials, limits)
+    best = st.result
+    a = best.analysis
+    x = np.array([best.chosen[v] for v in model.variables]) if best.chosen else None
     Xd = a.trials.X[a.feasible]
     m_c = model.idents["drop1"].model.geometry.canopy_mass
     area = model.idents["drop1"].model.geometry.area
     load_ws = (m_c + Xd[:, 0]) * 9.80665 / area
-    slope = np.polyfit(np.log(Xd[:, 1]), np.log(m_c + Xd[:, 0]), 1)[0] if len(Xd) > 2 else np.nan
-    corr = (
-        float(np.corrcoef(np.log(Xd[:, 1]), np.log(m_c + Xd[:, 0]))[0, 1])
-        if len(Xd) > 2
-        else np.nan
-    )
+    ridge = len(Xd) > 2
+    slope = np.polyfit(np.log(Xd[:, 1]), np.log(m_c + Xd[:, 0]), 1)[0] if ridge else np.nan
+    corr = float(np.corrcoef(np.log(Xd[:, 1]), np.log(m_c + Xd[:, 0]))[0, 1]) if ridge else np.nan
     return {
-        "step": r,
+        "step": best,
+        "stage": st,
         "model": model,
-        "errors": model.errors(x),
-        "wing_loading": (float(load_ws.min()), float(load_ws.max())),
+        "noise": noise,
+        "borrowed": borrowed,
+        "allowance": allowance,
+        "sink": sink,
+        "errors": model.errors(x) if x is not None else {},
+        "wing_loading": (float(load_ws.min()), float(load_ws.max())) if len(Xd) else (np.nan,) * 2,
         "ridge_slope": float(slope),
         "ridge_corr": corr,
         "area": area,
@@ -184,7 +235,7 @@ def identify(folder: str | Path, out: str | Path, trials: int = 2048) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from vectorid.demo_parafoil import print_chosen_values
+    from vectorid.demo_parafoil import print_stage_limits, print_verdicts
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("data", nargs="?", default=str(DEFAULT_DATA), help="the ssi-parafoil folder")
@@ -192,53 +243,75 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", default="ssi-parafoil", help="folder of the store")
     args = ap.parse_args(argv)
     if not (Path(args.data) / "parafoildata_clean.csv").exists():
-        print(f"error: {args.data} holds no parafoildata_clean.csv", file=sys.stderr)
+        print(
+            f"error: {args.data} holds no parafoildata_clean.csv; pass the ssi-parafoil folder of "
+            "the shared data",
+            file=sys.stderr,
+        )
         return 2
     res = identify(args.data, args.out, args.trials)
-    r = res["step"]
+    st = res["stage"]
+    r = st.result
     a = r.analysis
     print("Stanford SSI parafoil payload, two drops (data README: ssi-parafoil)")
     print(
         f"  stand-in canopy {res['area']} m² (the ETH class), canopy mass {res['canopy_mass']} kg; "
         "payload mass, CD0 gain and each drop's wind are design variables"
     )
-    print(
-        f"  N = {a.n}   ND = {a.n_feasible}   NP = {a.n_pareto} ({r.elapsed:.0f} s); criteria "
-        "constraints (10 % quantile): "
-        + ", ".join(f"{k} <= {v:.3g} m·s" for k, v in r.limits.items())
-    )
+    for n, (m, chans) in res["borrowed"].items():
+        print(
+            f"  {n}: too few evenly timed samples of {', '.join(chans)} to estimate its noise: "
+            f"taken from {m} (the same sensor)"
+        )
+    for n in res["noise"]:
+        al = res["allowance"][n]
+        print(
+            f"  {n}: sink {res['sink'][n]:.1f} m/s; noise (estimated): {res['noise'][n]}; gust "
+            f"allowance (the ETH authors' model, a stand-in) {al['position_h']:.2f} m horizontal, "
+            f"{al['altitude']:.2f} m altitude"
+        )
     print()
-    rows = print_chosen_values(a, r.chosen)
+    print(f"  N = {a.n}   ND = {a.n_feasible}   NP = {a.n_pareto} ({r.elapsed:.0f} s)")
+    print_stage_limits(st)
+    best = r
     print()
-    print("Chosen vector against the drops (RMS over each drop):")
-    for n, (eh, ep, dur) in res["errors"].items():
-        print(f"  {n}: {dur:5.1f} s   altitude {eh:5.1f} m   horizontal {ep:6.1f} m")
+    print("Identifiability (a value only where the data identify the variable; else its range):")
+    print_verdicts(best.verdicts, best.chosen)
+    if res["errors"]:
+        print()
+        print("Chosen vector against the drops (RMS over each drop):")
+        for n, (eh, ep, dur) in res["errors"].items():
+            print(f"  {n}: {dur:5.1f} s   altitude {eh:5.1f} m   horizontal {ep:6.1f} m")
     lo, hi = res["wing_loading"]
     print()
     print("What the data determine and what they do not:")
-    mass = next(rr for rr in rows if rr.name == "payload_mass")
-    cd0 = next(rr for rr in rows if rr.name == "CD0")
-    if mass.verdict != "wide":
+    by = {v.name: v for v in best.verdicts}
+    mass, cd0 = by["payload_mass"], by["CD0"]
+    if mass.verdict != "not identified" and mass.feasible is not None:
         print(
-            f"  - for the stand-in canopy's lift and drag, the sink rate pins the wing loading at "
-            f"{lo:.0f}-{hi:.0f} N/m²\n    (payload "
-            f"{mass.feasible[0]:.1f}-{mass.feasible[1]:.1f} kg on {res['area']} m²). That is a "
-            "statement about the stand-in's polar, not the real canopy:\n    another canopy "
-            "(area, lift, drag) gives another wing loading"
-            + (" (CD0 stays wide here)" if cd0.verdict == "wide" else "")
+            f"  - for the stand-in canopy's lift and drag, the sink rate narrows the wing loading "
+            f"to {lo:.0f}-{hi:.0f} N/m²\n    (payload {mass.feasible[0]:.1f}-"
+            f"{mass.feasible[1]:.1f} kg on {res['area']} m², {mass.verdict}). That is a statement "
+            "about the stand-in's\n    polar, not the real canopy: another canopy (area, lift, "
+            "drag) gives another wing loading"
+            + (f" (CD0: {cd0.verdict})" if cd0.verdict != "identified" else "")
         )
     else:
         print(
-            f"  - the wing loading is not pinned even for the stand-in canopy: {lo:.0f}-{hi:.0f} "
-            f"N/m² over D (mass and drag: r = {res['ridge_corr']:+.2f} in log-log)"
+            "  - the wing loading is not identified even for the stand-in canopy: "
+            f"{lo:.0f}-{hi:.0f} N/m² over D (mass and drag: r = {res['ridge_corr']:+.2f}"
+            " in log-log)"
         )
     print(
         "  - the payload mass and the canopy area separately: only W/S enters the glide, and "
         "neither is stated"
     )
+    winds = [v for v in best.verdicts if v.name.startswith("wind_")]
+    n_id = sum(v.identified for v in winds)
     print(
         "  - the glide ratio: the horizontal track is airspeed plus an unknown wind, and each "
-        "drop flies\n    one way, so the winds absorb it (see their ranges)"
+        f"drop flies\n    one way, so the winds absorb it ({n_id} of {len(winds)} wind "
+        "components identified)"
     )
     print(
         "  - turn parameters: no control record, and the payload turns continuously (the "

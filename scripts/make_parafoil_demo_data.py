@@ -32,7 +32,14 @@ correlation time, σ 1.5 m horizontal and 2.5 m vertical, plus 0.2 m white noise
 level.
 
 Files written: ``gps.csv``, ``imu.csv``, ``controls.csv``, ``wind.csv`` and ``truth.json`` (the
-true gains, the model's nominal gains, the richer-truth settings and the event time).
+true gains, the model's nominal gains, the richer-truth settings, the event time, and
+``sensor_noise``: the noise added here as an ``[identification] noise`` table, from which the
+demo computes its criteria constraints).
+
+Twins: ``generate(seed, out)`` writes the same drop with other seeds (other gusts, sonde errors
+and sensor noise; the same truth, flight program and sensors) into another folder.
+``scripts/parafoil_discrepancy.py`` reads the demo's model-discrepancy allowance from such
+twins, never from the embedded drop itself.
 """
 
 from __future__ import annotations
@@ -56,6 +63,33 @@ W20 = 2.0  # m/s, turbulence intensity reference
 ACTUATOR_LAG = 0.8  # s, first-order lag of the truth's trailing edges behind the commands
 JOINT_STIFFNESS = (1500.0, 2000.0)  # N m/rad, pitch and yaw of the truth's payload joint
 JOINT_DAMPING = (600.0, 250.0)  # N m s/rad
+SONDE_SIGMA = 0.25  # m/s, error of the dropsonde's wind per component and level
+GPS_POSITION_SIGMA = (1.5, 1.5, 2.5)  # m, Gauss-Markov position error (north, east, down)
+GPS_POSITION_TAU = 20.0  # s, its correlation time
+GPS_POSITION_WHITE = 0.2  # m, white position noise on top
+GPS_VELOCITY_SIGMA = 0.15  # m/s
+IMU_EULER_SIGMA_DEG = 0.2  # deg
+IMU_RATES_SIGMA = 0.004  # rad/s
+
+#: The sensor noise added below, as an ``[identification] noise`` table (units of the keys:
+#: m, m/s, deg, rad/s): what a study of these data states as its measurement noise. The
+#: dropsonde's wind errors are not sensor noise of a compared channel: the model flies in that
+#: wind, so they are part of what the demo grants as model discrepancy.
+SENSOR_NOISE = {
+    "position_h": {
+        "sigma": GPS_POSITION_SIGMA[0],
+        "correlation_time": GPS_POSITION_TAU,
+        "white": GPS_POSITION_WHITE,
+    },
+    "position_v": {
+        "sigma": GPS_POSITION_SIGMA[2],
+        "correlation_time": GPS_POSITION_TAU,
+        "white": GPS_POSITION_WHITE,
+    },
+    "velocity": GPS_VELOCITY_SIGMA,
+    "euler_deg": IMU_EULER_SIGMA_DEG,
+    "rates": IMU_RATES_SIGMA,
+}
 
 #: The TRUE gains that differ from 1 (multiplicative) or 0 (additive); the others are nominal.
 TRUTH_GAINS = {
@@ -202,25 +236,32 @@ def _write_csv(path: Path, header: list[str], cols: list[list[str]]) -> None:
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")
 
 
-def write_files(truth: dict[str, np.ndarray], rng: np.random.Generator) -> None:
+def write_files(
+    truth: dict[str, np.ndarray], rng: np.random.Generator, out: Path | None = None
+) -> None:
+    out = OUT if out is None else out
     t = truth["t"]
     g = _every(t, 4.0)
-    pos = truth["position"][g] + _gauss_markov(rng, g.size, 0.25, 20.0, [1.5, 1.5, 2.5])
-    pos += rng.normal(0.0, 0.2, (g.size, 3))
-    vel = truth["velocity"][g] + rng.normal(0.0, 0.15, (g.size, 3))
+    pos = truth["position"][g] + _gauss_markov(
+        rng, g.size, 0.25, GPS_POSITION_TAU, list(GPS_POSITION_SIGMA)
+    )
+    pos += rng.normal(0.0, GPS_POSITION_WHITE, (g.size, 3))
+    vel = truth["velocity"][g] + rng.normal(0.0, GPS_VELOCITY_SIGMA, (g.size, 3))
     _write_csv(
-        OUT / "gps.csv",
+        out / "gps.csv",
         ["time_s", "north_m", "east_m", "down_m", "v_north_ms", "v_east_ms", "v_down_ms"],
         [_fmt(t[g], 2)]
         + [_fmt(pos[:, j], 2) for j in range(3)]
         + [_fmt(vel[:, j], 3) for j in range(3)],
     )
     i = _every(t, 50.0)
-    eul = np.rad2deg(truth["euler"][i] + rng.normal(0.0, np.deg2rad(0.2), (i.size, 3)))
+    eul = np.rad2deg(
+        truth["euler"][i] + rng.normal(0.0, np.deg2rad(IMU_EULER_SIGMA_DEG), (i.size, 3))
+    )
     eul[:, 2] = np.mod(eul[:, 2], 360.0)  # the IMU logs heading in [0, 360)
-    rat = truth["rates"][i] + rng.normal(0.0, 0.004, (i.size, 3))
+    rat = truth["rates"][i] + rng.normal(0.0, IMU_RATES_SIGMA, (i.size, 3))
     _write_csv(
-        OUT / "imu.csv",
+        out / "imu.csv",
         ["time_s", "roll_deg", "pitch_deg", "yaw_deg", "p_rads", "q_rads", "r_rads"],
         [_fmt(t[i], 2)]
         + [_fmt(eul[:, j], 3) for j in range(3)]
@@ -228,29 +269,32 @@ def write_files(truth: dict[str, np.ndarray], rng: np.random.Generator) -> None:
     )
     c = _every(t, 10.0)
     _write_csv(
-        OUT / "controls.csv",
+        out / "controls.csv",
         ["time_s", "flap_left", "flap_right"],
         [_fmt(t[c], 2), _fmt(truth["left"][c], 3), _fmt(truth["right"][c], 3)],
     )
     levels = ORIGIN_ALTITUDE + np.arange(0.0, 1501.0, 100.0)
-    ne = true_wind()(levels) + rng.normal(0.0, 0.25, (levels.size, 2))
+    ne = true_wind()(levels) + rng.normal(0.0, SONDE_SIGMA, (levels.size, 2))
     _write_csv(
-        OUT / "wind.csv",
+        out / "wind.csv",
         ["altitude_m", "u_ms", "v_ms"],
         [_fmt(levels, 1), _fmt(ne[:, 1], 2), _fmt(ne[:, 0], 2)],  # u east, v north
     )
 
 
-def main() -> None:
-    OUT.mkdir(parents=True, exist_ok=True)
-    rng = np.random.default_rng(SEED)
+def generate(seed: int = SEED, out: Path | None = None) -> Path:
+    """Fly the truth with ``seed`` (gusts, sensor noise, sonde errors) and write the drop's
+    files into ``out`` (default :data:`OUT`, the embedded data); returns the folder."""
+    out = OUT if out is None else Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    rng = np.random.default_rng(seed)
     truth = simulate_truth(rng)
-    write_files(truth, rng)
+    write_files(truth, rng, out)
     m = truth_model()
-    (OUT / "truth.json").write_text(
+    (out / "truth.json").write_text(
         json.dumps(
             {
-                "seed": SEED,
+                "seed": seed,
                 "parameters": dict(zip(m.parameter_names, truth_vector(m).tolist())),
                 "model_nominal": dict(zip(m.parameter_names, m.nominal.tolist())),
                 "actuator_lag_s": ACTUATOR_LAG,
@@ -260,13 +304,20 @@ def main() -> None:
                 "origin_altitude_m": ORIGIN_ALTITUDE,
                 "glide_start_s": T_GLIDE,
                 "program": PROGRAM,
+                "sonde_sigma_ms": SONDE_SIGMA,
+                "sensor_noise": SENSOR_NOISE,
             },
             indent=1,
         )
         + "\n",
         encoding="utf-8",
     )
-    print(f"wrote {sorted(p.name for p in OUT.iterdir())} into {OUT}")
+    return out
+
+
+def main() -> None:
+    out = generate()
+    print(f"wrote {sorted(p.name for p in out.iterdir())} into {out}")
 
 
 if __name__ == "__main__":

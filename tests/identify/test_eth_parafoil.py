@@ -56,3 +56,17 @@ def test_eth_flights_glide_and_turn_control(tmp_path):
         j = a.spec.space.names.index(g)
         col = a.trials.X[a.feasible, j]
         assert col.min() <= r["step"].chosen[g] <= col.max()
+    # the limits are noise-grounded (estimated GNSS noise + the authors' gust model); where D
+    # under them is too small, the relaxation is a stand-in saved as such, never silent
+    st = r["stage"]
+    assert set(st.noise_limits) == {"pos_h", "pos_v"}
+    assert all(note.startswith("noise floor") for note in st.noise_notes.values())
+    assert all(0 < r["allowance"][f]["position_h"] < 10 for f in eth.FLIGHTS)
+    src = {k: v[0] for k, v in r["step"].sources.items()}
+    if st.factor > 1:
+        assert set(src.values()) == {"quantile"} and a.n_feasible >= 50
+        assert all(f"x {st.factor:g}" in n for _, n in r["step"].sources.values())
+    else:
+        assert set(src.values()) == {"noise"}
+    # verdicts for every design variable, a value printed only for identified ones
+    assert [v.name for v in r["step"].verdicts] == a.spec.space.names

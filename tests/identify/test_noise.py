@@ -74,6 +74,25 @@ def test_estimator_on_jittered_sample_times():
     assert estimate_sigma(t, y)[0] == pytest.approx(want, rel=1e-9)
 
 
+def test_estimator_on_jittered_time_stamps():
+    """A 2.5-Hz receiver whose fixes are stamped 0.38-0.42 s apart (the ETH flights): the
+    divided differences normalised by their noise spread recover σ; on even steps they are
+    the plain differences."""
+    rng = np.random.default_rng(6)
+    t = np.cumsum(rng.uniform(0.38, 0.42, 3000))
+    for sigma in (0.05, 0.3, 1.0):
+        y = np.column_stack([_smooth(t), 5.0 * t]) + rng.normal(0, sigma, (t.size, 2))
+        np.testing.assert_allclose(estimate_sigma(t, y), sigma, rtol=0.06)
+    even = np.arange(0.0, 300.0, 0.4)
+    y = _smooth(even) + rng.normal(0, 0.3, even.size)
+    want = (
+        1.482602218505602
+        * np.median(np.abs(np.diff(y, 3) - np.median(np.diff(y, 3))))
+        / math.sqrt(20)
+    )
+    assert estimate_sigma(even, y)[0] == pytest.approx(want, rel=1e-9)
+
+
 def test_estimator_on_coloured_noise_sees_its_high_frequency_share():
     """A Gauss-Markov error slower than the sampling is indistinguishable from motion: the
     estimator sees what highfreq_sigma predicts (the documented limitation), not its σ."""
@@ -380,3 +399,44 @@ def test_noise_statement_errors_name_the_fix(tmp_path):
             {"study": {"name": "x", "model": "binh-korn"}, "variables": [
                 {"name": "x1", "low": 0, "high": 1}], "criteria": [{"name": "f1",
                 "limit": "nois"}]})  # fmt: skip
+
+
+def test_index_criteria_are_evaluated_in_two_batched_calls_with_the_same_values(monkeypatch):
+    """The floor evaluates an index criterion (a spectral peak, an index:operator) as the index
+    of every simulation against the index of every measurement: the same values as the
+    criterion draw by draw; a criterion without that form, or whose check fails, goes draw
+    by draw."""
+    from types import SimpleNamespace
+
+    from vectorid.identify import noise as noise_mod
+    from vectorid.identify.criteria import get_criterion
+
+    rng = np.random.default_rng(4)
+    t = np.arange(0.0, 60.0, 0.2)
+    wave = np.stack([np.sin(2 * np.pi * f * t) for f in (0.12, 0.8, 0.45)], axis=-1)
+    sims = wave[None] + rng.normal(0.0, 0.3, (40, t.size, 3))
+    meas = wave[None] + rng.normal(0.0, 0.3, (40, t.size, 3))
+    euler = np.cumsum(sims, axis=1) * 0.2
+    euler_m = np.cumsum(meas, axis=1) * 0.2
+    cases = [
+        ("peak_roll@0.05-0.5", None, sims, meas),
+        ("peak_yaw", None, sims, meas),
+        ("yaw_rate_max:ratio", "ratio", euler, euler_m),
+        ("speed_profile", None, sims, meas),  # not an index: draw by draw
+    ]
+    for name, op, s, m in cases:
+        cdef = get_criterion(name)
+        c = SimpleNamespace(use=name.split(":")[0], operator=op)
+        want = np.array([cdef.fn(s[r][None], m[r], t)[0] for r in range(len(s))])
+        got = noise_mod._per_draw(cdef, c, s, m, t)
+        np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-15, err_msg=name)
+    assert noise_mod._index_form("speed_profile", None) is None
+    assert noise_mod._index_form("peak_pitch@0.25-1.5", None) is not None
+    # a wrong index form is caught by the check and the draws are evaluated one by one
+    cdef = get_criterion("peak_roll@0.05-0.5")
+    monkeypatch.setattr(
+        noise_mod, "_index_form", lambda use, op: (lambda x, tt: x[:, 0, 0], np.subtract)
+    )
+    got = noise_mod._per_draw(cdef, SimpleNamespace(use="peak_roll", operator=None), sims, meas, t)
+    want = np.array([cdef.fn(sims[r][None], meas[r], t)[0] for r in range(len(sims))])
+    np.testing.assert_allclose(got, want)

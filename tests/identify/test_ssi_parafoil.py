@@ -23,6 +23,10 @@ def test_ssi_drops_give_a_wing_loading_range(tmp_path):
     r = sys.modules["ssi_parafoil"].identify(DATA, tmp_path, trials=256)
     a = r["step"].analysis
     assert a.n == 256 + 64 and a.n_feasible >= 20
+    # noise-grounded limits: drop 1's 12 GPS fixes are too few to estimate, drop 2's are used
+    st = r["stage"]
+    assert set(st.noise_limits) == {"alt", "pos_h"} and "drop1" in r["borrowed"]
+    assert [v.name for v in r["step"].verdicts] == a.spec.space.names
     # the sink rate of 6-7 m/s is matched: altitude within 15 m RMS over each drop
     for name, (alt_rms, h_rms, duration) in r["errors"].items():
         assert alt_rms < 15.0, name

@@ -392,6 +392,7 @@ def parse_discrepancy(value: Any, criteria: Sequence[str], where: str = "discrep
 
 _ORDER = 3
 _MAD = 1.482602218505602  # 1 / Φ⁻¹(3/4): MAD -> σ for a normal distribution
+#: Steps within this share of the median step count as regular (jittered time stamps).
 
 
 def estimate_sigma(t: ArrayLike, y: ArrayLike, order: int = _ORDER) -> NDArray[np.float64]:
@@ -564,7 +565,7 @@ def estimate_noise(flight, channels: Sequence[str] | None = None) -> NoiseModel:
 
     ``flight`` is a :class:`~vectorid.identify.FlightData` (e.g. a drop's windowed data);
     ``channels`` default to all. A yaw that wraps is unwrapped first. Components whose
-    estimate is not available (too few evenly spaced samples) stay unstated (None)."""
+    estimate is not available (too few regularly spaced samples) stay unstated (None)."""
     out: dict[str, list[ComponentNoise | None]] = {}
     for name in channels or list(flight.channels):
         if name not in flight.channels:
@@ -897,7 +898,9 @@ def noise_floor(
                 base = _sim_channels(base_res, chans, d.origin_altitude)
                 jac = _jacobian(ident, P, d, w, chans)
                 sims = {
-                    ch: base[ch][0][None] + np.einsum("sTm,ns->nTm", jac[ch], delta) for ch in chans
+                    ch: base[ch][0][None]
+                    + (delta @ jac[ch].reshape(len(jac[ch]), -1)).reshape(draws, *jac[ch].shape[1:])
+                    for ch in chans
                 }
             else:
                 sims = {ch: np.empty((draws, *truth[ch].shape[1:])) for ch in chans}
@@ -913,12 +916,7 @@ def noise_floor(
                 if c.operator is None and c.use in _RESIDUAL_ONLY:
                     v = cdef.fn(sims[ch] - on_grid[ch], tr, grid)
                 else:
-                    v = np.array(
-                        [
-                            cdef.fn(sims[ch][r][None], tr + on_grid[ch][r], grid)[0]
-                            for r in range(draws)
-                        ]
-                    )
+                    v = _per_draw(cdef, c, sims[ch], tr[None] + on_grid[ch], grid)
                 values[:, jj] += v
         values /= len(winds)
         L = float(grid[-1] - grid[0])
@@ -954,6 +952,39 @@ def _needed_channels(ident, d) -> list[str]:
         if c.drops is None or d.name in c.drops
     }
     return [ch for ch in d.flight.channels if ch in read or ch in _FIT_CHANNELS]
+
+
+def _index_form(use: str, operator: str | None):
+    """(index function, operator) of a criterion that compares one index Φ of the simulated
+    signal with the same index of the measured one (seed 000 eq. 11: the spectral peaks
+    ``peak_*``, and ``index:operator`` criteria), else None."""
+    from vectorid.identify import criteria as cr
+
+    idx = cr.INDICES.get(use)
+    if idx is None and use.startswith("peak_"):
+        idx = cr._spectral_defs(use)[0]
+    if idx is None or (operator is None and not use.startswith("peak_")):
+        return None
+    return idx.fn, cr.OPERATORS["absdiff" if operator is None else operator]
+
+
+def _per_draw(cdef, c, sims: NDArray, meas: NDArray, grid: NDArray) -> NDArray:
+    """One criterion for every draw: ``sims`` and ``meas`` (draws, T, m), each draw's
+    simulation against its own measurement. An index criterion takes two batched calls
+    (the index of every simulation, the index of every measurement), checked against the
+    criterion itself on three draws; any other is evaluated draw by draw."""
+
+    def direct(r: int) -> float:
+        return float(cdef.fn(sims[r][None], meas[r], grid)[0])
+
+    form = _index_form(c.use, c.operator)
+    if form is not None:
+        index, op = form
+        v = np.asarray(op(index(sims, grid), index(meas, grid)), dtype=float)
+        check = [direct(r) for r in range(min(3, len(v)))]
+        if np.allclose(check, v[: len(check)], rtol=1e-9, atol=1e-12, equal_nan=True):
+            return v
+    return np.array([direct(r) for r in range(sims.shape[0])])
 
 
 def _fit_state(fit_in, values: Mapping[str, NDArray], t0: float, span: float):
