@@ -15,6 +15,7 @@ __all__ = [
     "StoreLockedError",
     "StudyDefinitionError",
     "VectoridError",
+    "VectoridNote",
     "VectoridWarning",
     "is_number",
     "suggest",
@@ -71,6 +72,11 @@ class VectoridWarning(UserWarning):
     """Something the user must know that does not stop the work: damaged batches left out of
     an analysis, a store upgraded to a newer schema, more workers than cores. The command
     line prints these as one ``warning:`` line each."""
+
+
+class VectoridNote(VectoridWarning):
+    """Something vectorid decided on the user's behalf and says so (a study-file change
+    taken into the store, an empty store re-created): printed as one ``note:`` line."""
 
 
 def suggest(word: str, candidates: Iterable[str]) -> str:

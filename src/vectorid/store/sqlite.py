@@ -459,8 +459,13 @@ class VerifyReport:
 
     def describe(self) -> str:
         lines = [f"store      {self.path}  (schema {self.schema})"]
-        sq = "ok" if self.sqlite == ["ok"] else "; ".join(self.sqlite[:5])
-        lines.append(f"sqlite     {sq}")
+        if self.sqlite == ["ok"]:
+            lines.append("sqlite     ok")
+        else:
+            found = [ln for s in self.sqlite for ln in s.splitlines() if ln.strip()]
+            found = [ln for ln in found if not ln.startswith("***")]
+            more = f" (and {len(found) - 3} more)" if len(found) > 3 else ""
+            lines.append(f"sqlite     damaged pages: {'; '.join(found[:3])}{more}")
         lines.append(
             f"batches    {self.batches} ({self.trials} trials): "
             f"{self.batches - len(self.damaged) - self.unverified} verified, "
@@ -578,9 +583,13 @@ class Store:
                         ("writer", _writer_text()),
                     ],
                 )
+                box = json.dumps(spec.space.to_list())
                 con.execute(
                     "INSERT INTO stages VALUES (0, 'sample', 0, ?, ?, 'study box')",
-                    (time.time(), json.dumps(spec.space.to_list())),
+                    (time.time(), box),
+                )
+                con.execute(
+                    "INSERT INTO meta VALUES (?, ?)", _stage_checksum_row(0, "sample", 0, box)
                 )
         except BaseException as exc:
             if con is not None:
@@ -672,6 +681,9 @@ class Store:
                 con.execute("PRAGMA synchronous=NORMAL")
             con.execute("PRAGMA foreign_keys=ON")
             con.execute("PRAGMA mmap_size=17179869184")
+            # Damaged text reads as text with replacement characters (and then fails its
+            # checksum) instead of stopping the query.
+            con.text_factory = _text
         except StoreError:
             raise
         except sqlite3.Error as exc:
@@ -742,6 +754,13 @@ class Store:
                     (batch_checksum(stage, start, n, blobs), block),
                 )
                 sealed += 1
+            for st, kind, start, box in con.execute(
+                "SELECT stage, kind, start_seq, box FROM stages"
+            ).fetchall():
+                con.execute(
+                    "INSERT OR REPLACE INTO meta VALUES (?, ?)",
+                    _stage_checksum_row(st, kind, start, box),
+                )
             study = con.execute("SELECT value FROM meta WHERE key = 'study'").fetchone()[0]
             con.executemany(
                 "INSERT OR REPLACE INTO meta VALUES (?, ?)",
@@ -988,7 +1007,15 @@ class Store:
         out = []
         from ..spec import _parse_variable
 
+        sums = dict(self._query("SELECT key, value FROM meta WHERE key LIKE 'stage_checksum:%'"))
         for stage, kind, start, created, box, note in rows:
+            want = sums.get(f"stage_checksum:{stage}")
+            if want is not None and want != _stage_checksum_row(stage, kind, start, box)[1]:
+                raise StoreDamagedError(
+                    f"store {self.path} is damaged: stage {stage} (its box, kind or start) does "
+                    f"not match its checksum; `vectorid verify {self.path}` shows what is "
+                    "readable"
+                )
             try:
                 space = Space([_parse_variable(f"stages[{stage}].box", v) for v in json.loads(box)])
             except (ValueError, TypeError, VectoridError) as exc:
@@ -1015,9 +1042,14 @@ class Store:
                 start_seq = 0
                 if kind == "sample":
                     start_seq = self.sequence_end()
+            box = json.dumps(space.to_list())
             con.execute(
                 "INSERT INTO stages VALUES (?, ?, ?, ?, ?, ?)",
-                (stage, kind, start_seq, time.time(), json.dumps(space.to_list()), note),
+                (stage, kind, start_seq, time.time(), box, note),
+            )
+            con.execute(
+                "INSERT OR REPLACE INTO meta VALUES (?, ?)",
+                _stage_checksum_row(stage, kind, start_seq, box),
             )
         return self.stages()[stage]
 
@@ -1336,16 +1368,21 @@ class Store:
             rep.problems.append(str(exc))
             return rep
         ranges: dict[int, list[tuple[int, int]]] = {}
+        failed = 0
         for (block,) in blocks:
             try:
-                r = self._query(
+                found = self._query(
                     f"SELECT block, stage, seq_start, n, x, f, g, status, wall, {checksum_col} "
                     "FROM blocks WHERE block = ?",
                     (block,),
-                )[0]
+                )
             except StoreError as exc:
                 rep.problems.append(f"batch {block} cannot be read: {exc}")
                 continue
+            if not found:
+                rep.problems.append(f"batch {block} is listed but cannot be read (SQLite index)")
+                continue
+            r = found[0]
             rep.batches += 1
             rep.trials += int(r[3]) if isinstance(r[3], int) else 0
             bad = self._check_row(r, widths, stage_kind)
@@ -1353,7 +1390,17 @@ class Store:
                 rep.damaged.append(bad)
                 continue
             rep.unverified += r[-1] is None
+            failed += int(np.count_nonzero(np.frombuffer(r[7], dtype="i1")))
             ranges.setdefault(r[1], []).append((r[2], r[2] + r[3]))
+        try:
+            n_msgs = int(self._query("SELECT count(*) FROM failures")[0][0])
+            if n_msgs < failed:
+                rep.notes.append(
+                    f"{failed - n_msgs} of {failed} failed trials have no stored reason "
+                    "(their numbers are sound; only the text is missing)"
+                )
+        except StoreError as exc:
+            rep.problems.append(f"the failure reasons cannot be read ({exc})")
         for stage, rs in ranges.items():
             rs.sort()
             for (_, a1), (b0, b1) in itertools.pairwise(rs):
@@ -1362,6 +1409,31 @@ class Store:
                         f"stage {stage}: batches overlap at sequence {b0}..{min(a1, b1) - 1}"
                     )
         return rep
+
+    def check_batches(self) -> list[DamagedBatch]:
+        """Every batch (all stages) checked against its checksum and sizes, one at a time:
+        the damaged ones (a cheaper :meth:`verify`, without SQLite's page check)."""
+        spec = self.spec
+        widths = self._widths(spec)
+        checksum_col = "checksum" if self._has_checksums() else "NULL"
+        out = []
+        with self.snapshot():
+            stage_kind = {s.stage: s.kind for s in self.stages()}
+            for (block,) in self._query("SELECT block FROM blocks ORDER BY stage, seq_start"):
+                found = self._query(
+                    f"SELECT block, stage, seq_start, n, x, f, g, status, wall, {checksum_col} "
+                    "FROM blocks WHERE block = ?",
+                    (block,),
+                )
+                if not found:
+                    raise StoreDamagedError(
+                        f"store {self.path} is damaged: batch {block} is listed but cannot be "
+                        f"read; `vectorid repair {self.path}` rebuilds the store"
+                    )
+                bad = self._check_row(found[0], widths, stage_kind)
+                if bad is not None:
+                    out.append(bad)
+        return out
 
     def drop_batches(self, blocks: Sequence[int], why: str) -> int:
         """Delete batches (and their failure reasons) in one transaction; logs it in the run
@@ -1437,6 +1509,15 @@ def _size_problem(n: Any, blobs: Sequence[Any], widths: Mapping[str, int]) -> st
                 "(cut short or overwritten)"
             )
     return None
+
+
+def _text(data: bytes) -> str:
+    return data.decode("utf-8", errors="replace")
+
+
+def _stage_checksum_row(stage: int, kind: str, start: int, box: str) -> tuple[str, str]:
+    text = f"{int(stage)}:{kind}:{int(start)}:{box}"
+    return (f"stage_checksum:{int(stage)}", f"{zlib.crc32(text.encode()):08x}")
 
 
 def _writer_text() -> str:
