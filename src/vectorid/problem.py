@@ -276,7 +276,8 @@ def load_model(spec: str | BatchModel, base_dir: str | Path | None = None) -> Ba
 
 
 def _plural(n: int, word: str) -> str:
-    return f"{n} {word}" + ("" if n == 1 else "s")
+    plurals = {"criterion": "criteria"}
+    return f"{n} {word if n == 1 else plurals.get(word, word + 's')}"
 
 
 def build_python_problem(spec: Any) -> Problem:

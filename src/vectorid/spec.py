@@ -32,6 +32,7 @@ without values, a limit on an unknown criterion, non-finite numbers.
 from __future__ import annotations
 
 import math
+import re
 import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
@@ -69,6 +70,23 @@ _CRITERION_KEYS = {"name", "sense", "role", "limit", "unit", "description"}
 _CONSTRAINT_KEYS = {"name", "low", "high", "unit", "description"}
 _VARIABLE_TYPES = ("continuous", "integer", "choice")
 EXECUTORS = ("serial", "processes", "dask")
+
+
+_ADDRESS = re.compile(
+    r"^(?:(tcp|tls|ws|wss|ucx|inproc)://)?(\[[0-9A-Fa-f:.]+\]|[^:/\s\[\]]+):(\d+)$"
+)
+
+
+def check_scheduler_address(address: Any, where: str = "--scheduler") -> str:
+    """``address`` if it reads as ``[PROTOCOL://]HOST:PORT``, else a clear error."""
+    m = _ADDRESS.match(address) if isinstance(address, str) else None
+    if m is None or not 0 < int(m.group(3)) < 65536:
+        raise StudyDefinitionError(
+            where,
+            f"expected a Dask scheduler address tcp://HOST:PORT (port 1-65535), got {address!r}",
+            "write e.g. tcp://10.0.0.5:8786 (the address `dask scheduler` prints)",
+        )
+    return address
 
 
 def _check_keys(where: str, got: Mapping[str, Any], valid: set[str] | Mapping[str, Any]) -> None:
@@ -220,6 +238,7 @@ class StudySpec:
                 'write scheduler = "tcp://HOST:PORT", or leave it out for a local cluster',
             )
         if self.scheduler is not None:
+            check_scheduler_address(self.scheduler, "study.scheduler")
             if self.executor is None:  # a scheduler address means the dask executor
                 object.__setattr__(self, "executor", "dask")
             elif self.executor != "dask":

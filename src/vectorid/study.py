@@ -109,15 +109,16 @@ class Study:
         if not agreement:
             return cls(st)
         if st.count_all_blocks() == 0:
-            changed = ", ".join(d.field for d in agreement.differences[:6])
+            changed = ", ".join(d.field for d in agreement.refused[:6])
             st.delete()
-            warnings.warn(
-                VectoridNote(
-                    f"store {path} held no computed trial; re-created from the study "
-                    f"definition (changed: {changed})"
-                ),
-                stacklevel=2,
-            )
+            if changed:
+                warnings.warn(
+                    VectoridNote(
+                        f"store {path} held no computed trial; re-created from the study "
+                        f"definition (changed: {changed})"
+                    ),
+                    stacklevel=2,
+                )
             return cls.create(spec, path)
         if agreement.refused:
             n = st.count()

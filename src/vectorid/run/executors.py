@@ -523,7 +523,9 @@ def _worker_main(
             spec = cloudpickle.loads(spec)
         problem = spec.problem()
     except BaseException as exc:
-        send(("init-error", str(exc) or describe_exception(exc)))
+        # A definition error already says what to fix; anything else is described.
+        text = str(exc) if isinstance(exc, VectoridError) else describe_exception(exc)
+        send(("init-error", (isinstance(exc, VectoridError), text)))
         return
     if not send(("ready", os.getpid())):
         return
@@ -725,11 +727,7 @@ class ProcessExecutor(Executor):
                     if kind == "ready":
                         p.ready = True
                     elif kind == "init-error":
-                        raise StudyDefinitionError(
-                            "study.model",
-                            f"the worker processes cannot build the model: {payload}",
-                            "fix the model reference or the model's module",
-                        )
+                        raise _init_error(payload)
                     else:
                         task, p.task, p.deadline = p.task, None, float("inf")
                         if task is None:  # pragma: no cover - a worker only answers a task
@@ -771,6 +769,18 @@ class ProcessExecutor(Executor):
             else:
                 p.stop()
         self._procs = []
+
+
+def _init_error(payload: Any) -> VectoridError:
+    """The error a worker reported while building the model, raised in the parent."""
+    definition, text = payload if isinstance(payload, tuple) else (False, str(payload))
+    if definition:
+        return VectoridError(text)
+    return StudyDefinitionError(
+        "study.model",
+        f"the worker processes cannot build the model: {text}",
+        "fix the model or its module (the message says where)",
+    )
 
 
 def _exit_text(code: int | None) -> str:
