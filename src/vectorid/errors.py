@@ -18,6 +18,7 @@ __all__ = [
     "VectoridNote",
     "VectoridWarning",
     "is_number",
+    "shown",
     "suggest",
 ]
 
@@ -112,3 +113,12 @@ def is_number(value: object) -> bool:
         and not isinstance(value, bool)
         and not (type(value).__name__ == "bool_")
     )
+
+
+def shown(value: object) -> str:
+    """A value as the user wrote it in a study file: ``true``, ``"0"``, ``[1, 2]``, ``5``."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return '"' + value.replace('"', '\\"') + '"'
+    return repr(value)

@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from .errors import StudyDefinitionError, is_number, suggest
+from .errors import StudyDefinitionError, is_number, shown, suggest
 
 __all__ = [
     "FAILED",
@@ -52,7 +52,7 @@ def _opt_finite(field_name: str, value: Any) -> float | None:
     if not is_number(value):
         raise StudyDefinitionError(
             field_name,
-            f"expected a number, got {value!r} ({type(value).__name__})",
+            f"expected a number, got {shown(value)} ({type(value).__name__})",
             "write a finite number, without quotes",
         )
     out = float(value)

@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from .errors import StudyDefinitionError, is_number
+from .errors import StudyDefinitionError, is_number, shown
 
 __all__ = ["Choice", "Continuous", "Integer", "Space", "Variable"]
 
@@ -28,7 +28,7 @@ def _finite(name: str, field_name: str, value: Any) -> float:
     if not is_number(value):
         raise StudyDefinitionError(
             f"variables.{name}.{field_name}",
-            f"expected a number, got {value!r} ({type(value).__name__})",
+            f"expected a number, got {shown(value)} ({type(value).__name__})",
             "write a finite number such as 0.0, without quotes",
         )
     out = float(value)

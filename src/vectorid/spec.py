@@ -39,7 +39,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from .errors import StudyDefinitionError, suggest
+from .errors import StudyDefinitionError, shown, suggest
 from .problem import Criterion, FunctionalConstraint, Problem
 from .sampling import SAMPLERS, Sampler
 from .space import Choice, Continuous, Integer, Space, Variable
@@ -103,7 +103,9 @@ def _int(where: str, value: Any, minimum: int | None = None) -> int:
         or not isinstance(value, int | float)
         or (isinstance(value, float) and (not math.isfinite(value) or not value.is_integer()))
     ):
-        raise StudyDefinitionError(where, f"expected an integer, got {value!r}", "write e.g. 2048")
+        raise StudyDefinitionError(
+            where, f"expected an integer, got {shown(value)}", "write e.g. 2048"
+        )
     value = int(value)
     if minimum is not None and value < minimum:
         raise StudyDefinitionError(
@@ -190,7 +192,7 @@ class StudySpec:
             if value is not None and not isinstance(value, str):
                 raise StudyDefinitionError(
                     f"study.{key}",
-                    f"expected text, got {value!r} ({type(value).__name__})",
+                    f"expected text, got {shown(value)} ({type(value).__name__})",
                     f'write {key} = "..." (quoted), or leave it out',
                 )
         if not isinstance(self.space, Space):
@@ -451,7 +453,7 @@ def _check_texts(where: str, item: Mapping[str, Any], keys: Sequence[str]) -> No
             value = item[key]
             raise StudyDefinitionError(
                 f"{where}.{key}",
-                f"expected text, got {value!r} ({type(value).__name__})",
+                f"expected text, got {shown(value)} ({type(value).__name__})",
                 f'write {key} = "..." (quoted)',
             )
 

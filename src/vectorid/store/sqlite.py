@@ -537,6 +537,12 @@ class Store:
             )
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise StoreError(
+                f"cannot create store {path}: its folder {path.parent} cannot be made "
+                f"({exc.strerror}); choose a writable folder with --store"
+            ) from None
+        try:
             fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_EXCL, 0o644)
         except FileExistsError:
             raise StoreError(
