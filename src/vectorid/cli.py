@@ -138,6 +138,11 @@ def _parser() -> argparse.ArgumentParser:
         help="how to recompute (default: the study's, else processes)",
     )
     rp.add_argument("--workers", type=positive_int, help="worker processes (default: all cores)")
+    rp.add_argument(
+        "--study",
+        metavar="STUDY.toml",
+        help="write the study definition back from this file (when the stored one is damaged)",
+    )
     rp.add_argument("--quiet", action="store_true", help="no progress bar")
 
     i = sub.add_parser("info", help="study definition, stages, counts, failures, runs")
@@ -411,7 +416,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     from .study import Study, default_store_path
 
     src = Path(args.study)
-    if _is_store(src):
+    if _is_store(src) or (src.suffix.lower() in (".db", ".sqlite", ".sqlite3") and src.is_file()):
         if args.store:
             print("note: --store is ignored when running a store directly", file=sys.stderr)
         study = Study.open(src, write=True)
@@ -622,6 +627,7 @@ def _cmd_repair(args: argparse.Namespace) -> int:
         executor=args.executor,
         workers=args.workers,
         progress=not args.quiet,
+        study=args.study,
     )
     print(report.describe())
     return 0

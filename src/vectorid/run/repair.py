@@ -48,9 +48,12 @@ class RepairReport:
     recomputed: int = 0
     not_recomputed: list[DamagedBatch] = field(default_factory=list)
     backup: Path | None = None
+    restored: Path | None = None
 
     def describe(self) -> str:
         lines = []
+        if self.restored is not None:
+            lines.append(f"study definition written back from {self.restored}")
         if self.rebuilt:
             lines.append(
                 f"rebuilt {self.path} from its readable rows (the damaged file is kept as "
@@ -58,7 +61,7 @@ class RepairReport:
             )
             for row in self.lost_rows:
                 lines.append(f"  unreadable, not copied: {row}")
-        if not self.dropped and not self.rebuilt:
+        if not self.dropped and not self.rebuilt and self.restored is None:
             lines.append(f"{self.path}: no damaged batch; nothing to repair")
         for d in self.dropped:
             lines.append(f"dropped {d.describe()}")
@@ -170,6 +173,7 @@ def repair_store(
     executor: str | None = None,
     workers: int | None = None,
     progress: bool | TextIO = False,
+    study: str | Path | None = None,
 ) -> RepairReport:
     """Repair the store at ``path`` (see the module docstring).
 
@@ -179,6 +183,10 @@ def repair_store(
         The store.
     executor, workers, progress
         How the dropped trials are recomputed (as for :func:`~vectorid.run.run_store`).
+    study : path, optional
+        A study file whose definition replaces a damaged stored one. It must describe the
+        stored trials: the same variables and box as the store's stage 0 (checked), and as
+        many criteria and constraints as the stored batches hold (their sizes are checked).
 
     Returns
     -------
@@ -189,6 +197,9 @@ def repair_store(
     lost_ranges: list[tuple[int, int, int]] = []
     store = Store.open(path, write=True)
     try:
+        if study is not None:
+            _restore_definition(store, Path(study))
+            report.restored = Path(study)
         rep = store.verify()
         sqlite_ok = rep.sqlite == ["ok"] and not any(
             "cannot be read" in p or "SQLite" in p for p in rep.problems
@@ -216,7 +227,7 @@ def repair_store(
         # read what can be recomputed from stored parameters before dropping anything
         rerun: list[tuple[DamagedBatch, np.ndarray]] = []
         for d in damaged:
-            if kinds.get(d.stage) == "sample":
+            if kinds.get(d.stage) == "sample" or {"header", "size"} & set(d.parts):
                 continue
             X = _intact_parameters(store, d)
             if X is None:
@@ -236,11 +247,14 @@ def repair_store(
             for d in damaged
             if kinds.get(d.stage) == "sample"
         ] + [r for r in lost_ranges if kinds.get(r[0]) == "sample"]
-        unknown = any(r[0] == -1 for r in lost_ranges)
+        # a damaged header or size says nothing sure about the range its trials held
+        unknown = any(r[0] == -1 for r in lost_ranges) or any(
+            {"header", "size"} & set(d.parts) for d in damaged
+        )
         if unknown:
             report.lost_rows.append(
-                "batches whose range could not be read: every trial missing up to the study's "
-                f"target ({store.spec.trials}) is computed"
+                "batches whose sequence range is not known for sure: every trial missing up to "
+                f"the study's target ({store.spec.trials}) is computed"
             )
         if ranges or unknown:
             summary = run_store(
@@ -257,6 +271,30 @@ def repair_store(
     finally:
         store.close()
     return report
+
+
+def _restore_definition(store: Store, study: Path) -> None:
+    """Write the definition of ``study`` into ``store`` after checking it against stage 0."""
+    import json
+
+    from ..spec import load_study
+    from ..store.agreement import data_file_hashes
+
+    spec = load_study(study)
+    rows = store._query("SELECT box FROM stages WHERE stage = 0")
+    if rows:
+        try:
+            box = json.loads(rows[0][0])
+        except ValueError:
+            box = None
+        if box is not None and box != spec.space.to_list():
+            raise StoreDamagedError(
+                f"the study file {study} does not describe the trials in {store.path}: its "
+                "variables or box differ from the store's stage 0; give the study file the "
+                "store was created from"
+            )
+    store.replace_study(spec, data_file_hashes(spec))
+    store.set_target(max(spec.trials, store.count_sample()))
 
 
 def _intact_parameters(store: Store, d: DamagedBatch) -> np.ndarray | None:

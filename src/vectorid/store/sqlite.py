@@ -184,10 +184,12 @@ class DamagedBatch:
     parts: tuple[str, ...] = ()
 
     def describe(self) -> str:
-        return (
-            f"batch {self.block} (stage {self.stage}, trials {self.first_id}–{self.last_id}, "
-            f"{self.n} trials): {self.reason}"
+        ids = (
+            f"trials {self.first_id}–{self.last_id}, "
+            if self.first_id >= 0
+            else f"sequence {self.seq_start}.., "
         )
+        return f"batch {self.block} (stage {self.stage}, {ids}{self.n} trials): {self.reason}"
 
 
 def _damage_warning(path: Path, damaged: Sequence[DamagedBatch]) -> str:
@@ -1288,6 +1290,23 @@ class Store:
         damaged = []
         good = []
         unverified = 0
+        # batches of a stage the store does not hold (a damaged stage number) are damage too
+        known = ",".join(str(int(s)) for s in stage_kind) or "-1"
+        for block, stage, start, n in self._query(
+            f"SELECT block, stage, seq_start, n FROM blocks WHERE stage NOT IN ({known})"
+        ):
+            damaged.append(
+                DamagedBatch(
+                    int(block),
+                    int(stage) if isinstance(stage, int) else -1,
+                    int(start) if isinstance(start, int) else -1,
+                    int(n) if isinstance(n, int) else 0,
+                    -1,
+                    -1,
+                    f"it belongs to stage {stage!r}, which the store does not hold",
+                    ("header",),
+                )
+            )
         for r in rows:
             bad = self._check_row(r, widths, stage_kind)
             if bad is not None:
@@ -1457,8 +1476,12 @@ class Store:
                     continue
                 stage, start, n = row
                 con.execute("DELETE FROM blocks WHERE block = ?", (block,))
+                # reasons of the dropped trials only: a damaged header may claim a range
+                # that overlaps a sound neighbour
                 con.execute(
-                    "DELETE FROM failures WHERE stage = ? AND seq >= ? AND seq < ?",
+                    "DELETE FROM failures WHERE stage = ? AND seq >= ? AND seq < ? AND NOT "
+                    "EXISTS (SELECT 1 FROM blocks b WHERE b.stage = failures.stage AND "
+                    "failures.seq >= b.seq_start AND failures.seq < b.seq_start + b.n)",
                     (stage, start, start + n),
                 )
                 dropped += int(n)
