@@ -23,3 +23,36 @@ def pytest_terminal_summary(terminalreporter) -> None:  # pragma: no cover - rep
         f"{'all':<16}{total['cases']:>7}{total['clear']:>8}{total['traceback']:>12}"
         f"{total['silent']:>8}"
     )
+
+
+import os  # noqa: E402
+import shutil  # noqa: E402
+import subprocess  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import pytest  # noqa: E402
+
+
+@pytest.fixture
+def tmpfs(tmp_path):
+    """Mount a small tmpfs (``size``, ``ro``): a full disk or a read-only folder even for
+    root (root ignores permission bits). Root only; skipped elsewhere."""
+    mounts: list[Path] = []
+
+    def make(size: str, name: str = "fs", readonly: bool = False) -> Path:
+        if os.geteuid() != 0 or shutil.which("mount") is None:
+            pytest.skip("needs root and mount(8) to make a small or read-only filesystem")
+        d = tmp_path / name
+        d.mkdir()
+        opts = f"size={size}" + (",ro" if readonly else "")
+        r = subprocess.run(
+            ["mount", "-t", "tmpfs", "-o", opts, "tmpfs", str(d)], capture_output=True, text=True
+        )
+        if r.returncode != 0:
+            pytest.skip(f"cannot mount a tmpfs here: {r.stderr.strip()}")
+        mounts.append(d)
+        return d
+
+    yield make
+    for d in reversed(mounts):
+        subprocess.run(["umount", "-l", str(d)], capture_output=True)
