@@ -142,6 +142,7 @@ class Study:
         batch_size: int | None = None,
         progress: bool | TextIO = False,
         keep_going: bool = False,
+        timeout: float | None = None,
     ) -> RunSummary:
         """Compute the missing trials (see :func:`vectorid.run.run_store`)."""
         return run_store(
@@ -152,6 +153,7 @@ class Study:
             batch_size=batch_size,
             progress=progress,
             keep_going=keep_going,
+            timeout=timeout,
         )
 
     def trials(self) -> Trials:

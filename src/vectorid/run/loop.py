@@ -279,6 +279,7 @@ def run_store(
     progress: bool | TextIO = True,
     keep_going: bool = False,
     ranges: Sequence[tuple[int, int, int]] | None = None,
+    timeout: float | None = None,
 ) -> RunSummary:
     """Run (or resume, or extend) the study held by a writable store.
 
@@ -303,6 +304,8 @@ def run_store(
         docstring); default False: stop with :class:`~vectorid.errors.RunFailedError`.
     ranges : sequence of (stage, start, end), optional
         Only compute the missing trials of these sequence ranges (used by repairs).
+    timeout : float, optional
+        Most seconds one trial may take (default: the study's ``timeout``).
 
     Returns
     -------
@@ -333,7 +336,12 @@ def run_store(
     target = int(trials if trials is not None else spec.trials)
     executor_name = executor or spec.executor or "processes"
     missing = _missing_count(store, target, ranges)
-    pool = make_executor(executor_name, spec, workers if workers is not None else spec.workers)
+    pool = make_executor(
+        executor_name,
+        spec,
+        workers if workers is not None else spec.workers,
+        timeout=timeout,
+    )
     size = batch_size or spec.batch_size or _auto_batch(missing, pool.workers)
     sampler = spec.sampler_for()
     spaces = {s.stage: s.space for s in store.stages()}
