@@ -493,7 +493,11 @@ def _watch_parent(parent: int) -> None:
 
 
 def _worker_main(
-    conn: mpc.Connection, spec: StudySpec | bytes, parent: int, pdeathsig: bool
+    conn: mpc.Connection,
+    spec: StudySpec | bytes,
+    parent: int,
+    pdeathsig: bool,
+    one_thread: bool = True,
 ) -> None:
     """Body of a worker process: build the model once, then evaluate what comes in."""
     if pdeathsig:
@@ -504,8 +508,8 @@ def _worker_main(
     from ..store.sqlite import close_inherited_locks
 
     close_inherited_locks()
-    # One numba/BLAS thread per worker process: the pool is the parallelism.
-    os.environ.setdefault("OMP_NUM_THREADS", "1")
+    if one_thread:  # one numba/BLAS thread per worker process: the pool is the parallelism
+        os.environ.setdefault("OMP_NUM_THREADS", "1")
     # Ctrl-C reaches the whole process group: the parent handles it and stops the workers.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
@@ -554,12 +558,12 @@ def _worker_main(
 class _Proc:
     """A worker process, its pipe, and the task it is running."""
 
-    def __init__(self, ctx: Any, payload: StudySpec | bytes) -> None:
+    def __init__(self, ctx: Any, payload: StudySpec | bytes, one_thread: bool = True) -> None:
         self.conn, child = ctx.Pipe(duplex=True)
         main_thread = threading.current_thread() is threading.main_thread()
         self.proc = ctx.Process(
             target=_worker_main,
-            args=(child, payload, os.getpid(), main_thread),
+            args=(child, payload, os.getpid(), main_thread, one_thread),
             daemon=True,
         )
         if ctx.get_start_method() == "fork":
@@ -656,9 +660,12 @@ class ProcessExecutor(Executor):
         self._payload = payload
         self._ctx = mp.get_context(method)
 
+    #: Worker processes run numba/BLAS on one thread (the pool is the parallelism).
+    one_thread = True
+
     def _new_proc(self) -> _Proc:
         self._prepare()
-        return _Proc(self._ctx, self._payload)
+        return _Proc(self._ctx, self._payload, self.one_thread)
 
     def start(self) -> None:
         while len(self._procs) < self.workers:
@@ -805,6 +812,8 @@ class SerialExecutor(ProcessExecutor):
     """
 
     name = "serial"
+    #: The one model process may use every core (a compiled model parallel over trials).
+    one_thread = False
 
     def __init__(
         self,
