@@ -209,3 +209,41 @@ def test_interrupted_message_names_real_counts(tmp_path):
     m = re.search(r"interrupted: (\d+) new trials stored in this run; the study holds (\d+)", err)
     ok = p.returncode == 130 and m is not None and int(m.group(2)) >= int(m.group(1)) > 0
     expect(KIND, ok and "Traceback" not in err, err[-1500:])
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(
+    __import__("importlib").util.find_spec("distributed") is None,
+    reason="dask.distributed not installed (pip install 'vectorid[dask]')",
+)
+def test_ctrl_c_with_dask_prints_no_worker_traceback(tmp_path):
+    """Ctrl-C reaches every process of the terminal's group: the local cluster's workers
+    ignore it (they printed 4 KeyboardInterrupt tracebacks) and the run exits 130."""
+    import re
+    import signal
+    import time
+
+    study = write_user_study(tmp_path / "s", trials=4000)
+    store = tmp_path / "d.db"
+    env = dict(os.environ, VECTORID_TEST_SLEEP="0.2")
+    p = subprocess.Popen(
+        [
+            *(sys.executable, "-m", "vectorid.cli", "run", str(study), "--store", str(store)),
+            *("--executor", "dask", "--workers", "2", "--batch-size", "8", "--quiet"),
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=env,
+        start_new_session=True,
+    )
+    deadline = time.time() + 180
+    while time.time() < deadline:  # wait for the cluster to compute something
+        time.sleep(1.0)
+        if store.exists() and cli("info", store).out.find("trials     0 ") < 0:
+            break
+    os.killpg(p.pid, signal.SIGINT)
+    out, err = p.communicate(timeout=180)
+    ok = p.returncode == 130 and "Traceback" not in err
+    ok = ok and re.search(r"interrupted: \d+ new trials stored in this run", err) is not None
+    expect(KIND, ok, f"exit {p.returncode}: {err[-2000:]}")

@@ -199,3 +199,74 @@ def test_worker_start_errors_name_the_model(tmp_path):
     with make_executor("processes", spec, workers=2) as ex:
         with pytest.raises(VectoridError, match="has no attribute 'nothere'"):
             list(ex.map_unordered([(0, spec.space.scale(spec.sampler_for().points(0, 4)))]))
+
+
+def test_planning_is_lazy_and_huge_targets_bounded(tmp_path):
+    """1e12 trials: the plan yields batches one at a time (no list of 1e9 batches); Sobol
+    refuses beyond its 2**30 points with the limit, Latin hypercubes run and store."""
+    import itertools
+    import tracemalloc
+
+    from vectorid import Study
+    from vectorid.run.loop import plan
+
+    study = write_user_study(tmp_path / "s", trials=16)
+    spec = load_study(study)
+    with Study.create(spec, tmp_path / "p.db") as st:
+        tracemalloc.start()
+        first = list(itertools.islice(plan(st.store, 10**12, 1024), 3))
+        peak = tracemalloc.get_traced_memory()[1]
+        tracemalloc.stop()
+        assert first == [(0, 0, 1024), (0, 1024, 1024), (0, 2048, 1024)]
+        assert peak < 10 * 2**20
+        with pytest.raises(StudyDefinitionError, match=r"at most 1073741823 .*sampler = \"lhs\""):
+            st.run(trials=10**12, executor="serial")
+        assert st.spec.trials == 16  # the refused target was not stored
+    lhs = study.with_name("lhs.toml")
+    lhs.write_text(study.read_text().replace("seed = 1", 'seed = 1\nsampler = "lhs"'))
+    store = tmp_path / "l.db"
+    env = dict(os.environ, VECTORID_TEST_SLEEP="0.02")
+    p = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "vectorid.cli",
+            "run",
+            str(lhs),
+            "--store",
+            str(store),
+            "--trials",
+            str(10**12),
+            "--executor",
+            "serial",
+            "--batch-size",
+            "64",
+            "--quiet",
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=env,
+        start_new_session=True,
+    )
+    try:
+        deadline = time.time() + 120
+        rss = 0
+        while time.time() < deadline:
+            time.sleep(1.0)
+            with open(f"/proc/{p.pid}/statm") as fh:
+                rss = int(fh.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+            if store.exists():
+                from vectorid.store import Store
+
+                with Store.open(store) as st:
+                    if st.count() >= 512:
+                        break
+        assert rss < 1 << 30, f"{rss / 2**20:.0f} MiB"
+    finally:
+        os.killpg(p.pid, signal.SIGKILL)
+        p.wait()
+    from vectorid.store import Store
+
+    with Store.open(store) as st:
+        assert st.count() >= 512

@@ -225,6 +225,27 @@ def plan(
                 yield (stage, s, min(batch_size, b - s))
 
 
+#: Points scipy's Sobol engine can give (``bits=30``); index i is point i + 1 unscrambled.
+SOBOL_POINTS = 2**30
+
+
+def _check_capacity(spec, target: int) -> None:
+    """Refuse a target the point sequence cannot reach (before computing anything)."""
+    if spec.sampler != "sobol":
+        return
+    most = SOBOL_POINTS - (0 if spec.scramble else 1)
+    if target > most:
+        from ..errors import StudyDefinitionError
+
+        raise StudyDefinitionError(
+            "trials",
+            f"{target} trials are more than the Sobol sequence can give here: at most {most} "
+            f"(scipy's Sobol engine holds 2**30 = {SOBOL_POINTS} points)",
+            f'use at most {most} trials, or sampler = "lhs" (Latin hypercube blocks, no such '
+            "limit)",
+        )
+
+
 def _missing_count(store: Store, target: int, ranges=None) -> int:
     return sum(n for _, _, n in plan(store, target, 1 << 62, ranges))
 
@@ -319,6 +340,8 @@ def run_store(
         When every trial of the first batches failed (unless ``keep_going``).
     """
     spec = store.spec
+    if trials is not None:
+        _check_capacity(spec, int(trials))
     notes: list[str] = []
     stored_before = store.count_sample()
     if trials is not None and ranges is None:
@@ -334,6 +357,7 @@ def run_store(
             store.set_target(trials)
             spec = store.spec
     target = int(trials if trials is not None else spec.trials)
+    _check_capacity(spec, target)
     executor_name = executor or spec.executor or "processes"
     missing = _missing_count(store, target, ranges)
     pool = make_executor(
