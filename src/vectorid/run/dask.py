@@ -191,20 +191,30 @@ def _evaluate_task(
     return "result", box["result"]
 
 
-def dask_setup(worker: Any) -> None:
-    """Preload of the local cluster's workers (``distributed.worker.preload``): Ctrl-C in
-    the terminal reaches the whole process group, and the client stops the cluster, so a
-    worker ignores it (no traceback from each worker); and a worker ends when the process
-    that started the cluster is gone (killed with ``kill -9``), instead of computing on."""
-    import signal
+#: Preload of the local cluster's workers (``distributed.worker.preload``, given as the text
+#: of a module so that a starting worker imports nothing heavy): Ctrl-C in the terminal
+#: reaches the whole process group and the client stops the cluster, so a worker ignores it
+#: (no KeyboardInterrupt traceback from each worker); and a worker ends when the process that
+#: started the cluster is gone (killed with ``kill -9``) instead of computing on.
+WORKER_PRELOAD = """
+import os, signal, threading, time
 
-    from .executors import _watch_parent
 
+def dask_setup(worker):
     try:
         signal.signal(signal.SIGINT, signal.SIG_IGN)
-    except ValueError:  # not in the main thread
+    except ValueError:  # not the main thread
         pass
-    _watch_parent(os.getppid())
+    parent = os.getppid()
+
+    def watch():
+        while True:
+            time.sleep(0.5)
+            if os.getppid() != parent:
+                os._exit(0)
+
+    threading.Thread(target=watch, name="vectorid-parent-watch", daemon=True).start()
+"""
 
 
 def _where() -> str:
@@ -302,8 +312,8 @@ class DaskExecutor(Executor):
                 # Workers may start model processes (isolate=True). Held while the executor
                 # lives, so that a worker the nanny restarts gets it too.
                 "distributed.worker.daemon": False,
-                # Workers ignore Ctrl-C and end with this process (dask_setup).
-                "distributed.worker.preload": ["vectorid.run.dask"],
+                # Workers ignore Ctrl-C and end with this process.
+                "distributed.worker.preload": [WORKER_PRELOAD],
             }
             self._config = dask.config.set(config)
             self._config.__enter__()
