@@ -290,12 +290,53 @@ def trial_ids(kind: str, stage: int, seq: np.ndarray) -> np.ndarray:
 
 
 #: Writer locks of this process by file identity ``(st_dev, st_ino)``: the descriptor the
-#: ``flock`` is taken on, and whether a Store of this process holds it now. Descriptors stay
-#: open after release (and are reused): closing a descriptor of the store file would drop
-#: the POSIX locks SQLite holds on it for other connections of this process.
+#: ``flock`` is taken on, whether a Store of this process holds it now, and how many Stores
+#: of this process have the file open. A descriptor is closed only when no Store of this
+#: process has the file open any more: closing a descriptor of the store file drops the
+#: POSIX locks SQLite holds on it for the process's other connections.
 _LOCK_FDS: dict[tuple[int, int], int] = {}
 _HELD: set[tuple[int, int]] = set()
+_OPEN: dict[tuple[int, int], int] = {}
 _LOCK_GUARD = threading.Lock()
+
+
+def _close_unused(key: tuple[int, int] | None) -> None:
+    """Close the lock descriptor of ``key`` when nothing of this process uses the file
+    (called with ``_LOCK_GUARD`` held)."""
+    if key is None or key in _HELD or _OPEN.get(key, 0) > 0:
+        return
+    fd = _LOCK_FDS.pop(key, None)
+    if fd is not None:
+        try:
+            os.close(fd)
+        except OSError:
+            pass
+
+
+def _opened(key: tuple[int, int] | None) -> None:
+    if key is not None:
+        with _LOCK_GUARD:
+            _OPEN[key] = _OPEN.get(key, 0) + 1
+
+
+def _closed(key: tuple[int, int] | None) -> None:
+    if key is None:
+        return
+    with _LOCK_GUARD:
+        n = _OPEN.get(key, 0) - 1
+        if n > 0:
+            _OPEN[key] = n
+        else:
+            _OPEN.pop(key, None)
+        _close_unused(key)
+
+
+def _path_identity(path: Path) -> tuple[int, int] | None:
+    try:
+        st = os.stat(path)
+    except OSError:
+        return None
+    return (st.st_dev, st.st_ino)
 
 
 def _identity(fd: int) -> tuple[int, int]:
@@ -356,6 +397,7 @@ class _WriterLock:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
             except OSError:
                 _LOCK_FDS[key] = fd
+                _close_unused(key)
                 holder = _writer_of(self.path)
                 real = self.path.resolve()
                 named = "" if real == self.path.absolute() else f" (= {real})"
@@ -378,6 +420,7 @@ class _WriterLock:
             if fd is not None:
                 fcntl.flock(fd, fcntl.LOCK_UN)
             _HELD.discard(self.key)
+            _close_unused(self.key)
             self.key = None
 
     def forget(self) -> None:
@@ -401,6 +444,7 @@ def close_inherited_locks() -> None:
                 pass
         _LOCK_FDS.clear()
         _HELD.clear()
+        _OPEN.clear()
 
 
 def _blob(a: np.ndarray, dtype: str) -> bytes:
@@ -503,6 +547,8 @@ class Store:
         self._lock = lock
         self._spec: StudySpec | None = None
         self._warned: set[str] = set()
+        self._key = lock.key if lock is not None else _path_identity(path)
+        _opened(self._key)
 
     # -- opening ---------------------------------------------------------------------------
 
@@ -545,7 +591,7 @@ class Store:
                 f"({exc.strerror}); choose a writable folder with --store"
             ) from None
         try:
-            fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_EXCL, 0o644)
+            fd = os.open(path, os.O_RDONLY | os.O_CREAT | os.O_EXCL, 0o644)
         except FileExistsError:
             raise StoreError(
                 f"{path} exists already (created just now by another process); open it with "
@@ -807,6 +853,8 @@ class Store:
             if self._lock:
                 self._lock.release()
                 self._lock = None
+            key, self._key = self._key, None
+            _closed(key)
 
     def delete(self) -> None:
         """Close and remove the store file (used to re-create a store that holds no
@@ -816,6 +864,10 @@ class Store:
             raise StoreError(f"store {self.path} holds computed trials; it is not deleted")
         self._con.close()
         lock, self._lock = self._lock, None
+        key, self._key = self._key, None
+        with _LOCK_GUARD:
+            if key is not None and _OPEN.get(key, 0) > 0:
+                _OPEN[key] -= 1
         try:
             for suffix in ("", "-wal", "-shm", "-journal"):
                 with _suppress_os():
