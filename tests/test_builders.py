@@ -87,3 +87,26 @@ def test_the_core_never_imports_a_plug_in():
             if isinstance(node, ast.Import):
                 for alias in node.names:
                     assert "identify" not in alias.name and "external" not in alias.name, path
+
+
+def test_identification_names_its_data_files(tmp_path):
+    ident = {
+        "drops": [
+            {"name": "a", "file": "a.csv", "wind": "w.txt"},
+            {"name": "b", "files": [{"file": "b1.csv"}, {"file": "/abs/b2.csv"}]},
+        ]
+    }
+    s = StudySpec(
+        name="t",
+        model="parachute6dof",
+        space=[Continuous("x6", 0, 0.6)],
+        criteria=(Criterion("pos_h_abs"),),
+        base_dir=str(tmp_path),
+        extra={"identification": ident},
+    )
+    assert data_files(s) == {
+        "identification.drops[0].file": tmp_path / "a.csv",
+        "identification.drops[0].wind": tmp_path / "w.txt",
+        "identification.drops[1].files[0].file": tmp_path / "b1.csv",
+        "identification.drops[1].files[1].file": Path("/abs/b2.csv"),
+    }
