@@ -349,6 +349,11 @@ def _writer_of(path: Path) -> str:
     try:
         con = sqlite3.connect(f"file:{path}?mode=ro", uri=True, timeout=2)
         try:
+            # written by the holder right after it took the lock (a 'running' row in the run
+            # log may be left from a run that was killed)
+            row = con.execute("SELECT value FROM meta WHERE key = 'writer'").fetchone()
+            if row:
+                return str(row[0])
             row = con.execute(
                 "SELECT pid, host, started FROM runs WHERE outcome = 'running' "
                 "ORDER BY run DESC LIMIT 1"
@@ -356,8 +361,7 @@ def _writer_of(path: Path) -> str:
             if row:
                 started = time.strftime("%Y-%m-%d %H:%M:%S", time.localtime(row[2]))
                 return f"pid {row[0]} on {row[1]}, running since {started}"
-            row = con.execute("SELECT value FROM meta WHERE key = 'writer'").fetchone()
-            return row[0] if row else ""
+            return ""
         finally:
             con.close()
     except sqlite3.Error:
