@@ -6,6 +6,8 @@ Verbs (a contract; more may be added)::
                                   [--executor serial|processes|dask] [--scheduler tcp://H:P]
                                   [--timeout SECONDS] [--workers N] [--batch-size N] [--quiet]
     vectorid info STORE [--json]
+    vectorid verify STORE [--json]
+    vectorid repair STORE [--executor ...] [--workers N] [--quiet]
     vectorid table STORE [--limit 'NAME<=VALUE' ...] [--top K] [--feasible] [--json]
     vectorid pareto STORE [--limit 'NAME<=VALUE' | 'NAME>=VALUE' ...] [--role NAME=pseudo] [--json]
     vectorid export STORE [--format csv|json|parquet] [--out PATH]
@@ -14,7 +16,12 @@ Verbs (a contract; more may be added)::
     vectorid descent LOG --mass KG [--columns time=COL,altitude=COL] [...] [--json]
 
 Errors in user input print one line saying what was expected, what came and how to fix it,
-and exit with status 2; an interrupted run exits with 130 after storing what it finished.
+and exit with status 2 (never a traceback: a damaged store, a file that cannot be read or
+written, a full disk are input errors too); a store being written by another process exits
+with 3; ``verify`` exits with 1 when it finds damage; an interrupted run exits with 130
+after storing what it finished. Warnings (damaged batches left out, more workers than cores)
+and notes (study-file changes taken into the store) print one ``warning:`` / ``note:`` line
+each on standard error.
 """
 
 from __future__ import annotations
@@ -110,7 +117,34 @@ def _parser() -> argparse.ArgumentParser:
         help="most seconds one trial may take (default: the study's, else no limit)",
     )
     r.add_argument("--batch-size", type=positive_int, help="trials per batch (default: auto)")
+    r.add_argument(
+        "--keep-going",
+        action="store_true",
+        help="store the first batches even when every one of their trials failed "
+        "(default: stop with the reason and store none)",
+    )
     r.add_argument("--quiet", action="store_true", help="no progress bar")
+
+    v = sub.add_parser("verify", help="check a store: SQLite pages and every batch's checksum")
+    v.add_argument("store")
+    v.add_argument("--json", action="store_true")
+
+    rp = sub.add_parser(
+        "repair", help="drop the damaged batches of a store and recompute them (see verify)"
+    )
+    rp.add_argument("store")
+    rp.add_argument(
+        "--executor",
+        choices=["serial", "processes", "dask"],
+        help="how to recompute (default: the study's, else processes)",
+    )
+    rp.add_argument("--workers", type=positive_int, help="worker processes (default: all cores)")
+    rp.add_argument(
+        "--study",
+        metavar="STUDY.toml",
+        help="write the study definition back from this file (when the stored one is damaged)",
+    )
+    rp.add_argument("--quiet", action="store_true", help="no progress bar")
 
     i = sub.add_parser("info", help="study definition, stages, counts, failures, runs")
     i.add_argument("store")
@@ -180,22 +214,106 @@ def _extensions() -> list[Any]:
     return out
 
 
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """Warnings as one line: ``warning: ...`` (``note: ...`` for notes)."""
+    from .errors import VectoridNote, VectoridWarning
+
+    if issubclass(category, VectoridNote):
+        text = f"note: {message}"
+    elif issubclass(category, VectoridWarning):
+        text = f"warning: {message}"
+    else:
+        text = f"warning: {category.__name__}: {message} ({Path(filename).name}:{lineno})"
+    try:
+        print(text, file=sys.stderr)
+    except (OSError, ValueError):
+        pass
+
+
+def _output_paths(args: argparse.Namespace) -> list[Path]:
+    """Files a verb writes (to remove a partial one when writing fails)."""
+    out = getattr(args, "out", None)
+    if not isinstance(out, str) or not out:
+        return []
+    p = Path(out)
+    return [] if p.exists() else [p]
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``vectorid`` console script."""
+    import sqlite3
+    import warnings
+
     args = _parser().parse_args(argv)
     commands = dict(_COMMANDS)
     for module in _extensions():
         commands.update(module.COMMANDS)
+    new_files = _output_paths(args)
+
+    def clean_partial() -> None:
+        for p in new_files:
+            try:
+                if p.is_file():
+                    p.unlink()
+            except OSError:
+                pass
+
+    with warnings.catch_warnings():
+        from .errors import VectoridWarning
+
+        warnings.simplefilter("always", VectoridWarning)
+        warnings.showwarning = _show_warning
+        try:
+            return commands[args.command](args)
+        except StoreLockedError as exc:
+            print(f"error: {exc}", file=sys.stderr)
+            return EXIT_LOCKED
+        except VectoridError as exc:
+            clean_partial()
+            print(f"error: {exc}", file=sys.stderr)
+            return EXIT_USAGE
+        except BrokenPipeError:
+            _quiet_stdout()
+            return 0
+        except KeyboardInterrupt:
+            clean_partial()
+            print("\ninterrupted", file=sys.stderr)
+            return EXIT_INTERRUPTED
+        except sqlite3.DatabaseError as exc:
+            path = getattr(args, "store", None) or getattr(args, "study", None) or "the store"
+            print(
+                f"error: store {path} is damaged (SQLite: {exc}); `vectorid verify {path}` "
+                f"shows what is readable, `vectorid repair {path}` rebuilds it",
+                file=sys.stderr,
+            )
+            return EXIT_USAGE
+        except OSError as exc:
+            clean_partial()
+            what = f"{exc.filename}: " if exc.filename else ""
+            reason = exc.strerror or str(exc)
+            print(
+                f"error: {what}{reason}; nothing was written there — check the path, its "
+                "permissions and the free disk space, then run the command again",
+                file=sys.stderr,
+            )
+            return EXIT_USAGE
+        except MemoryError:
+            print(
+                "error: out of memory; use fewer trials or workers, or a machine with more memory",
+                file=sys.stderr,
+            )
+            return EXIT_USAGE
+
+
+def _quiet_stdout() -> None:
+    """After a closed pipe (``vectorid export ... | head``): no second error at exit."""
+    import os
+
     try:
-        return commands[args.command](args)
-    except StoreLockedError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return EXIT_LOCKED
-    except VectoridError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return EXIT_USAGE
-    except BrokenPipeError:
-        return 0
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError):
+        pass
 
 
 # -- helpers --------------------------------------------------------------------------------
@@ -334,19 +452,20 @@ def _cmd_run(args: argparse.Namespace) -> int:
     from .study import Study, default_store_path
 
     src = Path(args.study)
-    if _is_store(src):
+    if _is_store(src) or (src.suffix.lower() in (".db", ".sqlite", ".sqlite3") and src.is_file()):
         if args.store:
             print("note: --store is ignored when running a store directly", file=sys.stderr)
         study = Study.open(src, write=True)
     else:
         spec = load_study(src)
         store = Path(args.store) if args.store else default_store_path(spec, src)
-        study = Study.create_or_open(spec, store)
+        study = Study.create_or_open(spec, store, study_file=src)
     executor = args.executor
     if args.scheduler and executor is None:
         executor = "dask"
     with study:
         print(f"study {study.spec.name!r} -> {study.store.path}", file=sys.stderr)
+        _warn_damage(study.store)
         try:
             with executor_options(scheduler=args.scheduler, timeout=args.timeout):
                 summary = study.run(
@@ -355,6 +474,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
                     workers=args.workers,
                     batch_size=args.batch_size,
                     progress=not args.quiet,
+                    keep_going=args.keep_going,
                 )
         except RunInterrupted as exc:
             print(f"\n{exc}", file=sys.stderr)
@@ -364,22 +484,36 @@ def _cmd_run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _warn_damage(store: Any) -> None:
+    """Say before a run which stored batches are damaged (the run leaves them alone)."""
+    import warnings
+
+    from .errors import VectoridWarning
+    from .store.sqlite import _damage_warning
+
+    damaged = store.check_batches()
+    if damaged:
+        warnings.warn(VectoridWarning(_damage_warning(store.path, damaged)), stacklevel=2)
+
+
 def _cmd_info(args: argparse.Namespace) -> int:
     from .analysis import Analysis
-    from .run.loop import _reason_key
+    from .run.loop import group_failures
 
     study = _open_study(args.store)
     with study:
         st = study.store
         spec = study.spec
-        trials = st.load()
+        with st.snapshot():
+            trials = st.load()
+            stages = st.stages()
+            runs = st.runs()
+            counts = {s.stage: st.count(s.stage) for s in stages}
+            schema = st.meta().get("schema_version", "?")
         a = Analysis(spec, trials)
-        reasons: dict[str, int] = {}
-        for msg in trials.messages.values():
-            key = _reason_key(msg)
-            reasons[key] = reasons.get(key, 0) + 1
-        stages = st.stages()
-        runs = st.runs()
+        ids = {(int(s), int(q)): int(i) for s, q, i in zip(trials.stage, trials.seq, trials.id)}
+        groups = group_failures(trials.messages, ids)
+        reasons = {g.message: g.count for g in groups}
         info = {
             "store": str(st.path),
             "study": spec.to_dict(),
@@ -388,7 +522,7 @@ def _cmd_info(args: argparse.Namespace) -> int:
                     "stage": s.stage,
                     "kind": s.kind,
                     "start_seq": s.start_seq,
-                    "n": st.count(s.stage),
+                    "n": counts[s.stage],
                     "note": s.note,
                     "box": s.space.to_list(),
                 }
@@ -399,6 +533,21 @@ def _cmd_info(args: argparse.Namespace) -> int:
             "n_feasible": a.n_feasible,
             "n_pareto": a.n_pareto,
             "failures": reasons,
+            "failure_groups": [
+                {"count": g.count, "example": g.message, "trial": g.trial} for g in groups
+            ],
+            "damaged": [
+                {
+                    "block": d.block,
+                    "stage": d.stage,
+                    "first_id": d.first_id,
+                    "last_id": d.last_id,
+                    "n": d.n,
+                    "reason": d.reason,
+                }
+                for d in trials.damaged
+            ],
+            "schema": schema,
             "wall_time_per_trial_mean": float(trials.wall.mean()) if len(trials) else None,
             "runs": runs,
         }
@@ -407,7 +556,16 @@ def _cmd_info(args: argparse.Namespace) -> int:
             return 0
         print(f"store      {st.path}")
         print(f"study      {spec.name}  (model {spec.to_dict()['study']['model']})")
-        print(f"trials     {a.n} stored of {spec.trials} wanted; {a.n_failed} failed")
+        held = a.n + sum(d.n for d in trials.damaged if stage_kind(stages, d.stage) == "sample")
+        print(f"trials     {held} stored of {spec.trials} wanted; {a.n_failed} failed")
+        if trials.damaged:
+            lost = sum(d.n for d in trials.damaged)
+            print(
+                f"DAMAGED    {len(trials.damaged)} batches ({lost} trials) left out of the "
+                f"counts below; `vectorid repair {st.path}` recomputes them:"
+            )
+            for d in trials.damaged:
+                print(f"  {d.describe()}")
         print(f"sampler    {spec.sampler}{' scrambled' if spec.scramble else ''}, seed {spec.seed}")
         print(f"sets       N={a.n}  ND={a.n_feasible}  NP={a.n_pareto}  (study limits)")
         print("variables")
@@ -431,18 +589,83 @@ def _cmd_info(args: argparse.Namespace) -> int:
                 f"  {s['stage']}: {s['kind']:<7} from seq {s['start_seq']:<8} {s['n']:>8} trials"
                 f"  {s['note']}"
             )
-        if reasons:
+        if groups:
             print("failures")
-            for r, c in sorted(reasons.items(), key=lambda kv: -kv[1]):
-                print(f"  {c:>7} × {r}")
+            for g in groups:
+                print(f"  {g.count:>7} × {g.message} (e.g. trial {g.trial})")
         if runs:
             print("runs")
             for r in runs:
+                if r["executor"] == "repair":
+                    print(f"  #{r['run']} {r['outcome']}")
+                    continue
                 dur = "" if r["finished"] is None else f"{r['finished'] - r['started']:.1f} s"
                 print(
                     f"  #{r['run']} {r['executor']} × {r['workers']}  target {r['target']}  "
                     f"{r['outcome']}  {dur}"
                 )
+    return 0
+
+
+def stage_kind(stages: Sequence[Any], stage: int) -> str:
+    for s in stages:
+        if s.stage == stage:
+            return str(s.kind)
+    return "sample"
+
+
+def _cmd_verify(args: argparse.Namespace) -> int:
+    from .errors import StoreDamagedError
+    from .store.sqlite import Store, VerifyReport
+
+    path = Path(args.store)
+    try:
+        st = Store.open(path)
+    except StoreDamagedError as exc:
+        rep = VerifyReport(path, sqlite=["not checked"], problems=[str(exc)])
+    else:
+        with st:
+            rep = st.verify()
+    if args.json:
+        _print_json(
+            {
+                "store": str(rep.path),
+                "ok": rep.ok,
+                "schema": rep.schema,
+                "sqlite": rep.sqlite,
+                "problems": rep.problems,
+                "batches": rep.batches,
+                "trials": rep.trials,
+                "unverified": rep.unverified,
+                "damaged": [
+                    {
+                        "block": d.block,
+                        "stage": d.stage,
+                        "first_id": d.first_id,
+                        "last_id": d.last_id,
+                        "n": d.n,
+                        "reason": d.reason,
+                    }
+                    for d in rep.damaged
+                ],
+            }
+        )
+    else:
+        print(rep.describe())
+    return 0 if rep.ok else 1
+
+
+def _cmd_repair(args: argparse.Namespace) -> int:
+    from .run.repair import repair_store
+
+    report = repair_store(
+        Path(args.store),
+        executor=args.executor,
+        workers=args.workers,
+        progress=not args.quiet,
+        study=args.study,
+    )
+    print(report.describe())
     return 0
 
 
@@ -588,6 +811,8 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 _COMMANDS = {
     "run": _cmd_run,
     "info": _cmd_info,
+    "verify": _cmd_verify,
+    "repair": _cmd_repair,
     "table": _cmd_table,
     "pareto": _cmd_pareto,
     "export": _cmd_export,

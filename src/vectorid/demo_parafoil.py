@@ -592,8 +592,8 @@ def run_stage(
     parafoils run their studies through it too (one mechanism)."""
     from .analysis.choice import suggest_choice
     from .analysis.identifiability import identifiability
-    from .run.extra import apply_refine
     from .identify.twostep import StepResult, noise_refine
+    from .run.extra import apply_refine
     from .study import Study
 
     t0 = time.perf_counter()

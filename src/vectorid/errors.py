@@ -9,10 +9,16 @@ import difflib
 from collections.abc import Iterable
 
 __all__ = [
+    "RunFailedError",
+    "StoreDamagedError",
     "StoreError",
     "StoreLockedError",
     "StudyDefinitionError",
     "VectoridError",
+    "VectoridNote",
+    "VectoridWarning",
+    "is_number",
+    "shown",
     "suggest",
 ]
 
@@ -52,6 +58,28 @@ class StoreLockedError(StoreError):
     """Another process is writing to the same study store."""
 
 
+class StoreDamagedError(StoreError):
+    """A study store's file is damaged where no analysis can go on (its definition, its
+    tables or SQLite's own pages); damaged trial batches are left out with a warning instead
+    (see :meth:`vectorid.store.Store.verify`)."""
+
+
+class RunFailedError(VectoridError):
+    """A run stopped because its first batch showed the study cannot work as defined (every
+    trial failed for the same reason); nothing of that batch was stored."""
+
+
+class VectoridWarning(UserWarning):
+    """Something the user must know that does not stop the work: damaged batches left out of
+    an analysis, a store upgraded to a newer schema, more workers than cores. The command
+    line prints these as one ``warning:`` line each."""
+
+
+class VectoridNote(VectoridWarning):
+    """Something vectorid decided on the user's behalf and says so (a study-file change
+    taken into the store, an empty store re-created): printed as one ``note:`` line."""
+
+
 def suggest(word: str, candidates: Iterable[str]) -> str:
     """Return a ``"did you mean 'x'?"`` hint, or a list of valid names.
 
@@ -72,3 +100,25 @@ def suggest(word: str, candidates: Iterable[str]) -> str:
     if close:
         return f"did you mean {close[0]!r}? (valid: {', '.join(candidates)})"
     return f"valid names are: {', '.join(candidates) if candidates else '(none)'}"
+
+
+def is_number(value: object) -> bool:
+    """True for a real number: an int or float (numpy's included), never a bool, a string or
+    a complex number. Study files are typed: ``high = true`` or ``low = "0"`` is an error,
+    not 1.0 or 0.0."""
+    import numbers
+
+    return (
+        isinstance(value, numbers.Real)
+        and not isinstance(value, bool)
+        and not (type(value).__name__ == "bool_")
+    )
+
+
+def shown(value: object) -> str:
+    """A value as the user wrote it in a study file: ``true``, ``"0"``, ``[1, 2]``, ``5``."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return '"' + value.replace('"', '\\"') + '"'
+    return repr(value)

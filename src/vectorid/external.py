@@ -95,12 +95,21 @@ __all__ = [
     "CommandModel",
     "ExternalModelError",
     "FmuModel",
+    "build_external_problem",
     "external_model",
 ]
 
 
 class ExternalModelError(RuntimeError):
     """An external model failed on one trial (the trial is stored as failed)."""
+
+
+def build_external_problem(spec: Any) -> Any:
+    """The Problem of a ``cmd:`` or ``fmu:`` study (the builder of those kinds in
+    :mod:`vectorid.builders`)."""
+    from .problem import Problem
+
+    return Problem(external_model(spec), spec.criteria, spec.constraints)
 
 
 def external_model(spec: Any) -> BatchModel:

@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from .errors import StudyDefinitionError
+from .errors import StudyDefinitionError, is_number, shown, suggest
 
 __all__ = [
     "FAILED",
@@ -37,6 +37,7 @@ __all__ = [
     "FunctionalConstraint",
     "Problem",
     "as_batch",
+    "build_python_problem",
     "load_model",
 ]
 
@@ -52,12 +53,13 @@ BatchModel = Callable[[np.ndarray], Any]
 def _opt_finite(field_name: str, value: Any) -> float | None:
     if value is None:
         return None
-    try:
-        out = float(value)
-    except (TypeError, ValueError):
+    if not is_number(value):
         raise StudyDefinitionError(
-            field_name, f"expected a number, got {value!r}", "write a finite number"
-        ) from None
+            field_name,
+            f"expected a number, got {shown(value)} ({type(value).__name__})",
+            "write a finite number, without quotes",
+        )
+    out = float(value)
     if not math.isfinite(out):
         raise StudyDefinitionError(
             field_name,
@@ -75,6 +77,14 @@ def _check_name(kind: str, name: Any) -> str:
             'give it a name, e.g. name = "f1"',
         )
     return name
+
+
+def _check_text(where: str, value: Any) -> str:
+    if not isinstance(value, str):
+        raise StudyDefinitionError(
+            where, f"expected text, got {value!r} ({type(value).__name__})", 'write e.g. unit = "m"'
+        )
+    return value
 
 
 @dataclass(frozen=True)
@@ -116,13 +126,14 @@ class Criterion:
 
     def __post_init__(self) -> None:
         _check_name("criteria", self.name)
-        if self.sense not in ("min", "max"):
+        _check_text(f"criteria.{self.name}.unit", self.unit)
+        if not isinstance(self.sense, str) or self.sense not in ("min", "max"):
             raise StudyDefinitionError(
                 f"criteria.{self.name}.sense",
                 f"expected 'min' or 'max', got {self.sense!r}",
                 'write sense = "min" or sense = "max"',
             )
-        if self.role not in ("pure", "pseudo"):
+        if not isinstance(self.role, str) or self.role not in ("pure", "pseudo"):
             raise StudyDefinitionError(
                 f"criteria.{self.name}.role",
                 f"expected 'pure' or 'pseudo', got {self.role!r}",
@@ -187,6 +198,7 @@ class FunctionalConstraint:
 
     def __post_init__(self) -> None:
         _check_name("constraints", self.name)
+        _check_text(f"constraints.{self.name}.unit", self.unit)
         lo = _opt_finite(f"constraints.{self.name}.low", self.low)
         hi = _opt_finite(f"constraints.{self.name}.high", self.high)
         if lo is not None and hi is not None and lo > hi:
@@ -256,23 +268,50 @@ def load_model(spec: str | BatchModel, base_dir: str | Path | None = None) -> Ba
                 "or name your own function as 'package.module:function'",
             ) from None
     module_name, _, func_name = spec.partition(":")
+    if not all(part.isidentifier() for part in module_name.split(".")) or not all(
+        part.isidentifier() for part in func_name.split(".")
+    ):
+        raise StudyDefinitionError(
+            "study.model",
+            f"expected 'package.module:function' (Python names), got {spec!r}",
+            'write e.g. model = "mymodel:evaluate" (mymodel.py beside the study file), or a '
+            'built-in name such as "binh-korn"',
+        )
     if base_dir is not None:
         base = str(Path(base_dir).resolve())
         if base not in sys.path:
             sys.path.insert(0, base)
     try:
         module = importlib.import_module(module_name)
-    except ImportError as exc:
+    except ModuleNotFoundError as exc:
+        where = f" (looked beside the study file, in {base_dir})" if base_dir else ""
+        missing = exc.name or module_name
+        fix = (
+            f"put {module_name.replace('.', '/')}.py next to the study file or install it"
+            if missing == module_name or module_name.startswith(missing + ".")
+            else f"install {missing!r} in this environment (the model module imports it)"
+        )
+        raise StudyDefinitionError(
+            "study.model", f"cannot import module {module_name!r}: {exc}{where}", fix
+        ) from None
+    except SyntaxError as exc:
         raise StudyDefinitionError(
             "study.model",
-            f"cannot import module {module_name!r} ({exc})",
-            "put the module next to the study file or install it in this environment",
-        ) from exc
+            f"the model module {module_name!r} has a syntax error: {exc.msg} "
+            f"({Path(exc.filename or '?').name}, line {exc.lineno})",
+            "fix the module's syntax (python -m py_compile FILE shows it)",
+        ) from None
+    except Exception as exc:
+        raise StudyDefinitionError(
+            "study.model",
+            f"importing the model module {module_name!r} raised {_describe(exc)}",
+            "fix the module (it fails when imported, before any trial)",
+        ) from None
+    func: Any = module
     try:
-        func = getattr(module, func_name)
+        for part in func_name.split("."):
+            func = getattr(func, part)
     except AttributeError:
-        from .errors import suggest
-
         names = [n for n in dir(module) if not n.startswith("_")]
         raise StudyDefinitionError(
             "study.model",
@@ -284,6 +323,42 @@ def load_model(spec: str | BatchModel, base_dir: str | Path | None = None) -> Ba
             "study.model", f"{spec!r} is not callable", "point to a function"
         )
     return func
+
+
+def _plural(n: int, word: str) -> str:
+    plurals = {"criterion": "criteria"}
+    return f"{n} {word if n == 1 else plurals.get(word, word + 's')}"
+
+
+def build_python_problem(spec: Any) -> Problem:
+    """The Problem of a study whose model is a built-in analytic problem or a Python function
+    (the ``"python"`` kind of :mod:`vectorid.builders`).
+
+    A built-in problem knows its dimensions: a study whose variables, criteria or functional
+    constraints do not fit them is refused here, before any trial, naming both.
+    """
+    func = load_model(spec.model, spec.base_dir)
+    if isinstance(spec.model, str) and ":" not in spec.model:
+        from . import analytic
+
+        ap = analytic.get(spec.model)
+        have = (len(spec.space), len(spec.criteria), len(spec.constraints))
+        want = (ap.n_var, ap.n_obj, ap.n_con)
+        if have != want:
+            names = lambda items: ", ".join(x[0] for x in items) or "none"  # noqa: E731
+            raise StudyDefinitionError(
+                "study.model",
+                f"the built-in model {spec.model!r} takes {_plural(want[0], 'variable')} "
+                f"({names(ap.variables)}) and returns {_plural(want[1], 'criterion')} "
+                f"({names(ap.criteria)}) and {_plural(want[2], 'functional')} "
+                f"({names(ap.constraints)}); this study has {_plural(have[0], 'variable')}, "
+                f"{_plural(have[1], 'criterion')} and {_plural(have[2], 'constraint')}",
+                f"make [[variables]], [[criteria]] and [[constraints]] match "
+                f"(`vectorid init {spec.model}` writes a study file that does)",
+            )
+    if not spec.batch:
+        func = as_batch(func)
+    return Problem(func, spec.criteria, spec.constraints)
 
 
 class _PerTrial:
@@ -383,7 +458,7 @@ class Problem:
 
     def _coerce(self, out: Any, n: int) -> tuple[np.ndarray, np.ndarray]:
         crit, func = _split_output(out)
-        crit = np.asarray(crit, dtype=float)
+        crit = _numeric(crit, "criteria")
         if crit.ndim == 1 and self.k == 1 and crit.shape[0] == n:
             crit = crit[:, None]
         if crit.shape != (n, self.k):
@@ -398,7 +473,7 @@ class Problem:
                     f"{', '.join(c.name for c in self.constraints)}: return (criteria, functionals)"
                 )
             func = np.empty((n, 0))
-        func = np.asarray(func, dtype=float)
+        func = _numeric(func, "functionals")
         if func.ndim == 1 and self.q == 1 and func.shape[0] == n:
             func = func[:, None]
         if func.shape != (n, self.q):
@@ -419,6 +494,25 @@ class Problem:
                 res.criteria[r] = np.nan
                 res.functionals[r] = np.nan
 
+    def _put(self, res: EvalResult, rows: np.ndarray, crit: np.ndarray, func: np.ndarray) -> None:
+        """Store a batch's output, failing the rows with a complex value (a real criterion
+        has no imaginary part; dropping it would store a wrong number)."""
+        if np.iscomplexobj(crit) or np.iscomplexobj(func):
+            names = [c.name for c in self.criteria] + [c.name for c in self.constraints]
+            both = np.concatenate([crit.reshape(len(rows), -1), func.reshape(len(rows), -1)], 1)
+            imag = np.imag(both) != 0
+            for i, r in enumerate(rows):
+                if imag[i].any():
+                    cols = [f"{names[j]}={complex(both[i, j])}" for j in np.flatnonzero(imag[i])]
+                    res.status[r] = FAILED
+                    res.messages[int(r)] = "complex result (a criterion must be real): " + (
+                        ", ".join(cols[:4])
+                    )
+            crit, func = np.real(crit), np.real(func)
+        ok = res.status[rows] != FAILED
+        res.criteria[rows[ok]] = crit[ok]
+        res.functionals[rows[ok]] = func[ok]
+
     def _batch(self, X: np.ndarray) -> EvalResult:
         n = X.shape[0]
         res = self._empty(n)
@@ -430,7 +524,7 @@ class Problem:
         t0 = time.perf_counter()
         try:
             crit, func = self._coerce(self.model(X[rows]), len(rows))
-        except Exception as exc:
+        except (Exception, SystemExit) as exc:
             if len(rows) == 1:
                 res.status[rows[0]] = FAILED
                 res.messages[int(rows[0])] = _describe(exc)
@@ -447,8 +541,7 @@ class Problem:
             self._batch_into(X, rows[:half], res)
             self._batch_into(X, rows[half:], res)
             return
-        res.criteria[rows] = crit
-        res.functionals[rows] = func
+        self._put(res, rows, crit, func)
         res.wall[rows] = (time.perf_counter() - t0) / len(rows)
 
     def _per_trial(self, X: np.ndarray) -> EvalResult:
@@ -459,7 +552,7 @@ class Problem:
             t0 = time.perf_counter()
             try:
                 crit, fun = _split_output(func(X[i].copy()))
-                crit = np.atleast_1d(np.asarray(crit, dtype=float))
+                crit = np.atleast_1d(_numeric(crit, "criteria"))
                 if crit.shape != (self.k,):
                     raise ValueError(
                         f"model returned a criteria row of shape {crit.shape}, expected ({self.k},)"
@@ -471,20 +564,41 @@ class Problem:
                             "return (criteria, functionals)"
                         )
                     fun = np.empty(0)
-                fun = np.atleast_1d(np.asarray(fun, dtype=float))
+                fun = np.atleast_1d(_numeric(fun, "functionals"))
                 if fun.shape != (self.q,):
                     raise ValueError(
                         f"model returned a functionals row of shape {fun.shape}, "
                         f"expected ({self.q},)"
                     )
-                res.criteria[i] = crit
-                res.functionals[i] = fun
-            except Exception as exc:
+                self._put(res, np.array([i]), crit[None, :], fun[None, :])
+            except (Exception, SystemExit) as exc:
                 res.status[i] = FAILED
                 res.messages[i] = _describe(exc)
             res.wall[i] = time.perf_counter() - t0
         self._mark_nonfinite(res, np.arange(n))
         return res
+
+
+def _numeric(value: Any, what: str) -> np.ndarray:
+    """The model's output as a float (or complex) array; anything else is refused with what
+    came (booleans, strings and objects are not numbers, even when float() would take them)."""
+    arr = np.asarray(value)
+    kind = arr.dtype.kind
+    if kind in "fiu":
+        return arr.astype(float, copy=False)
+    if kind == "c":
+        return arr.astype(complex, copy=False)
+    if kind == "O":
+        flat = arr.ravel()
+        if all(is_number(v) for v in flat):
+            return arr.astype(float)
+        if all(is_number(v) or isinstance(v, complex) for v in flat):
+            return arr.astype(complex)
+        bad = next(v for v in flat if not (is_number(v) or isinstance(v, complex)))
+        example = f"{bad!r} ({type(bad).__name__})"
+    else:
+        example = f"{arr.ravel()[0]!r} (dtype {arr.dtype})" if arr.size else f"dtype {arr.dtype}"
+    raise ValueError(f"model returned {what} that are not numbers: {example}; return floats")
 
 
 def _describe(exc: BaseException) -> str:
@@ -494,5 +608,7 @@ def _describe(exc: BaseException) -> str:
     if tb:
         frame = tb[-1]
         where = f" (at {Path(frame.filename).name}:{frame.lineno} in {frame.name})"
+    if isinstance(exc, SystemExit):
+        return f"SystemExit: the model called sys.exit({exc.code!r}){where}"
     text = str(exc).strip().splitlines()[0] if str(exc).strip() else ""
     return f"{type(exc).__name__}: {text}{where}"

@@ -19,20 +19,19 @@ from typing import Any
 
 import numpy as np
 
-from .errors import StudyDefinitionError
+from .errors import StudyDefinitionError, is_number, shown
 
 __all__ = ["Choice", "Continuous", "Integer", "Space", "Variable"]
 
 
 def _finite(name: str, field_name: str, value: Any) -> float:
-    try:
-        out = float(value)
-    except (TypeError, ValueError):
+    if not is_number(value):
         raise StudyDefinitionError(
             f"variables.{name}.{field_name}",
-            f"expected a number, got {value!r}",
-            "write a finite number such as 0.0",
-        ) from None
+            f"expected a number, got {shown(value)} ({type(value).__name__})",
+            "write a finite number such as 0.0, without quotes",
+        )
+    out = float(value)
     if not math.isfinite(out):
         raise StudyDefinitionError(
             f"variables.{name}.{field_name}",

@@ -33,14 +33,15 @@ without values, a limit on an unknown criterion, non-finite numbers.
 from __future__ import annotations
 
 import math
+import re
 import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from .errors import StudyDefinitionError, suggest
-from .problem import Criterion, FunctionalConstraint, Problem, as_batch, load_model
+from .errors import StudyDefinitionError, shown, suggest
+from .problem import Criterion, FunctionalConstraint, Problem
 from .sampling import SAMPLERS, Sampler
 from .space import Choice, Continuous, Integer, Space, Variable
 
@@ -74,6 +75,23 @@ _VARIABLE_TYPES = ("continuous", "integer", "choice")
 EXECUTORS = ("serial", "processes", "dask")
 
 
+_ADDRESS = re.compile(
+    r"^(?:(tcp|tls|ws|wss|ucx|inproc)://)?(\[[0-9A-Fa-f:.]+\]|[^:/\s\[\]]+):(\d+)$"
+)
+
+
+def check_scheduler_address(address: Any, where: str = "--scheduler") -> str:
+    """``address`` if it reads as ``[PROTOCOL://]HOST:PORT``, else a clear error."""
+    m = _ADDRESS.match(address) if isinstance(address, str) else None
+    if m is None or not 0 < int(m.group(3)) < 65536:
+        raise StudyDefinitionError(
+            where,
+            f"expected a Dask scheduler address tcp://HOST:PORT (port 1-65535), got {address!r}",
+            "write e.g. tcp://10.0.0.5:8786 (the address `dask scheduler` prints)",
+        )
+    return address
+
+
 def _check_keys(where: str, got: Mapping[str, Any], valid: set[str] | Mapping[str, Any]) -> None:
     for key in got:
         if key not in valid:
@@ -88,7 +106,9 @@ def _int(where: str, value: Any, minimum: int | None = None) -> int:
         or not isinstance(value, int | float)
         or (isinstance(value, float) and (not math.isfinite(value) or not value.is_integer()))
     ):
-        raise StudyDefinitionError(where, f"expected an integer, got {value!r}", "write e.g. 2048")
+        raise StudyDefinitionError(
+            where, f"expected an integer, got {shown(value)}", "write e.g. 2048"
+        )
     value = int(value)
     if minimum is not None and value < minimum:
         raise StudyDefinitionError(
@@ -164,6 +184,20 @@ class StudySpec:
             raise StudyDefinitionError(
                 "study.name", f"expected a non-empty name, got {self.name!r}", 'name = "my-study"'
             )
+        if not (isinstance(self.model, str) and self.model.strip()) and not callable(self.model):
+            raise StudyDefinitionError(
+                "study.model",
+                f"expected a built-in name or 'module:function', got {self.model!r}",
+                'write model = "binh-korn" or model = "mypkg.mymodel:evaluate"',
+            )
+        for key in ("sampler", "executor", "store", "description", "base_dir"):
+            value = getattr(self, key)
+            if value is not None and not isinstance(value, str):
+                raise StudyDefinitionError(
+                    f"study.{key}",
+                    f"expected text, got {shown(value)} ({type(value).__name__})",
+                    f'write {key} = "..." (quoted), or leave it out',
+                )
         if not isinstance(self.space, Space):
             object.__setattr__(self, "space", Space(self.space))
         object.__setattr__(self, "criteria", tuple(self.criteria))
@@ -209,6 +243,7 @@ class StudySpec:
                 'write scheduler = "tcp://HOST:PORT", or leave it out for a local cluster',
             )
         if self.scheduler is not None:
+            check_scheduler_address(self.scheduler, "study.scheduler")
             if self.executor is None:  # a scheduler address means the dask executor
                 object.__setattr__(self, "executor", "dask")
             elif self.executor != "dask":
@@ -266,21 +301,13 @@ class StudySpec:
     def problem(self) -> Problem:
         """Resolve the model and build the :class:`~vectorid.problem.Problem`.
 
-        A study with an ``[identification]`` table is an identification (model + flight data +
-        adequacy criteria); :func:`vectorid.identify.problem_from_spec` builds its Problem.
+        The builder registered for the study's kind builds it (:mod:`vectorid.builders`): a
+        Python function or built-in problem, a ``cmd:`` or ``fmu:`` model, or a registered
+        table such as ``[identification]`` (model + flight data + adequacy criteria).
         """
-        if "identification" in self.extra:
-            from .identify import problem_from_spec
+        from .builders import build_problem
 
-            return problem_from_spec(self)
-        if isinstance(self.model, str) and self.model.partition(":")[0] in ("cmd", "fmu"):
-            from .external import external_model
-
-            return Problem(external_model(self), self.criteria, self.constraints)
-        func = load_model(self.model, self.base_dir)
-        if not self.batch:
-            func = as_batch(func)
-        return Problem(func, self.criteria, self.constraints)
+        return build_problem(self)
 
     def with_limits(self, limits: Mapping[str, float | None]) -> StudySpec:
         """A copy with criteria constraints Φ** replaced (None removes a limit)."""
@@ -340,12 +367,15 @@ class StudySpec:
         if not isinstance(data, Mapping):
             raise StudyDefinitionError("(top)", f"expected a table, got {type(data).__name__}")
         extra = {k: v for k, v in data.items() if k not in _TOP_KEYS}
+        from .builders import table_kinds
+
         for key in extra:
-            if not key.startswith("x-") and key not in ("identification",):
+            if not key.startswith("x-") and key not in table_kinds():
                 raise StudyDefinitionError(
                     key,
                     f"unknown top-level table {key!r}",
-                    suggest(key, sorted(_TOP_KEYS)) + " (keys starting with 'x-' are kept as is)",
+                    suggest(key, sorted(_TOP_KEYS | set(table_kinds())))
+                    + " (keys starting with 'x-' are kept as is)",
                 )
         study = data.get("study")
         if not isinstance(study, Mapping):
@@ -422,10 +452,23 @@ def _parse_list(data: Mapping[str, Any], key: str, parse, required: bool = True)
     return out
 
 
+def _check_texts(where: str, item: Mapping[str, Any], keys: Sequence[str]) -> None:
+    """Fields that hold text must hold text (TOML strings), not numbers or booleans."""
+    for key in keys:
+        if key in item and not isinstance(item[key], str):
+            value = item[key]
+            raise StudyDefinitionError(
+                f"{where}.{key}",
+                f"expected text, got {shown(value)} ({type(value).__name__})",
+                f'write {key} = "..." (quoted)',
+            )
+
+
 def _parse_variable(where: str, item: Mapping[str, Any]) -> Variable:
     _check_keys(where, item, _VARIABLE_KEYS)
     if "name" not in item:
         raise StudyDefinitionError(f"{where}.name", "missing name", 'add name = "x1"')
+    _check_texts(where, item, ("name", "type", "unit", "description"))
     kind = item.get("type", "choice" if "values" in item else "continuous")
     if kind not in _VARIABLE_TYPES:
         raise StudyDefinitionError(
@@ -446,7 +489,14 @@ def _parse_variable(where: str, item: Mapping[str, Any]) -> Variable:
                     "a choice variable takes values, not bounds",
                     'remove low/high, or use type = "continuous"',
                 )
-        return Choice(name, item["values"], item.get("nominal"), item.get("unit", ""))
+        values = item["values"]
+        if not isinstance(values, Sequence) or isinstance(values, str | bytes):
+            raise StudyDefinitionError(
+                f"variables.{name}.values",
+                f"expected an array of numbers, got {values!r}",
+                "write values = [1.0, 2.0, 3.0]",
+            )
+        return Choice(name, values, item.get("nominal"), item.get("unit", ""))
     if "values" in item:
         raise StudyDefinitionError(
             f"variables.{name}.values",
@@ -466,6 +516,7 @@ def _parse_criterion(where: str, item: Mapping[str, Any]) -> Criterion:
     _check_keys(where, item, _CRITERION_KEYS)
     if "name" not in item:
         raise StudyDefinitionError(f"{where}.name", "missing name", 'add name = "f1"')
+    _check_texts(where, item, ("name", "sense", "role", "unit", "description"))
     limit, source = item.get("limit"), item.get("limit_source", "")
     if isinstance(limit, str):  # limit = "noise": the identification's noise floor
         if limit != "noise":
@@ -490,6 +541,7 @@ def _parse_constraint(where: str, item: Mapping[str, Any]) -> FunctionalConstrai
     _check_keys(where, item, _CONSTRAINT_KEYS)
     if "name" not in item:
         raise StudyDefinitionError(f"{where}.name", "missing name", 'add name = "g1"')
+    _check_texts(where, item, ("name", "unit", "description"))
     if item.get("low") is None and item.get("high") is None:
         raise StudyDefinitionError(
             f"constraints.{item['name']}",
@@ -510,11 +562,36 @@ def load_study(path: str | Path) -> StudySpec:
         The ``.toml`` file; its folder goes on the import path for ``module:function`` models.
     """
     path = Path(path)
+    if path.is_dir():
+        raise StudyDefinitionError(
+            str(path),
+            "is a folder, not a study file",
+            "give the .toml study file (or a .db store to resume)",
+        )
     try:
-        text = path.read_text(encoding="utf-8")
+        raw = path.read_bytes()
     except FileNotFoundError:
         raise StudyDefinitionError(
             str(path), "study file not found", "check the path (run from the right folder?)"
+        ) from None
+    except OSError as exc:
+        raise StudyDefinitionError(
+            str(path), f"cannot read the study file: {exc.strerror}", "check its permissions"
+        ) from None
+    if b"\x00" in raw[:4096]:
+        raise StudyDefinitionError(
+            str(path),
+            "is a binary file, not a TOML study file",
+            "give the .toml study file (a .db store is run as `vectorid run STORE.db`)",
+        )
+    try:
+        text = raw.decode("utf-8-sig")  # a byte-order mark is allowed and dropped
+    except UnicodeDecodeError as exc:
+        line = raw[: exc.start].count(b"\n") + 1
+        raise StudyDefinitionError(
+            str(path),
+            f"not UTF-8 text: byte {raw[exc.start]:#04x} on line {line} cannot be decoded",
+            "save the file as UTF-8 (TOML files are UTF-8)",
         ) from None
     try:
         data = tomllib.loads(text)

@@ -9,11 +9,13 @@
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any, TextIO
 
 from .analysis.results import Analysis, Bound
+from .errors import StoreError, VectoridNote
 from .run.loop import RunSummary, run_store
 from .spec import StudySpec, load_study
 from .store.sqlite import Store, Trials
@@ -47,14 +49,22 @@ class Study:
         """Create the store for ``spec`` (a spec or a study file path).
 
         An identification study's noise-floor limits (``limit = "noise"``, see
-        :mod:`vectorid.identify.noise`) are computed here, once, and kept with the study."""
+        :mod:`vectorid.identify.noise`) are computed here, once, and kept with the study.
+
+        Raises
+        ------
+        StoreError
+            If ``store`` exists already (use :meth:`create_or_open` to resume it).
+        """
         if not isinstance(spec, StudySpec):
             spec = load_study(spec)
         if "identification" in spec.extra:
             from .identify.noise import resolve_noise_limits
 
             spec = resolve_noise_limits(spec)
-        return cls(Store.create(store, spec))
+        from .store.agreement import data_file_hashes
+
+        return cls(Store.create(store, spec, data_files=data_file_hashes(spec)))
 
     @classmethod
     def open(cls, store: str | Path, *, write: bool = False) -> Study:
@@ -62,31 +72,68 @@ class Study:
         return cls(Store.open(store, write=write))
 
     @classmethod
-    def create_or_open(cls, spec: StudySpec, store: str | Path) -> Study:
-        """Open ``store`` for writing if it exists (checking it holds the same study),
-        else create it."""
-        from .errors import StoreError
+    def create_or_open(
+        cls,
+        spec: StudySpec | str | Path,
+        store: str | Path,
+        *,
+        study_file: str | Path | None = None,
+    ) -> Study:
+        """Resume ``store`` if it exists, else create it: the same script or command run
+        twice continues the same study.
 
+        The study definition and the store must agree (:mod:`vectorid.store.agreement`):
+        differences that do not change a computed trial (limits, functional bounds, labels,
+        run settings, a moved data file with the same content) are taken into the store,
+        each said in a :class:`~vectorid.errors.VectoridNote`; a store that holds no
+        computed trial is re-created from ``spec``; any other difference is refused with a
+        :class:`~vectorid.errors.StoreError` that lists it and gives the commands that start
+        a new store or keep the stored definition.
+
+        Parameters
+        ----------
+        spec : StudySpec or path
+            The definition (or its study file).
+        store : path
+            The store.
+        study_file : path, optional
+            The study file ``spec`` came from (for the commands in messages).
+        """
+        if not isinstance(spec, StudySpec):
+            study_file = study_file or spec
+            spec = load_study(spec)
         path = Path(store)
-        if not path.exists():
+        if not path.exists() and not path.is_symlink():
             return cls.create(spec, path)
+        from .store.agreement import compare
+
         st = Store.open(path, write=True)
-        held = st.spec
-
-        def shape(criteria):  # limits are analysis-time choices, not part of the identity
-            return [(c.name, c.sense, c.role) for c in criteria]
-
-        if (
-            held.space != spec.space
-            or shape(held.criteria) != shape(spec.criteria)
-            or held.model != spec.model
-        ):
+        try:
+            agreement = compare(st.spec, spec, st.data_files())
+        except BaseException:
             st.close()
-            raise StoreError(
-                f"store {path} holds study {held.name!r}, whose model, variables or criteria "
-                "differ from this study file's; use another --store, or run the store itself "
-                f"(`vectorid run {path}`) to extend the study it holds"
-            )
+            raise
+        if not agreement:
+            return cls(st)
+        if st.count_all_blocks() == 0:
+            changed = ", ".join(d.field for d in agreement.refused[:6])
+            st.delete()
+            if changed:
+                warnings.warn(
+                    VectoridNote(
+                        f"store {path} held no computed trial; re-created from the study "
+                        f"definition (changed: {changed})"
+                    ),
+                    stacklevel=2,
+                )
+            return cls.create(spec, path)
+        if agreement.refused:
+            n = st.count()
+            st.close()
+            raise StoreError(_refusal(path, study_file, agreement, n))
+        st.replace_study(spec, agreement.hashes)
+        for d in agreement.taken:
+            warnings.warn(VectoridNote(f"taken from the study file: {d.describe()}"), stacklevel=2)
         return cls(st)
 
     @property
@@ -101,6 +148,8 @@ class Study:
         workers: int | None = None,
         batch_size: int | None = None,
         progress: bool | TextIO = False,
+        keep_going: bool = False,
+        timeout: float | None = None,
     ) -> RunSummary:
         """Compute the missing trials (see :func:`vectorid.run.run_store`)."""
         return run_store(
@@ -110,6 +159,8 @@ class Study:
             workers=workers,
             batch_size=batch_size,
             progress=progress,
+            keep_going=keep_going,
+            timeout=timeout,
         )
 
     def trials(self) -> Trials:
@@ -132,3 +183,23 @@ class Study:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+def _refusal(path: Path, study_file: str | Path | None, agreement: Any, n: int) -> str:
+    from .store.agreement import new_store_name
+
+    src = str(study_file) if study_file else "STUDY.toml"
+    refused = agreement.refused
+    lines = [
+        f"the study file {src} differs from the study held in {path} ({n} trials computed) in "
+        f"{len(refused)} field{'s' if len(refused) > 1 else ''} that would change them:"
+    ]
+    lines += [f"  {d.describe()}" for d in refused]
+    if agreement.taken:
+        harmless = ", ".join(d.field for d in agreement.taken)
+        lines.append(f"(also different, and harmless: {harmless})")
+    lines.append(
+        f"to start a new store from the file: vectorid run {src} --store {new_store_name(path)}"
+    )
+    lines.append(f"to keep the stored definition and extend it: vectorid run {path}")
+    return "\n".join(lines)

@@ -25,7 +25,8 @@ from .pareto import pareto_mask
 
 __all__ = ["Analysis", "Bound", "EmptyDiagnosis", "TestTable", "parse_limit", "parse_limits"]
 
-_LIMIT = re.compile(r"^\s*([^<>=\s]+)\s*(<=|>=|<|>)\s*(\S+)\s*$")
+# The last operator splits name and value, so names with spaces or operators work too.
+_LIMIT = re.compile(r"^\s*(.+?)\s*(<=|>=|<|>)\s*([^<>=\s]+)\s*$")
 
 
 @dataclass(frozen=True)

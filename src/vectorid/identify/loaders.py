@@ -160,8 +160,9 @@ class _Table:
                     out[i] = float(txt)
                 except ValueError:
                     raise FlightDataError(
-                        f"{self.source}: column {name!r} ({what}) should hold numbers, got "
-                        f"{txt!r} at {self.row_label(i)}; fix the value or map another column"
+                        f"{self.source}: column {self.index(name, what) + 1} ({name!r}, {what}) "
+                        f"should hold numbers, got {txt!r} at {self.row_label(i)}; fix the value "
+                        "or map another column"
                     ) from None
         self._num[name] = out
         return out
@@ -218,9 +219,15 @@ def _read_csv(path: Path, delimiter: str | None = None, comment: str | None = No
         if delimiter == " ":
             row = [c for c in row if c != ""]
         if len(row) != len(names):
+            last = all(not ln.strip() for ln in lines[j + 1 :])
+            cut = (
+                "; it is the file's last line: the file looks cut short"
+                if last and len(row) < len(names)
+                else ""
+            )
             raise FlightDataError(
                 f"{source}: line {j + 1} has {len(row)} fields but the header has "
-                f"{len(names)}; fix the line or the delimiter (got {delimiter!r})"
+                f"{len(names)}; fix the line or the delimiter (got {delimiter!r}){cut}"
             )
         rows.append(row)
         linenos.append(j + 1)

@@ -67,8 +67,11 @@ def load_wyoming(path: str | os.PathLike[str]) -> WindProfile:
     The table has the header ``PRES HGHT TEMP DWPT ... DRCT SKNT ...`` and a units line
     (``hPa m C C % g/kg deg knot ...``) between dashed lines, then fixed-width (7 characters)
     columns; an HTML page (``<PRE>`` blocks) or the station information after the table are
-    ignored. Levels without a height, direction or speed are skipped; repeated levels keep the
-    first occurrence.
+    ignored. Levels without a height, direction or speed (blank cells) are skipped; repeated
+    levels keep the first occurrence. A cell that is not a number, a direction outside
+    [0, 360] deg or a negative speed is refused with its line and column; so is a sounding cut
+    short (an HTML ``<PRE>`` block never closed, or a last level shorter than the table's
+    lines), never read as a shorter profile.
 
     Parameters
     ----------
@@ -83,9 +86,13 @@ def load_wyoming(path: str | os.PathLike[str]) -> WindProfile:
     """
     p = Path(path)
     try:
-        lines = p.read_text(encoding="utf-8", errors="replace").splitlines()
+        raw = p.read_bytes()
     except FileNotFoundError:
         raise FlightDataError(f"no such file: {p}") from None
+    except OSError as exc:
+        raise FlightDataError(f"{p}: cannot read the sounding ({exc.strerror})") from None
+    text = raw.decode("utf-8-sig", errors="replace")
+    lines = text.splitlines()
     head = next((i for i, s in enumerate(lines) if "HGHT" in s.split() and "PRES" in s), None)
     if head is None:
         raise FlightDataError(
@@ -119,34 +126,77 @@ def load_wyoming(path: str | os.PathLike[str]) -> WindProfile:
         pos = j + len(n)
     starts = [0, *ends[:-1]]
     ih, idr, isp = names.index("HGHT"), names.index("DRCT"), names.index(speed_col)
-    h, d, s = [], [], []
     k = head + 2
     while k < len(lines) and lines[k].strip().startswith("-"):
         k += 1
-    for line in lines[k:]:
+    # The table runs until a line without a digit, an HTML tag or the station information.
+    table: list[tuple[int, str]] = []
+    for number, line in enumerate(lines[k:], start=k + 1):
         txt = line.rstrip()
         if not txt or txt.lstrip().startswith("-"):
             continue
-        if not any(ch.isdigit() for ch in txt[: ends[0]]) or txt.lstrip().startswith("<"):
-            break  # end of the table (station information, HTML)
-
-        def field(i: int, line: str = txt) -> float:
-            v = line[starts[i] : ends[i]].strip()
-            return float(v) if v else math.nan
-
-        try:
-            vals = (field(ih), field(idr), field(isp))
-        except ValueError:
+        if txt.lstrip().startswith("<") or not any(ch.isdigit() for ch in txt):
             break
-        if all(math.isfinite(v) for v in vals):
-            h.append(vals[0])
-            d.append(vals[1])
-            s.append(vals[2])
+        if "Station" in txt or "station" in txt:
+            break
+        table.append((number, txt))
+    if not table:
+        raise FlightDataError(f"{p}: the sounding's table holds no level (after line {k})")
+    if "<PRE>" in text.upper() and "</PRE>" not in text.upper():
+        raise FlightDataError(
+            f"{p}: the sounding is cut short: its HTML <PRE> block is never closed (last level "
+            f"on line {table[-1][0]}); download or copy the whole sounding again"
+        )
+    # A padded table (every level as wide as the header) whose last level is shorter was cut
+    # off in the middle of that line.
+    width = len(hline.rstrip())
+    full = sum(len(t) >= width for _, t in table)
+    last_no, last = table[-1]
+    if len(table) > 2 and full >= 0.9 * (len(table) - 1) and len(last) < width:
+        raise FlightDataError(
+            f"{p}: the sounding is cut short: its last level (line {last_no}) ends at character "
+            f"{len(last)}, the table's lines are {width} wide; download or copy the whole "
+            "sounding again"
+        )
+    h, d, s = [], [], []
+    for number, txt in table:
+        values = []
+        for i, name in enumerate(names):
+            cell = txt[starts[i] : ends[i]].strip()
+            if not cell:
+                values.append(math.nan)
+                continue
+            try:
+                values.append(float(cell))
+            except ValueError:
+                raise FlightDataError(
+                    f"{p}: line {number}, column {name} (characters {starts[i] + 1}-{ends[i]}): "
+                    f"cannot read {cell!r} as a number; fix or remove that cell (a blank cell "
+                    "means 'not measured')"
+                ) from None
+            if not math.isfinite(values[-1]):
+                values[-1] = math.nan
+        if len(txt) > ends[-1] and txt[ends[-1] :].strip():
+            raise FlightDataError(
+                f"{p}: line {number} has text after the last column {names[-1]} "
+                f"({txt[ends[-1] :].strip()!r}); the table's columns are fixed-width"
+            )
+        hv, dv, sv = values[ih], values[idr], values[isp]
+        if math.isfinite(dv) and not 0 <= dv <= 360:
+            raise FlightDataError(
+                f"{p}: line {number}, column DRCT: wind direction {dv:g} deg is outside [0, 360]"
+            )
+        if math.isfinite(sv) and sv < 0:
+            raise FlightDataError(
+                f"{p}: line {number}, column {speed_col}: wind speed {sv:g} is negative"
+            )
+        if math.isfinite(hv) and math.isfinite(dv) and math.isfinite(sv):
+            h.append(hv)
+            d.append(dv)
+            s.append(sv)
     if not h:
         raise FlightDataError(f"{p}: no level of the sounding has height, direction and speed")
     hh, dd, ss = np.array(h), np.array(d), np.array(s) * factor
-    if np.any((dd < 0) | (dd > 360)):
-        raise FlightDataError(f"{p}: wind directions must be in [0, 360] deg, got {dd.min()}..")
     rad = np.deg2rad(dd)
     return _finish(str(p), hh, -ss * np.cos(rad), -ss * np.sin(rad))
 
@@ -211,7 +261,9 @@ def load_dropsonde_csv(
         text = p.read_text(encoding="utf-8-sig")
     except FileNotFoundError:
         raise FlightDataError(f"no such file: {p}") from None
-    lines = [ln for ln in text.splitlines() if ln.strip()]
+    numbered = [(i + 1, ln) for i, ln in enumerate(text.splitlines()) if ln.strip()]
+    lines = [ln for _, ln in numbered]
+    line_no = [n for n, _ in numbered]
     if len(lines) < 2:
         raise FlightDataError(f"{p}: expected a header line and at least one level")
     head = lines[0].lstrip().lstrip("#")
@@ -238,8 +290,9 @@ def load_dropsonde_csv(
         out = np.empty(len(rows))
         for i, r in enumerate(rows):
             if len(r) != len(names):
+                cut = " (the file is cut short?)" if i == len(rows) - 1 else ""
                 raise FlightDataError(
-                    f"{p}: data line {i + 2} has {len(r)} fields, the header {len(names)}"
+                    f"{p}: line {line_no[i + 1]} has {len(r)} fields, the header {len(names)}{cut}"
                 )
             txt = r[j]
             if txt == "" or txt.lower() in ("nan", "na", "-"):
@@ -249,7 +302,8 @@ def load_dropsonde_csv(
                 out[i] = float(txt)
             except ValueError:
                 raise FlightDataError(
-                    f"{p}: column {name!r} should hold numbers, got {txt!r} on data line {i + 2}"
+                    f"{p}: line {line_no[i + 1]}, column {j + 1} ({name!r}): cannot read "
+                    f"{txt!r} as a number"
                 ) from None
         return out
 
@@ -262,10 +316,12 @@ def load_dropsonde_csv(
         d = col(str(direction))
         ok_d = d[np.isfinite(d)]
         if direction_unit == "deg":
-            if ok_d.size and (np.any(ok_d < 0) or np.any(ok_d > 360)):
+            out_of_range = np.flatnonzero(np.isfinite(d) & ((d < 0) | (d > 360)))
+            if out_of_range.size:
+                i = int(out_of_range[0])
                 raise FlightDataError(
-                    f"{p}: directions must be in [0, 360] deg, got {ok_d.min():.4g} to "
-                    f"{ok_d.max():.4g}"
+                    f"{p}: line {line_no[i + 1]}, column {direction!r}: direction {d[i]:.6g} "
+                    "deg is outside [0, 360]"
                 )
             if ok_d.size >= 5 and np.max(ok_d) <= 2 * math.pi and np.ptp(ok_d) > 0:
                 raise FlightDataError(
@@ -281,8 +337,13 @@ def load_dropsonde_csv(
                     "degrees given as radians? set direction_unit='deg'"
                 )
             rad = d
-        if np.any(s[np.isfinite(s)] < 0):
-            raise FlightDataError(f"{p}: wind speeds must be >= 0 (a negative speed is an error)")
+        negative = np.flatnonzero(np.isfinite(s) & (s < 0))
+        if negative.size:
+            i = int(negative[0])
+            raise FlightDataError(
+                f"{p}: line {line_no[i + 1]}, column {speed!r}: wind speed {s[i] / f:.6g} is "
+                "negative (a speed is >= 0)"
+            )
         north, east = -s * np.cos(rad), -s * np.sin(rad)
     ok = np.isfinite(h) & np.isfinite(north) & np.isfinite(east)
     return _finish(str(p), h[ok], north[ok], east[ok])

@@ -54,7 +54,7 @@ import numpy as np
 
 from ..errors import StudyDefinitionError, VectoridError
 from ..problem import EvalResult, Problem
-from ..spec import StudySpec
+from ..spec import StudySpec, check_scheduler_address
 from .executors import (
     CRASH_REASON,
     Executor,
@@ -191,6 +191,32 @@ def _evaluate_task(
     return "result", box["result"]
 
 
+#: Preload of the local cluster's workers (``distributed.worker.preload``, given as the text
+#: of a module so that a starting worker imports nothing heavy): Ctrl-C in the terminal
+#: reaches the whole process group and the client stops the cluster, so a worker ignores it
+#: (no KeyboardInterrupt traceback from each worker); and a worker ends when the process that
+#: started the cluster is gone (killed with ``kill -9``) instead of computing on.
+WORKER_PRELOAD = """
+import os, signal, threading, time
+
+
+def dask_setup(worker):
+    try:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+    except ValueError:  # not the main thread
+        pass
+    parent = os.getppid()
+
+    def watch():
+        while True:
+            time.sleep(0.5)
+            if os.getppid() != parent:
+                os._exit(0)
+
+    threading.Thread(target=watch, name="vectorid-parent-watch", daemon=True).start()
+"""
+
+
 def _where() -> str:
     try:
         from distributed import get_worker
@@ -286,6 +312,8 @@ class DaskExecutor(Executor):
                 # Workers may start model processes (isolate=True). Held while the executor
                 # lives, so that a worker the nanny restarts gets it too.
                 "distributed.worker.daemon": False,
+                # Workers ignore Ctrl-C and end with this process.
+                "distributed.worker.preload": [WORKER_PRELOAD],
             }
             self._config = dask.config.set(config)
             self._config.__enter__()
@@ -296,9 +324,10 @@ class DaskExecutor(Executor):
                 self.close(cancel=True)
                 raise
         else:
+            check_scheduler_address(self.scheduler)
             try:
                 self._client = dist.Client(self.scheduler, timeout=self.connect_timeout)
-            except (OSError, TimeoutError) as exc:
+            except (OSError, TimeoutError, ValueError) as exc:
                 raise StudyDefinitionError(
                     "--scheduler",
                     f"cannot reach the Dask scheduler at {self.scheduler!r} ({exc})",

@@ -23,8 +23,24 @@ batch of ``n`` trials may take ``n × timeout`` (plus 10 % and 1 s of grace, see
 :func:`batch_deadline`), counted from the moment its worker starts on it. The process
 executor kills a worker whose batch overruns (``SIGKILL``: it works for a model stuck in
 compiled code too) and starts a fresh one; the Dask executor does the same through the
-worker's nanny (see :mod:`vectorid.run.dask`). The serial executor runs the model in this
-process and cannot stop it: it ignores ``timeout``.
+worker's nanny (see :mod:`vectorid.run.dask`). The serial executor runs the model in one
+child *model process* (a one-worker process executor), so a timeout, a crash (segfault,
+``os._exit``) or ``sys.exit`` in the model fails that trial only, exactly as with
+``processes``; only a model that cannot be sent to a child process at all runs in this
+process, with a warning that these protections are off.
+
+Starting workers. Worker processes are forked from this process where that is safe (Linux,
+no other Python thread running, numba's OpenMP threads not started here): a fork starts in
+milliseconds and inherits everything this process has imported, so a cheap model's first
+result comes back about as soon as in this process. Elsewhere they are spawned (a fresh
+interpreter) without re-running the caller's script: a script that calls ``study.run()``
+needs no ``if __name__ == "__main__":`` guard. ``VECTORID_START_METHOD=spawn`` forces
+spawning. Workers die with the process that started them (``PR_SET_PDEATHSIG`` on Linux, and
+a watchdog thread everywhere), so a killed run leaves no worker computing behind it.
+
+Bounds. More workers than the machine can hold (its available memory at about
+:data:`WORKER_MEMORY` per worker, or its open-file limit) are refused with the limit and why;
+more workers than cores are allowed with a warning (they share the cores).
 """
 
 from __future__ import annotations
@@ -38,26 +54,117 @@ import multiprocessing as mp
 import multiprocessing.connection as mpc
 import os
 import signal
+import sys
+import threading
 import time
 import traceback
+import types
+import warnings
 from collections.abc import Hashable, Iterable, Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from ..errors import StudyDefinitionError, VectoridError, suggest
+from ..errors import StudyDefinitionError, VectoridError, VectoridWarning, suggest
 from ..problem import FAILED, EvalResult, Problem
 from ..spec import StudySpec
 
 __all__ = [
     "EXECUTORS",
+    "WORKER_MEMORY",
     "Executor",
     "ProcessExecutor",
     "SerialExecutor",
+    "check_workers",
     "executor_options",
     "make_executor",
 ]
+
+#: Resident memory of one idle worker process (Python, numpy, scipy and vectorid imported,
+#: measured 163 MiB on Linux x86-64), used to bound the number of workers.
+WORKER_MEMORY = 160 * 2**20
+
+
+def _available_memory() -> int | None:
+    try:
+        with open("/proc/meminfo", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):
+        return None
+
+
+def usable_cores() -> int:
+    """Cores this process may run on."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        return os.cpu_count() or 1
+
+
+def check_workers(n: int, what: str = "worker processes", option: str = "--workers") -> int:
+    """Refuse a worker count the machine cannot hold; warn above the core count.
+
+    Parameters
+    ----------
+    n : int
+        Requested workers.
+    what : str
+        What they are, for the messages.
+    option : str
+        The option that set it, for the messages.
+
+    Returns
+    -------
+    int
+        ``n``.
+    """
+    if isinstance(n, bool) or not isinstance(n, int) or n < 1:
+        raise StudyDefinitionError(
+            option, f"expected at least 1 worker, got {n!r}", f"use {option} 1 or more"
+        )
+    cores = usable_cores()
+    limits = []
+    mem = _available_memory()
+    if mem is not None:
+        limits.append(
+            (
+                max(1, mem // WORKER_MEMORY),
+                f"{mem / 2**30:.1f} GiB of memory available, about "
+                f"{WORKER_MEMORY / 2**20:.0f} MiB per worker",
+            )
+        )
+    try:
+        import resource
+
+        soft = resource.getrlimit(resource.RLIMIT_NOFILE)[0]
+        if soft != resource.RLIM_INFINITY:
+            limits.append((max(1, (soft - 64) // 4), f"open-file limit {soft}, 4 per worker"))
+    except (ImportError, ValueError, OSError):
+        pass
+    for limit, why in sorted(limits):
+        if n > limit:
+            raise StudyDefinitionError(
+                option,
+                f"{n} {what} are more than this machine can hold: at most {limit} ({why}; "
+                f"{cores} cores)",
+                f"use {option} {cores} (one per core) or fewer",
+            )
+    if n > cores:
+        warnings.warn(
+            VectoridWarning(
+                f"{n} {what} on {cores} cores: they share the cores (no faster than {cores}, "
+                f"more memory); {option} {cores} is the most that helps a compute-bound model"
+            ),
+            stacklevel=3,
+        )
+    return n
 
 
 class Executor(abc.ABC):
@@ -79,17 +186,29 @@ class Executor(abc.ABC):
         self, spec: StudySpec, workers: int | None = None, timeout: float | None = None
     ) -> None:
         self.spec = spec
-        self.workers = self._default_workers() if workers is None else int(workers)
-        if self.workers < 1:
-            raise StudyDefinitionError(
-                "--workers", f"expected at least 1 worker, got {workers}", "use --workers 1 or more"
-            )
+        if workers is None:
+            self.workers = self._default_workers()
+        else:
+            if isinstance(workers, bool) or not isinstance(workers, int | np.integer):
+                raise StudyDefinitionError(
+                    "--workers", f"expected a whole number of workers, got {workers!r}", "use 2"
+                )
+            self.workers = self._check_workers(int(workers))
         if timeout is None:
             timeout = getattr(spec, "timeout", None)
         self.timeout = _check_timeout(timeout)
 
     def _default_workers(self) -> int:
         return 1
+
+    def _check_workers(self, n: int) -> int:
+        """Bound a requested worker count (see :func:`check_workers`)."""
+        return check_workers(n)
+
+    def start(self) -> None:  # noqa: B027 - optional hook
+        """Start the workers now (they are started on first use otherwise); the run loop
+        calls it before anything else starts a thread (a progress bar), so that workers can
+        be forked."""
 
     def map_unordered(
         self, batches: Iterable[tuple[Hashable, np.ndarray]]
@@ -127,25 +246,6 @@ def _check_timeout(value: Any) -> float | None:
             "write e.g. timeout = 60 (or leave it out for no limit)",
         )
     return out
-
-
-class SerialExecutor(Executor):
-    """Evaluates batches in this process, one after the other (``timeout`` is ignored: a
-    model running in this process cannot be stopped; use ``processes`` or ``dask``)."""
-
-    name = "serial"
-
-    def __init__(
-        self, spec: StudySpec, workers: int | None = None, timeout: float | None = None
-    ) -> None:
-        super().__init__(spec, 1, timeout)
-        self._problem: Problem | None = None
-
-    def _map_unordered(self, batches):
-        if self._problem is None:
-            self._problem = self.spec.problem()
-        for key, X in batches:
-            yield key, self._problem.evaluate(X)
 
 
 # -- helpers shared by the process and Dask executors -------------------------------------
@@ -261,6 +361,33 @@ CRASH_REASON = (
 )
 
 
+def crash_reason(exitcode: int | None) -> str:
+    """Why a worker process died, from its exit code (negative: killed by that signal)."""
+    if exitcode is None:
+        return CRASH_REASON
+    if exitcode < 0:
+        try:
+            name = signal.Signals(-exitcode).name
+        except ValueError:
+            name = "an unknown signal"
+        what = {
+            "SIGSEGV": "a segmentation fault in the model",
+            "SIGBUS": "a bus error in the model",
+            "SIGABRT": "the model aborted",
+            "SIGKILL": "killed from outside (out of memory?)",
+            "SIGFPE": "a floating-point exception in the model",
+            "SIGILL": "an illegal instruction in the model",
+        }.get(name, "the model crashed the interpreter")
+        return (
+            f"worker process died while evaluating this trial: killed by signal {-exitcode} "
+            f"({name}, {what})"
+        )
+    return (
+        f"worker process died while evaluating this trial: it exited with status {exitcode} "
+        "(the model ended the process, e.g. os._exit)"
+    )
+
+
 def batch_deadline(n: int, timeout: float) -> float:
     """Seconds a batch of ``n`` trials may run: ``n × timeout`` plus 10 % and 1 s of grace
     (so a model that enforces ``timeout`` per trial itself, such as a command-line model,
@@ -300,19 +427,112 @@ MEMORY_POLL_S = 0.1
 
 # -- local processes -----------------------------------------------------------------------
 
+#: Serialises the moments when this module swaps ``sys.modules["__main__"]`` to spawn.
+_START_LOCK = threading.Lock()
 
-def _worker_main(conn: mpc.Connection, spec: StudySpec) -> None:
+
+def start_method() -> str:
+    """``"fork"`` where forking this process is safe now, else ``"spawn"`` (see the module
+    docstring); ``VECTORID_START_METHOD`` overrides it."""
+    forced = os.environ.get("VECTORID_START_METHOD", "").strip()
+    if forced in ("fork", "spawn", "forkserver"):
+        return forced
+    if not sys.platform.startswith("linux"):
+        return "spawn"
+    if threading.active_count() > 1:
+        return "spawn"
+    parallel = sys.modules.get("numba.np.ufunc.parallel")
+    if parallel is not None and getattr(parallel, "_is_initialized", False):
+        return "spawn"  # numba's threads (GNU OpenMP) are not safe across a fork
+    return "fork"
+
+
+def _needs_main(spec: StudySpec) -> bool:
+    """Whether the model is defined in the caller's script (``__main__``)."""
+    model = spec.model
+    return callable(model) and getattr(model, "__module__", "") in ("__main__", "__mp_main__")
+
+
+@contextlib.contextmanager
+def _main_hidden() -> Iterator[None]:
+    """Spawn without re-running the caller's script in the child: multiprocessing prepares a
+    spawned child by running ``__main__`` from its path, which re-runs a script that has no
+    ``if __name__ == "__main__":`` guard. Our workers never need it (a model defined there
+    travels by value), so the child is prepared from a stand-in module."""
+    with _START_LOCK:
+        real = sys.modules.get("__main__")
+        sys.modules["__main__"] = types.ModuleType("__main__")
+        try:
+            yield
+        finally:
+            if real is not None:
+                sys.modules["__main__"] = real
+
+
+def _set_parent_death_signal() -> None:
+    """Linux: have the kernel kill this process when the thread that started it ends."""
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        pass
+
+
+def _watch_parent(parent: int) -> None:
+    """A daemon thread that ends this process when its parent ``parent`` is gone."""
+
+    def watch() -> None:
+        while True:
+            time.sleep(0.5)
+            if os.getppid() != parent:
+                os._exit(0)
+
+    threading.Thread(target=watch, name="vectorid-parent-watch", daemon=True).start()
+
+
+def _worker_main(
+    conn: mpc.Connection,
+    spec: StudySpec | bytes,
+    parent: int,
+    pdeathsig: bool,
+    one_thread: bool = True,
+) -> None:
     """Body of a worker process: build the model once, then evaluate what comes in."""
-    # One numba/BLAS thread per worker process: the pool is the parallelism.
-    os.environ.setdefault("OMP_NUM_THREADS", "1")
+    if pdeathsig:
+        _set_parent_death_signal()
+    if os.getppid() != parent:  # the parent died before we got here
+        os._exit(0)
+    _watch_parent(parent)
+    from ..store.sqlite import close_inherited_locks
+
+    close_inherited_locks()
+    if one_thread:  # one numba/BLAS thread per worker process: the pool is the parallelism
+        os.environ.setdefault("OMP_NUM_THREADS", "1")
     # Ctrl-C reaches the whole process group: the parent handles it and stops the workers.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+    def send(msg: Any) -> bool:
+        try:
+            conn.send(msg)
+            return True
+        except (OSError, EOFError):  # the parent is gone: leave quietly
+            return False
+
     try:
+        if isinstance(spec, bytes):
+            import cloudpickle
+
+            spec = cloudpickle.loads(spec)
         problem = spec.problem()
     except BaseException as exc:
-        conn.send(("init-error", str(exc) or describe_exception(exc)))
+        # A definition error already says what to fix; anything else is described.
+        text = str(exc) if isinstance(exc, VectoridError) else describe_exception(exc)
+        send(("init-error", (isinstance(exc, VectoridError), text)))
         return
-    conn.send(("ready", os.getpid()))
+    if not send(("ready", os.getpid())):
+        return
     while True:
         try:
             X = conn.recv()
@@ -321,18 +541,36 @@ def _worker_main(conn: mpc.Connection, spec: StudySpec) -> None:
         if X is None:
             return
         try:
-            conn.send(("result", problem.evaluate(X)))
+            res = problem.evaluate(X)
+        except BaseException as exc:  # evaluate catches the model's own errors
+            if not send(("error", describe_exception(exc))):
+                return
+            continue
+        try:
+            conn.send(("result", res))
+        except (OSError, EOFError):
+            return
         except Exception as exc:  # an unpicklable result and the like
-            conn.send(("error", describe_exception(exc)))
+            if not send(("error", describe_exception(exc))):
+                return
 
 
 class _Proc:
     """A worker process, its pipe, and the task it is running."""
 
-    def __init__(self, ctx: Any, spec: StudySpec) -> None:
+    def __init__(self, ctx: Any, payload: StudySpec | bytes, one_thread: bool = True) -> None:
         self.conn, child = ctx.Pipe(duplex=True)
-        self.proc = ctx.Process(target=_worker_main, args=(child, spec), daemon=True)
-        self.proc.start()
+        main_thread = threading.current_thread() is threading.main_thread()
+        self.proc = ctx.Process(
+            target=_worker_main,
+            args=(child, payload, os.getpid(), main_thread, one_thread),
+            daemon=True,
+        )
+        if ctx.get_start_method() == "fork":
+            self.proc.start()
+        else:
+            with _main_hidden():
+                self.proc.start()
         child.close()
         self.ready = False
         self.task: Task | None = None
@@ -357,7 +595,7 @@ class _Proc:
 class ProcessExecutor(Executor):
     """Evaluates batches in local worker processes (default: one per core).
 
-    Workers are started with the ``spawn`` method (safe with numba and BLAS threads) and
+    Workers are forked where that is safe, else spawned (see the module docstring), and
     build the study's model once. Each worker runs one batch at a time over its own pipe, so
     the executor knows which batch a dead worker was running: only that batch is re-run (one
     trial at a time), and a batch that overruns ``n × timeout`` seconds has its worker killed
@@ -392,32 +630,60 @@ class ProcessExecutor(Executor):
                 "give e.g. memory_limit=2**31 (2 GiB), or None for no limit",
             )
         self.memory_limit = memory_limit
-        if callable(spec.model) and getattr(spec.model, "__module__", "") == "__main__":
-            raise StudyDefinitionError(
-                "model",
-                "a function defined in __main__ cannot be sent to worker processes",
-                "move it into a module, or use executor='serial'",
-            )
         self._procs: list[_Proc] = []
-        self._ctx = mp.get_context("spawn")
+        self._ctx: Any = None
+        self._payload: StudySpec | bytes = spec
+        self._method = ""
 
     def _default_workers(self) -> int:
-        return os.cpu_count() or 1
+        return usable_cores()
+
+    def _prepare(self) -> None:
+        """Choose how workers start and what they receive (once, before the first)."""
+        if self._ctx is not None:
+            return
+        method = start_method()
+        payload: StudySpec | bytes = self.spec
+        if method != "fork" and _needs_main(self.spec):
+            try:
+                import cloudpickle
+            except ImportError:
+                raise StudyDefinitionError(
+                    "model",
+                    "the model is a function defined in the script being run (__main__), "
+                    "which worker processes started by 'spawn' cannot import (cloudpickle, "
+                    "which could send it, is not installed)",
+                    "move the function into a module, or run with executor='serial'",
+                ) from None
+            payload = cloudpickle.dumps(self.spec)
+        self._method = method
+        self._payload = payload
+        self._ctx = mp.get_context(method)
+
+    #: Worker processes run numba/BLAS on one thread (the pool is the parallelism).
+    one_thread = True
+
+    def _new_proc(self) -> _Proc:
+        self._prepare()
+        return _Proc(self._ctx, self._payload, self.one_thread)
+
+    def start(self) -> None:
+        while len(self._procs) < self.workers:
+            self._procs.append(self._new_proc())
 
     def _start_failed(self, p: _Proc, why: str) -> None:
         self._deaths_before_ready += 1
         if self._deaths_before_ready >= 3 * self.workers and not any(w.ready for w in self._procs):
             raise VectoridError(
-                f"worker processes die before building the model ({why}); run with "
-                "--executor serial to see the error in this process"
+                f"worker processes die before building the model ({why}); run one trial in "
+                "Python (spec.problem().evaluate(X)) to see the error"
             )
 
     def _map_unordered(self, batches):
         k, q = len(self.spec.criteria), len(self.spec.constraints)
         tracker = SuspectTracker(k, q)
         self._deaths_before_ready = 0
-        while len(self._procs) < self.workers:
-            self._procs.append(_Proc(self._ctx, self.spec))
+        self.start()
         exhausted = False  # no new batches and no suspects left to hand out
         while True:
             # hand work to idle workers: suspects first, then new batches
@@ -468,15 +734,11 @@ class ProcessExecutor(Executor):
                     if kind == "ready":
                         p.ready = True
                     elif kind == "init-error":
-                        raise StudyDefinitionError(
-                            "study.model",
-                            f"the worker processes cannot build the model: {payload}",
-                            "fix the model reference (vectorid run --executor serial shows "
-                            "the error in this process)",
-                        )
+                        raise _init_error(payload)
                     else:
                         task, p.task, p.deadline = p.task, None, float("inf")
-                        assert task is not None  # a worker only answers a task
+                        if task is None:  # pragma: no cover - a worker only answers a task
+                            continue
                         res = (
                             payload
                             if kind == "result"
@@ -489,18 +751,21 @@ class ProcessExecutor(Executor):
                     # Stopped for its memory: deterministic, like a timeout (no second try).
                     task = p.task
                     p.kill()
-                    self._procs[i] = _Proc(self._ctx, self.spec)
+                    self._procs[i] = self._new_proc()
                     finished = tracker.lost(task, over, timed_out=True)
                 elif dead or (p.task is not None and now > p.deadline):
                     timed_out = not dead
                     task = p.task
                     p.kill()
                     if not p.ready:
-                        self._start_failed(p, f"exit code {p.proc.exitcode}")
-                    self._procs[i] = _Proc(self._ctx, self.spec)
+                        self._start_failed(p, _exit_text(p.proc.exitcode))
+                    self._procs[i] = self._new_proc()
                     if task is not None:
-                        assert self.timeout is not None or not timed_out
-                        reason = timeout_reason(self.timeout) if timed_out else CRASH_REASON
+                        reason = (
+                            timeout_reason(self.timeout)
+                            if timed_out and self.timeout is not None
+                            else crash_reason(p.proc.exitcode)
+                        )
                         finished = tracker.lost(task, reason, timed_out)
                 yield from finished
 
@@ -511,6 +776,97 @@ class ProcessExecutor(Executor):
             else:
                 p.stop()
         self._procs = []
+
+
+def _init_error(payload: Any) -> VectoridError:
+    """The error a worker reported while building the model, raised in the parent."""
+    definition, text = payload if isinstance(payload, tuple) else (False, str(payload))
+    if definition:
+        return VectoridError(text)
+    return StudyDefinitionError(
+        "study.model",
+        f"the worker processes cannot build the model: {text}",
+        "fix the model or its module (the message says where)",
+    )
+
+
+def _exit_text(code: int | None) -> str:
+    if code is None:
+        return "exit code unknown"
+    if code < 0:
+        try:
+            return f"killed by signal {-code} ({signal.Signals(-code).name})"
+        except ValueError:
+            return f"killed by signal {-code}"
+    return f"exit code {code}"
+
+
+class SerialExecutor(ProcessExecutor):
+    """Evaluates batches one after the other in one child *model process*.
+
+    The model runs outside this process, so a trial that hangs past ``timeout``, crashes the
+    interpreter (segfault, ``os._exit``) or calls ``sys.exit`` fails alone with its reason and
+    the study goes on, as with ``processes``. A model that cannot be sent to a child process
+    (a spawned one needs it picklable) runs in this process instead, with a
+    :class:`~vectorid.errors.VectoridWarning` that timeouts and crashes are then not caught.
+    """
+
+    name = "serial"
+    #: The one model process may use every core (a compiled model parallel over trials).
+    one_thread = False
+
+    def __init__(
+        self,
+        spec: StudySpec,
+        workers: int | None = None,
+        timeout: float | None = None,
+        memory_limit: int | None = None,
+    ) -> None:
+        super().__init__(spec, 1, timeout, memory_limit)
+        self._inline: Problem | None = None
+
+    def _check_workers(self, n: int) -> int:
+        return 1
+
+    def _prepare(self) -> None:
+        if self._ctx is not None:
+            return
+        super()._prepare()
+        if self._method == "fork" or isinstance(self._payload, bytes):
+            return
+        import pickle
+
+        try:
+            pickle.dumps(self.spec)
+        except Exception as exc:
+            raise _Inline(describe_exception(exc)) from None
+
+    def start(self) -> None:
+        if self._inline is not None:
+            return
+        try:
+            super().start()
+        except _Inline as why:
+            warnings.warn(
+                VectoridWarning(
+                    f"the model cannot be sent to a model process ({why}); it runs in this "
+                    "process, where a timeout, a crash or sys.exit in the model is not caught"
+                ),
+                stacklevel=2,
+            )
+            self._inline = self.spec.problem()
+
+    def _map_unordered(self, batches):
+        self.start()
+        if self._inline is None:
+            yield from super()._map_unordered(batches)
+            return
+        for key, X in batches:
+            yield key, self._inline.evaluate(X)
+
+
+class _Inline(Exception):
+    """The model cannot be sent to a child process (internal)."""
 
 
 # -- registry ------------------------------------------------------------------------------

@@ -1,41 +1,60 @@
 """The embedded study store: one SQLite file per study.
 
-Layout (schema version 1; ``PRAGMA application_id`` marks the file as a vectorid store):
+Layout (schema version 2; ``PRAGMA application_id`` marks the file as a vectorid store):
 
 ``meta(key, value)``
-    ``schema_version``, ``vectorid_version``, ``created`` and ``study``: the study definition
-    as JSON, so a store alone is enough to analyse or extend the study.
+    ``schema_version``, ``vectorid_version``, ``created``, ``study`` (the study definition
+    as JSON, so a store alone is enough to analyse or extend the study), ``study_checksum``
+    (CRC-32 of that JSON), ``base_dir``, ``data_files`` (content hashes of the data files
+    the study reads, see :mod:`vectorid.store.agreement`) and ``writer`` (the process that
+    last took the writer lock).
 ``stages(stage, kind, start_seq, created, box, note)``
     Stage 0 is the study's box Π; double tuning adds stages with a narrower box that keep
     drawing from the sequence at ``start_seq`` onward. ``kind`` is ``"sample"`` for stages
     drawn from the point sequence (other kinds, such as sections, hold extra trials that
     never mix into the sample's statistics).
-``blocks(block, stage, seq_start, n, created, x, f, g, status, wall)``
+``blocks(block, stage, seq_start, n, created, x, f, g, status, wall, checksum)``
     Append-only trial records. One row is one evaluated batch of ``n`` trials with
     consecutive sequence indices ``seq_start .. seq_start + n - 1``: parameters ``x``
     (n, p), criteria ``f`` (n, k), functionals ``g`` (n, q) and wall time per trial
     ``wall`` (n,) as little-endian float64, ``status`` (n,) as int8 (0 ok, 1 failed).
-    Storing a batch as one columnar row makes a batch one transaction and loading a million
-    trials a matter of concatenating a few hundred buffers.
+    ``checksum`` is ``"crc32:"`` followed by six CRC-32s (of the header ``stage:seq_start:n``
+    and of each of the five arrays), written with the batch and verified whenever it is read:
+    a batch whose bytes changed on disk is reported (which batch, which trial ids, which
+    array) and left out of every analysis, never read as numbers. Storing a batch as one
+    columnar row makes a batch one transaction and loading a million trials a matter of
+    concatenating a few hundred buffers.
 ``failures(stage, seq, message)``
     The reason of every failed trial.
 ``runs(run, started, finished, pid, host, executor, workers, target, outcome)``
-    A log of run sessions (interrupted ones included).
+    A log of run sessions (interrupted ones and repairs included).
+
+Schema 1 (before checksums) is still read; its batches count as *unverified*, and the first
+writer (any run, or ``vectorid repair``) upgrades the file to schema 2, computing checksums of
+the batches it holds after checking their sizes, and says so.
 
 Exactly-once: a batch whose sequence range overlaps a stored range of the same stage is
 not stored again (it is counted as a duplicate), so a batch computed twice (a retried task,
-a resumed run) is stored once. One process at a time may write: the writer holds an
-exclusive advisory lock on ``<store>.lock``, released by the OS when the process dies, so a
-run killed with ``kill -9`` can be resumed at once.
+a resumed run) is stored once.
+
+One writer: a process that writes holds an exclusive advisory lock (``flock``) on the store
+file itself, so the lock follows the file's identity (its inode), whatever path, symlink or
+hard link names it; the OS releases it when the process dies, so a run killed with
+``kill -9`` can be resumed at once. Readers take no lock and read one consistent snapshot
+(one SQLite read transaction per load) while a writer appends.
 """
 
 from __future__ import annotations
 
+import itertools
 import json
 import os
 import socket
 import sqlite3
+import threading
 import time
+import warnings
+import zlib
 from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -44,14 +63,31 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import StoreError, StoreLockedError
+from ..errors import (
+    StoreDamagedError,
+    StoreError,
+    StoreLockedError,
+    StudyDefinitionError,
+    VectoridError,
+    VectoridWarning,
+)
 from ..space import Space
 from ..spec import StudySpec
 
-__all__ = ["SCHEMA_VERSION", "Stage", "Store", "Trials"]
+__all__ = [
+    "SCHEMA_VERSION",
+    "DamagedBatch",
+    "Stage",
+    "Store",
+    "Trials",
+    "VerifyReport",
+    "batch_checksum",
+]
 
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
 APPLICATION_ID = 0x56494431  # "VID1"
+#: Tables every store holds.
+TABLES = ("meta", "stages", "blocks", "failures", "runs")
 
 _SCHEMA = """
 CREATE TABLE meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
@@ -73,7 +109,8 @@ CREATE TABLE blocks (
     f BLOB NOT NULL,
     g BLOB NOT NULL,
     status BLOB NOT NULL,
-    wall BLOB NOT NULL
+    wall BLOB NOT NULL,
+    checksum TEXT
 );
 CREATE INDEX blocks_stage_seq ON blocks(stage, seq_start);
 CREATE TABLE failures (
@@ -94,6 +131,76 @@ CREATE TABLE runs (
     outcome TEXT
 );
 """
+
+#: The arrays of a batch, in the order of the checksum: (column, label, dtype, item size).
+_ARRAYS = (
+    ("x", "parameters (x)", "<f8"),
+    ("f", "criteria (f)", "<f8"),
+    ("g", "functionals (g)", "<f8"),
+    ("status", "status", "i1"),
+    ("wall", "wall times", "<f8"),
+)
+
+
+def batch_checksum(stage: int, seq_start: int, n: int, blobs: Sequence[bytes]) -> str:
+    """The checksum stored with a batch: CRC-32 of its header and of each of its arrays.
+
+    Parameters
+    ----------
+    stage, seq_start, n : int
+        The batch's stage, first sequence index and number of trials.
+    blobs : sequence of bytes
+        The arrays ``x, f, g, status, wall`` as stored.
+    """
+    head = zlib.crc32(f"{int(stage)}:{int(seq_start)}:{int(n)}".encode())
+    return "crc32:" + ",".join(f"{c:08x}" for c in (head, *(zlib.crc32(b) for b in blobs)))
+
+
+@dataclass(frozen=True)
+class DamagedBatch:
+    """A stored batch whose bytes do not match its checksum (or its declared size).
+
+    Attributes
+    ----------
+    block : int
+        Row id of the batch in the ``blocks`` table.
+    stage, seq_start, n : int
+        Stage, first sequence index and number of trials.
+    first_id, last_id : int
+        Trial ids it holds (``first_id .. last_id``).
+    reason : str
+        What does not match, e.g. ``"checksum mismatch in criteria (f)"``.
+    parts : tuple of str
+        The damaged columns (``"x"``, ``"f"``, ...; ``"header"`` for stage/seq/n).
+    """
+
+    block: int
+    stage: int
+    seq_start: int
+    n: int
+    first_id: int
+    last_id: int
+    reason: str
+    parts: tuple[str, ...] = ()
+
+    def describe(self) -> str:
+        ids = (
+            f"trials {self.first_id}–{self.last_id}, "
+            if self.first_id >= 0
+            else f"sequence {self.seq_start}.., "
+        )
+        return f"batch {self.block} (stage {self.stage}, {ids}{self.n} trials): {self.reason}"
+
+
+def _damage_warning(path: Path, damaged: Sequence[DamagedBatch]) -> str:
+    n = sum(d.n for d in damaged)
+    shown = "; ".join(d.describe() for d in damaged[:3])
+    more = f"; and {len(damaged) - 3} more" if len(damaged) > 3 else ""
+    return (
+        f"store {path}: {len(damaged)} damaged batch{'es' if len(damaged) > 1 else ''} "
+        f"({n} trials) left out of this analysis — {shown}{more}; `vectorid verify {path}` "
+        f"lists them all, `vectorid repair {path}` drops and recomputes them"
+    )
 
 
 @dataclass(frozen=True)
@@ -129,6 +236,11 @@ class Trials:
         Wall time per trial in seconds.
     messages : dict
         ``(stage, seq) -> failure message``.
+    damaged : tuple of DamagedBatch
+        Stored batches left out because their bytes do not match their checksum (empty for
+        a sound store; see :meth:`Store.verify`).
+    unverified : int
+        Batches loaded without a checksum to verify (a schema-1 store opened read-only).
     """
 
     id: np.ndarray
@@ -140,6 +252,8 @@ class Trials:
     G: np.ndarray
     wall: np.ndarray
     messages: dict[tuple[int, int], str] = field(default_factory=dict)
+    damaged: tuple[DamagedBatch, ...] = ()
+    unverified: int = 0
 
     def __len__(self) -> int:
         return int(self.id.shape[0])
@@ -157,6 +271,8 @@ class Trials:
             self.G[mask],
             self.wall[mask],
             {k: v for k, v in self.messages.items() if k in keep},
+            self.damaged,
+            self.unverified,
         )
 
     def message(self, i: int) -> str:
@@ -173,44 +289,253 @@ def trial_ids(kind: str, stage: int, seq: np.ndarray) -> np.ndarray:
     return stage * 1_000_000_000 + seq + 1
 
 
+#: Writer locks of this process by file identity ``(st_dev, st_ino)``: the descriptor the
+#: ``flock`` is taken on, whether a Store of this process holds it now, and how many Stores
+#: of this process have the file open. A descriptor is closed only when no Store of this
+#: process has the file open any more: closing a descriptor of the store file drops the
+#: POSIX locks SQLite holds on it for the process's other connections.
+_LOCK_FDS: dict[tuple[int, int], int] = {}
+_HELD: set[tuple[int, int]] = set()
+_OPEN: dict[tuple[int, int], int] = {}
+_LOCK_GUARD = threading.Lock()
+
+
+def _close_unused(key: tuple[int, int] | None) -> None:
+    """Close the lock descriptor of ``key`` when nothing of this process uses the file
+    (called with ``_LOCK_GUARD`` held)."""
+    if key is None or key in _HELD or _OPEN.get(key, 0) > 0:
+        return
+    fd = _LOCK_FDS.pop(key, None)
+    if fd is not None:
+        try:
+            os.close(fd)
+        except OSError:
+            pass
+
+
+def _opened(key: tuple[int, int] | None) -> None:
+    if key is not None:
+        with _LOCK_GUARD:
+            _OPEN[key] = _OPEN.get(key, 0) + 1
+
+
+def _closed(key: tuple[int, int] | None) -> None:
+    if key is None:
+        return
+    with _LOCK_GUARD:
+        n = _OPEN.get(key, 0) - 1
+        if n > 0:
+            _OPEN[key] = n
+        else:
+            _OPEN.pop(key, None)
+        _close_unused(key)
+
+
+def _path_identity(path: Path) -> tuple[int, int] | None:
+    try:
+        st = os.stat(path)
+    except OSError:
+        return None
+    return (st.st_dev, st.st_ino)
+
+
+def _identity(fd: int) -> tuple[int, int]:
+    st = os.fstat(fd)
+    return (st.st_dev, st.st_ino)
+
+
+def _writer_of(path: Path) -> str:
+    """Who holds the writer lock, as far as the store says (``pid N on HOST ...``)."""
+    try:
+        con = sqlite3.connect(f"file:{path}?mode=ro", uri=True, timeout=2)
+        try:
+            # written by the holder right after it took the lock (a 'running' row in the run
+            # log may be left from a run that was killed)
+            row = con.execute("SELECT value FROM meta WHERE key = 'writer'").fetchone()
+            if row:
+                return str(row[0])
+            row = con.execute(
+                "SELECT pid, host, started FROM runs WHERE outcome = 'running' "
+                "ORDER BY run DESC LIMIT 1"
+            ).fetchone()
+            if row:
+                started = time.strftime("%Y-%m-%d %H:%M:%S", time.localtime(row[2]))
+                return f"pid {row[0]} on {row[1]}, running since {started}"
+            return ""
+        finally:
+            con.close()
+    except sqlite3.Error:
+        return ""
+
+
 class _WriterLock:
-    """Exclusive advisory lock on ``<store>.lock`` (POSIX ``flock``)."""
+    """Exclusive advisory lock (``flock``) on the store file itself: one writer per file,
+    whatever path names it (a symlink or a hard link names the same inode)."""
 
     def __init__(self, path: Path) -> None:
-        self.path = Path(str(path) + ".lock")
-        self.fd: int | None = None
+        self.path = path
+        self.key: tuple[int, int] | None = None
 
-    def acquire(self) -> None:
+    def acquire(self, fd: int | None = None) -> None:
+        """Take the lock (on ``fd`` when given: a file this process just created)."""
         import fcntl
 
-        fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
+        if fd is None:
             try:
-                holder = os.pread(fd, 200, 0).decode(errors="replace").strip()
-            finally:
+                fd = os.open(self.path, os.O_RDONLY)
+            except OSError as exc:
+                raise StoreError(f"cannot open store {self.path}: {exc.strerror}") from None
+        key = _identity(fd)
+        with _LOCK_GUARD:
+            if key in _HELD:
                 os.close(fd)
-            raise StoreLockedError(
-                f"store {self.path.with_suffix('')} is being written by another process "
-                f"({holder or 'unknown'}); wait for it to finish (or stop it), or run with "
-                "another --store"
-            ) from None
-        os.ftruncate(fd, 0)
-        os.pwrite(fd, f"pid {os.getpid()} on {socket.gethostname()}".encode(), 0)
-        self.fd = fd
+                raise StoreLockedError(
+                    f"store {self.path} is already open for writing in this process "
+                    f"(pid {os.getpid()}); close that Study/Store first"
+                )
+            old = _LOCK_FDS.get(key)
+            if old is not None:
+                os.close(fd)
+                fd = old
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except OSError:
+                _LOCK_FDS[key] = fd
+                _close_unused(key)
+                holder = _writer_of(self.path)
+                real = self.path.resolve()
+                named = "" if real == self.path.absolute() else f" (= {real})"
+                raise StoreLockedError(
+                    f"store {self.path}{named} is being written by another process "
+                    f"({holder or 'unknown'}); wait for it to finish (or stop it), or run "
+                    "with another --store"
+                ) from None
+            _LOCK_FDS[key] = fd
+            _HELD.add(key)
+            self.key = key
 
     def release(self) -> None:
-        if self.fd is not None:
-            import fcntl
+        if self.key is None:
+            return
+        import fcntl
 
-            fcntl.flock(self.fd, fcntl.LOCK_UN)
-            os.close(self.fd)
-            self.fd = None
+        with _LOCK_GUARD:
+            fd = _LOCK_FDS.get(self.key)
+            if fd is not None:
+                fcntl.flock(fd, fcntl.LOCK_UN)
+            _HELD.discard(self.key)
+            _close_unused(self.key)
+            self.key = None
+
+    def forget(self) -> None:
+        """Release and close the descriptor (the file is being deleted)."""
+        key = self.key
+        self.release()
+        with _LOCK_GUARD:
+            fd = _LOCK_FDS.pop(key, None) if key is not None else None
+        if fd is not None:
+            os.close(fd)
+
+
+def close_inherited_locks() -> None:
+    """In a forked child: close the descriptors the writer locks are held on (the parent
+    keeps the lock; a child must not keep it alive after the parent died)."""
+    with _LOCK_GUARD:
+        for fd in _LOCK_FDS.values():
+            try:
+                os.close(fd)
+            except OSError:
+                pass
+        _LOCK_FDS.clear()
+        _HELD.clear()
+        _OPEN.clear()
 
 
 def _blob(a: np.ndarray, dtype: str) -> bytes:
     return np.ascontiguousarray(a, dtype=dtype).tobytes()
+
+
+def _sqlite_damage(path: Path, exc: sqlite3.Error) -> StoreError:
+    text = str(exc)
+    if isinstance(exc, sqlite3.DatabaseError) and not isinstance(exc, sqlite3.OperationalError):
+        return StoreDamagedError(
+            f"store {path} is damaged (SQLite: {text}); `vectorid verify {path}` shows what is "
+            f"readable, `vectorid repair {path}` rebuilds the store from it"
+        )
+    if "no such table" in text or "no such column" in text:
+        return StoreDamagedError(
+            f"store {path} is damaged ({text}); `vectorid verify {path}` shows what is "
+            f"readable, `vectorid repair {path}` rebuilds the store from it"
+        )
+    return StoreError(f"cannot read store {path}: {text}")
+
+
+@dataclass
+class VerifyReport:
+    """What :meth:`Store.verify` found.
+
+    Attributes
+    ----------
+    path : Path
+    schema : int
+        Schema version of the file.
+    sqlite : list of str
+        SQLite's ``PRAGMA integrity_check`` lines (``["ok"]`` when sound).
+    problems : list of str
+        Damage outside the trial batches (missing tables, an unreadable study definition).
+    damaged : list of DamagedBatch
+    batches, trials : int
+        Batches and trials stored (damaged ones included).
+    unverified : int
+        Batches without a checksum (schema 1).
+    notes : list of str
+        Things that are not damage (overlapping batches are impossible; orphan failure rows).
+    """
+
+    path: Path
+    schema: int = 0
+    sqlite: list[str] = field(default_factory=list)
+    problems: list[str] = field(default_factory=list)
+    damaged: list[DamagedBatch] = field(default_factory=list)
+    batches: int = 0
+    trials: int = 0
+    unverified: int = 0
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def ok(self) -> bool:
+        """True when nothing is damaged."""
+        return self.sqlite == ["ok"] and not self.problems and not self.damaged
+
+    def describe(self) -> str:
+        lines = [f"store      {self.path}  (schema {self.schema})"]
+        if self.sqlite == ["ok"]:
+            lines.append("sqlite     ok")
+        else:
+            found = [ln for s in self.sqlite for ln in s.splitlines() if ln.strip()]
+            found = [ln for ln in found if not ln.startswith("***")]
+            more = f" (and {len(found) - 3} more)" if len(found) > 3 else ""
+            lines.append(f"sqlite     damaged pages: {'; '.join(found[:3])}{more}")
+        lines.append(
+            f"batches    {self.batches} ({self.trials} trials): "
+            f"{self.batches - len(self.damaged) - self.unverified} verified, "
+            f"{len(self.damaged)} damaged, {self.unverified} without checksum"
+        )
+        for p in self.problems:
+            lines.append(f"damaged    {p}")
+        for d in self.damaged:
+            lines.append(f"damaged    {d.describe()}")
+        for n in self.notes:
+            lines.append(f"note       {n}")
+        if self.ok:
+            extra = " (batches without checksum: schema 1)" if self.unverified else ""
+            lines.append("verdict    sound" + extra)
+        else:
+            lines.append(
+                f"verdict    DAMAGED: `vectorid repair {self.path}` drops the damaged batches "
+                "and recomputes them"
+            )
+        return "\n".join(lines)
 
 
 class Store:
@@ -225,27 +550,69 @@ class Store:
         self._con = con
         self._lock = lock
         self._spec: StudySpec | None = None
+        self._warned: set[str] = set()
+        self._key = lock.key if lock is not None else _path_identity(path)
+        _opened(self._key)
 
     # -- opening ---------------------------------------------------------------------------
 
     @classmethod
-    def create(cls, path: str | Path, spec: StudySpec) -> Store:
+    def create(
+        cls, path: str | Path, spec: StudySpec, data_files: Mapping[str, Any] | None = None
+    ) -> Store:
         """Create a new store holding ``spec`` and its stage 0 (the box Π).
+
+        Parameters
+        ----------
+        path : path
+            The ``.db`` file to create.
+        spec : StudySpec
+        data_files : mapping, optional
+            Content hashes of the data files the study reads (recorded so that a later run
+            can tell an edited data file; see :mod:`vectorid.store.agreement`).
 
         Raises
         ------
         StoreError
-            If ``path`` exists already.
+            If ``path`` exists already or cannot be created.
         """
         path = Path(path)
-        if path.exists():
+        if path.is_dir():
+            raise StoreError(
+                f"{path} is a folder; give the store a file name, e.g. --store {path / 'study.db'}"
+            )
+        if path.exists() or path.is_symlink():
             raise StoreError(
                 f"{path} exists already; open it with Store.open (vectorid run {path}) to extend "
-                "the study, or choose another --store path"
+                "the study, Study.create_or_open to resume it from Python, or choose another "
+                "--store path"
             )
-        path.parent.mkdir(parents=True, exist_ok=True)
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise StoreError(
+                f"cannot create store {path}: its folder {path.parent} cannot be made "
+                f"({exc.strerror}); choose a writable folder with --store"
+            ) from None
+        try:
+            fd = os.open(path, os.O_RDONLY | os.O_CREAT | os.O_EXCL, 0o644)
+        except FileExistsError:
+            raise StoreError(
+                f"{path} exists already (created just now by another process); open it with "
+                f"`vectorid run {path}`, or choose another --store path"
+            ) from None
+        except OSError as exc:
+            raise StoreError(
+                f"cannot create store {path}: {exc.strerror}; choose a writable folder with "
+                "--store (or store = ... under [study])"
+            ) from None
         lock = _WriterLock(path)
-        lock.acquire()
+        try:
+            lock.acquire(fd)
+        except BaseException:
+            os.unlink(path)
+            raise
+        con = None
         try:
             con = cls._connect(path)
             # Large pages make reading the columnar blobs back several times faster.
@@ -259,7 +626,7 @@ class Store:
                 con.executescript(_SCHEMA)
             from .. import __version__
 
-            study = spec.to_dict()
+            study = json.dumps(spec.to_dict())
             with con:
                 con.executemany(
                     "INSERT INTO meta VALUES (?, ?)",
@@ -267,19 +634,30 @@ class Store:
                         ("schema_version", str(SCHEMA_VERSION)),
                         ("vectorid_version", __version__),
                         ("created", repr(time.time())),
-                        ("study", json.dumps(study)),
+                        ("study", study),
+                        ("study_checksum", f"{zlib.crc32(study.encode()):08x}"),
                         ("base_dir", spec.base_dir or ""),
+                        ("data_files", json.dumps(dict(data_files or {}))),
+                        ("writer", _writer_text()),
                     ],
                 )
+                box = json.dumps(spec.space.to_list())
                 con.execute(
                     "INSERT INTO stages VALUES (0, 'sample', 0, ?, ?, 'study box')",
-                    (time.time(), json.dumps(spec.space.to_list())),
+                    (time.time(), box),
                 )
-        except sqlite3.Error as exc:
-            lock.release()
-            raise StoreError(f"cannot create store {path}: {exc}") from exc
-        except BaseException:
-            lock.release()
+                con.execute(
+                    "INSERT INTO meta VALUES (?, ?)", _stage_checksum_row(0, "sample", 0, box)
+                )
+        except BaseException as exc:
+            if con is not None:
+                con.close()
+            for suffix in ("", "-wal", "-shm", "-journal"):
+                with _suppress_os():
+                    os.unlink(str(path) + suffix)
+            lock.forget()
+            if isinstance(exc, sqlite3.Error):
+                raise StoreError(f"cannot create store {path}: {exc}") from None
             raise
         store = cls(path, con, lock)
         store._spec = spec
@@ -294,9 +672,15 @@ class Store:
         path : path
             The ``.db`` file.
         write : bool
-            Take the writer lock (needed to add trials or stages).
+            Take the writer lock (needed to add trials or stages). A schema-1 store is
+            upgraded to schema 2 (checksums added), with a :class:`VectoridWarning`.
         """
         path = Path(path)
+        if path.is_dir():
+            raise StoreError(
+                f"{path} is a folder, not a study store; point to the .db file "
+                "(`ls` it for *.db), or run a study file (`vectorid run STUDY.toml`)"
+            )
         if not path.is_file():
             raise StoreError(
                 f"no study store at {path}; "
@@ -316,7 +700,7 @@ class Store:
             # damaged file is refused without a single byte of it changed.
             probe = cls._connect(path, readonly=True)
             try:
-                cls._check_file(probe, path)
+                _, version = cls._check_file(probe, path)
             finally:
                 probe.close()
             con = cls._connect(path, readonly=not write)
@@ -324,7 +708,17 @@ class Store:
             if lock:
                 lock.release()
             raise
-        return cls(path, con, lock)
+        store = cls(path, con, lock)
+        if write:
+            try:
+                with store._tx() as c:
+                    c.execute("INSERT OR REPLACE INTO meta VALUES ('writer', ?)", (_writer_text(),))
+                if version < SCHEMA_VERSION:
+                    store._upgrade(version)
+            except BaseException:
+                store.close()
+                raise
+        return store
 
     @staticmethod
     def _connect(path: Path, readonly: bool = False) -> sqlite3.Connection:
@@ -343,6 +737,11 @@ class Store:
                 con = sqlite3.connect(path, timeout=30)
                 con.execute("PRAGMA journal_mode=WAL")
                 con.execute("PRAGMA synchronous=NORMAL")
+            con.execute("PRAGMA foreign_keys=ON")
+            con.execute("PRAGMA mmap_size=17179869184")
+            # Damaged text reads as text with replacement characters (and then fails its
+            # checksum) instead of stopping the query.
+            con.text_factory = _text
         except StoreError:
             raise
         except sqlite3.Error as exc:
@@ -350,10 +749,8 @@ class Store:
                 raise StoreError(
                     f"{path} is not a vectorid store (not a readable SQLite file: {exc}); "
                     "was it truncated or is it another file?"
-                ) from exc
-            raise StoreError(f"cannot open {path} as SQLite: {exc}") from exc
-        con.execute("PRAGMA foreign_keys=ON")
-        con.execute("PRAGMA mmap_size=17179869184")
+                ) from None
+            raise StoreError(f"cannot open {path} as SQLite: {exc}") from None
         return con
 
     @staticmethod
@@ -365,7 +762,7 @@ class Store:
             raise StoreError(
                 f"{path} is not a vectorid store (not a readable SQLite file: {exc}); "
                 "was it truncated or is it another file?"
-            ) from exc
+            ) from None
         if app != APPLICATION_ID:
             raise StoreError(
                 f"{path} is an SQLite file but not a vectorid store (application_id {app:#x}); "
@@ -377,10 +774,75 @@ class Store:
                 f"({SCHEMA_VERSION}); upgrade vectorid"
             )
         try:
+            names = {r[0] for r in con.execute("SELECT name FROM sqlite_master WHERE type='table'")}
+        except sqlite3.DatabaseError as exc:
+            raise _sqlite_damage(path, exc) from None
+        missing = [t for t in TABLES if t not in names]
+        if missing:
+            raise StoreDamagedError(
+                f"store {path} is damaged: table{'s' if len(missing) > 1 else ''} "
+                f"{', '.join(missing)} missing; `vectorid verify {path}` shows what is "
+                f"readable, `vectorid repair {path}` rebuilds what it can"
+            )
+        try:
             con.execute("SELECT count(*) FROM blocks").fetchone()
         except sqlite3.DatabaseError as exc:
-            raise StoreError(f"{path} is damaged: {exc}") from exc
+            raise _sqlite_damage(path, exc) from None
         return app, version
+
+    def _upgrade(self, version: int) -> None:
+        """Schema 1 -> 2: add the checksum column and seal the batches held (after checking
+        that their sizes fit the study)."""
+        spec = self.spec
+        widths = self._widths(spec)
+        sealed = bad = 0
+        with self._tx() as con:
+            cols = {r[1] for r in con.execute("PRAGMA table_info(blocks)")}
+            if "checksum" not in cols:
+                con.execute("ALTER TABLE blocks ADD COLUMN checksum TEXT")
+            rows = con.execute(
+                "SELECT block, stage, seq_start, n, x, f, g, status, wall FROM blocks"
+            ).fetchall()
+            for block, stage, start, n, *blobs in rows:
+                if _size_problem(n, blobs, widths) is not None:
+                    bad += 1  # left without checksum: it shows as damaged on every load
+                    continue
+                con.execute(
+                    "UPDATE blocks SET checksum = ? WHERE block = ?",
+                    (batch_checksum(stage, start, n, blobs), block),
+                )
+                sealed += 1
+            for st, kind, start, box in con.execute(
+                "SELECT stage, kind, start_seq, box FROM stages"
+            ).fetchall():
+                con.execute(
+                    "INSERT OR REPLACE INTO meta VALUES (?, ?)",
+                    _stage_checksum_row(st, kind, start, box),
+                )
+            study = con.execute("SELECT value FROM meta WHERE key = 'study'").fetchone()[0]
+            con.executemany(
+                "INSERT OR REPLACE INTO meta VALUES (?, ?)",
+                [
+                    ("schema_version", str(SCHEMA_VERSION)),
+                    ("study_checksum", f"{zlib.crc32(study.encode()):08x}"),
+                    (
+                        "upgraded",
+                        f"schema {version} -> {SCHEMA_VERSION} on "
+                        f"{time.strftime('%Y-%m-%d %H:%M:%S')}: checksums added to {sealed} "
+                        "batches written without one",
+                    ),
+                ],
+            )
+            con.execute(f"PRAGMA user_version = {SCHEMA_VERSION}")
+        warnings.warn(
+            VectoridWarning(
+                f"store {self.path} upgraded from schema {version} to {SCHEMA_VERSION}: "
+                f"checksums added to its {sealed} batches (written by an older vectorid, so "
+                "not verified when written; from now on every batch is verified when read)"
+                + (f"; {bad} batches whose sizes do not fit the study are damaged" if bad else "")
+            ),
+            stacklevel=3,
+        )
 
     def close(self) -> None:
         """Close the connection and release the writer lock."""
@@ -395,6 +857,28 @@ class Store:
             if self._lock:
                 self._lock.release()
                 self._lock = None
+            key, self._key = self._key, None
+            _closed(key)
+
+    def delete(self) -> None:
+        """Close and remove the store file (used to re-create a store that holds no
+        computed trial from a fixed study file). Needs the writer lock."""
+        self._require_write()
+        if self.count() or self.count_all_blocks():
+            raise StoreError(f"store {self.path} holds computed trials; it is not deleted")
+        self._con.close()
+        lock, self._lock = self._lock, None
+        key, self._key = self._key, None
+        with _LOCK_GUARD:
+            if key is not None and _OPEN.get(key, 0) > 0:
+                _OPEN[key] -= 1
+        try:
+            for suffix in ("", "-wal", "-shm", "-journal"):
+                with _suppress_os():
+                    os.unlink(str(self.path) + suffix)
+        finally:
+            if lock is not None:
+                lock.forget()
 
     def __enter__(self) -> Store:
         return self
@@ -421,8 +905,36 @@ class Store:
                 raise StoreError(
                     f"cannot write to {self.path}: {text}; nothing already stored was lost — "
                     "free disk space (or fix permissions) and run again to resume"
-                ) from exc
-            raise StoreError(f"cannot write to {self.path}: {text}") from exc
+                ) from None
+            raise _sqlite_damage(self.path, exc) from None
+        except sqlite3.DatabaseError as exc:
+            raise _sqlite_damage(self.path, exc) from None
+
+    @contextmanager
+    def snapshot(self) -> Iterator[Store]:
+        """Read one consistent state of the store while another process appends: every
+        query inside the block sees the same snapshot (one SQLite read transaction)."""
+        if self._con.in_transaction:
+            yield self
+            return
+        try:
+            self._con.execute("BEGIN")
+        except sqlite3.Error as exc:
+            raise _sqlite_damage(self.path, exc) from None
+        try:
+            yield self
+        finally:
+            if self._con.in_transaction:
+                try:
+                    self._con.execute("COMMIT")
+                except sqlite3.Error:
+                    self._con.rollback()
+
+    def _query(self, sql: str, args: Sequence[Any] = ()) -> list[Any]:
+        try:
+            return self._con.execute(sql, args).fetchall()
+        except sqlite3.Error as exc:
+            raise _sqlite_damage(self.path, exc) from None
 
     # -- study and stages ------------------------------------------------------------------
 
@@ -430,24 +942,80 @@ class Store:
     def spec(self) -> StudySpec:
         """The study definition held in the store."""
         if self._spec is None:
-            rows = dict(self._con.execute("SELECT key, value FROM meta").fetchall())
+            rows = dict(self._query("SELECT key, value FROM meta"))
             base = rows.get("base_dir") or None
             if base is not None and not Path(base).is_dir():
                 base = str(self.path.resolve().parent)
-            self._spec = StudySpec.from_dict(json.loads(rows["study"]), base_dir=base)
+            text = rows.get("study")
+            fix = (
+                f"`vectorid repair {self.path} --study STUDY.toml` writes the definition back "
+                "from the study file"
+            )
+            if text is None:
+                raise StoreDamagedError(
+                    f"store {self.path} is damaged: it holds no study definition; {fix}"
+                )
+            stored_sum = rows.get("study_checksum")
+            if stored_sum is not None and stored_sum != f"{zlib.crc32(text.encode()):08x}":
+                raise StoreDamagedError(
+                    f"store {self.path} is damaged: its study definition does not match its "
+                    f"checksum (the text changed on disk); {fix}"
+                )
+            try:
+                data = json.loads(text)
+            except ValueError as exc:
+                raise StoreDamagedError(
+                    f"store {self.path} is damaged: its study definition is not JSON ({exc}); {fix}"
+                ) from None
+            try:
+                self._spec = StudySpec.from_dict(data, base_dir=base)
+            except VectoridError as exc:
+                raise StoreDamagedError(
+                    f"store {self.path} is damaged: its study definition is invalid ({exc}); {fix}"
+                ) from None
         return self._spec
 
     def meta(self) -> dict[str, str]:
-        return dict(self._con.execute("SELECT key, value FROM meta").fetchall())
+        return dict(self._query("SELECT key, value FROM meta"))
+
+    def _write_study(self, spec_dict: Mapping[str, Any], base_dir: str | None = None) -> None:
+        text = json.dumps(spec_dict)
+        rows = [("study", text), ("study_checksum", f"{zlib.crc32(text.encode()):08x}")]
+        if base_dir is not None:
+            rows.append(("base_dir", base_dir))
+        with self._tx() as con:
+            con.executemany("INSERT OR REPLACE INTO meta VALUES (?, ?)", rows)
+        self._spec = None
+
+    def replace_study(self, spec: StudySpec, data_files: Mapping[str, Any] | None = None) -> None:
+        """Store ``spec`` as the study definition (the caller has checked that it changes
+        no computed trial, see :mod:`vectorid.store.agreement`)."""
+        self._require_write()
+        self._write_study(spec.to_dict(), spec.base_dir or "")
+        if data_files is not None:
+            with self._tx() as con:
+                con.execute(
+                    "INSERT OR REPLACE INTO meta VALUES ('data_files', ?)",
+                    (json.dumps(dict(data_files)),),
+                )
+
+    def data_files(self) -> dict[str, Any] | None:
+        """Content hashes of the data files recorded at creation (None: not recorded)."""
+        text = self.meta().get("data_files")
+        if text is None:
+            return None
+        try:
+            out = json.loads(text)
+        except ValueError:
+            return None
+        return out if isinstance(out, dict) else None
 
     def set_target(self, trials: int) -> None:
         """Record the total number of trials the study should hold."""
         self._require_write()
         spec = self.spec.to_dict()
         spec["study"]["trials"] = int(trials)
-        with self._tx() as con:
-            con.execute("UPDATE meta SET value = ? WHERE key = 'study'", (json.dumps(spec),))
-        self._spec = None
+        self._write_study(spec)
 
     def set_limits(
         self,
@@ -475,7 +1043,7 @@ class Store:
         spec = self.spec.to_dict()
         crit = {c["name"]: c for c in spec["criteria"]}
         cons = {c["name"]: c for c in spec.get("constraints", [])}
-        from ..errors import StudyDefinitionError, suggest
+        from ..errors import suggest
 
         for name, value in (criteria or {}).items():
             if name not in crit:
@@ -513,20 +1081,32 @@ class Store:
                     cons[name][key] = float(value)
         # validate before writing
         StudySpec.from_dict(spec, base_dir=self.spec.base_dir)
-        with self._tx() as con:
-            con.execute("UPDATE meta SET value = ? WHERE key = 'study'", (json.dumps(spec),))
-        self._spec = None
+        self._write_study(spec)
 
     def stages(self) -> list[Stage]:
         """All stages in order."""
-        rows = self._con.execute(
+        rows = self._query(
             "SELECT stage, kind, start_seq, created, box, note FROM stages ORDER BY stage"
-        ).fetchall()
+        )
         out = []
-        for stage, kind, start, created, box, note in rows:
-            from ..spec import _parse_variable
+        from ..spec import _parse_variable
 
-            space = Space([_parse_variable(f"stages[{stage}].box", v) for v in json.loads(box)])
+        sums = dict(self._query("SELECT key, value FROM meta WHERE key LIKE 'stage_checksum:%'"))
+        for stage, kind, start, created, box, note in rows:
+            want = sums.get(f"stage_checksum:{stage}")
+            if want is not None and want != _stage_checksum_row(stage, kind, start, box)[1]:
+                raise StoreDamagedError(
+                    f"store {self.path} is damaged: stage {stage} (its box, kind or start) does "
+                    f"not match its checksum; `vectorid verify {self.path}` shows what is "
+                    "readable"
+                )
+            try:
+                space = Space([_parse_variable(f"stages[{stage}].box", v) for v in json.loads(box)])
+            except (ValueError, TypeError, VectoridError) as exc:
+                raise StoreDamagedError(
+                    f"store {self.path} is damaged: the box of stage {stage} cannot be read "
+                    f"({exc}); `vectorid verify {self.path}` shows what is readable"
+                ) from None
             out.append(Stage(stage, kind, start, created, space, note))
         return out
 
@@ -546,35 +1126,36 @@ class Store:
                 start_seq = 0
                 if kind == "sample":
                     start_seq = self.sequence_end()
+            box = json.dumps(space.to_list())
             con.execute(
                 "INSERT INTO stages VALUES (?, ?, ?, ?, ?, ?)",
-                (stage, kind, start_seq, time.time(), json.dumps(space.to_list()), note),
+                (stage, kind, start_seq, time.time(), box, note),
+            )
+            con.execute(
+                "INSERT OR REPLACE INTO meta VALUES (?, ?)",
+                _stage_checksum_row(stage, kind, start_seq, box),
             )
         return self.stages()[stage]
 
     def sequence_end(self) -> int:
         """One past the largest sequence index stored or reserved in a sample stage."""
-        row = self._con.execute(
-            "SELECT max(b.seq_start + b.n) FROM blocks b JOIN stages s USING (stage) "
-            "WHERE s.kind = 'sample'"
-        ).fetchone()
-        stored = row[0] or 0
-        last = (
-            self._con.execute("SELECT max(start_seq) FROM stages WHERE kind = 'sample'").fetchone()[
-                0
-            ]
-            or 0
-        )
-        return max(stored, last)
+        with self.snapshot():
+            row = self._query(
+                "SELECT max(b.seq_start + b.n) FROM blocks b JOIN stages s USING (stage) "
+                "WHERE s.kind = 'sample'"
+            )[0]
+            stored = row[0] or 0
+            last = self._query("SELECT max(start_seq) FROM stages WHERE kind = 'sample'")[0][0]
+        return max(stored, last or 0)
 
     # -- trials ----------------------------------------------------------------------------
 
     def stored_ranges(self, stage: int) -> list[tuple[int, int]]:
         """Stored ``(seq_start, seq_end)`` ranges of a stage, sorted and merged."""
-        rows = self._con.execute(
+        rows = self._query(
             "SELECT seq_start, seq_start + n FROM blocks WHERE stage = ? ORDER BY seq_start",
             (stage,),
-        ).fetchall()
+        )
         merged: list[tuple[int, int]] = []
         for a, b in rows:
             if merged and a <= merged[-1][1]:
@@ -610,7 +1191,7 @@ class Store:
         wall: np.ndarray,
         messages: dict[int, str] | None = None,
     ) -> int:
-        """Store one batch in one transaction.
+        """Store one batch in one transaction, with its checksum.
 
         Returns
         -------
@@ -621,6 +1202,14 @@ class Store:
         n = int(X.shape[0])
         if n == 0:
             return 0
+        blobs = [
+            _blob(X, "<f8"),
+            _blob(criteria, "<f8"),
+            _blob(functionals, "<f8"),
+            _blob(status, "i1"),
+            _blob(wall, "<f8"),
+        ]
+        checksum = batch_checksum(stage, seq_start, n, blobs)
         with self._tx() as con:
             overlap = con.execute(
                 "SELECT 1 FROM blocks WHERE stage = ? AND seq_start < ? AND seq_start + n > ? "
@@ -630,19 +1219,9 @@ class Store:
             if overlap:
                 return 0
             con.execute(
-                "INSERT INTO blocks (stage, seq_start, n, created, x, f, g, status, wall) "
-                "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)",
-                (
-                    stage,
-                    seq_start,
-                    n,
-                    time.time(),
-                    _blob(X, "<f8"),
-                    _blob(criteria, "<f8"),
-                    _blob(functionals, "<f8"),
-                    _blob(status, "i1"),
-                    _blob(wall, "<f8"),
-                ),
+                "INSERT INTO blocks (stage, seq_start, n, created, x, f, g, status, wall, "
+                "checksum) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                (stage, seq_start, n, time.time(), *blobs, checksum),
             )
             if messages:
                 con.executemany(
@@ -652,27 +1231,92 @@ class Store:
         return n
 
     def count(self, stage: int | None = None) -> int:
-        """Number of stored trials (of one stage, or all)."""
+        """Number of stored trials (of one stage, or all; damaged batches included)."""
         if stage is None:
-            row = self._con.execute("SELECT coalesce(sum(n), 0) FROM blocks").fetchone()
+            row = self._query("SELECT coalesce(sum(n), 0) FROM blocks")[0]
         else:
-            row = self._con.execute(
-                "SELECT coalesce(sum(n), 0) FROM blocks WHERE stage = ?", (stage,)
-            ).fetchone()
+            row = self._query("SELECT coalesce(sum(n), 0) FROM blocks WHERE stage = ?", (stage,))[0]
         return int(row[0])
+
+    def count_all_blocks(self) -> int:
+        """Number of stored batches (damaged ones included)."""
+        return int(self._query("SELECT count(*) FROM blocks")[0][0])
 
     def count_sample(self) -> int:
         """Number of stored trials in sample stages (what ``--trials`` counts)."""
-        row = self._con.execute(
+        row = self._query(
             "SELECT coalesce(sum(b.n), 0) FROM blocks b JOIN stages s USING (stage) "
             "WHERE s.kind = 'sample'"
-        ).fetchone()
+        )[0]
         return int(row[0])
+
+    @staticmethod
+    def _widths(spec: StudySpec) -> dict[str, int]:
+        return {
+            "x": len(spec.space) * 8,
+            "f": len(spec.criteria) * 8,
+            "g": len(spec.constraints) * 8,
+            "status": 1,
+            "wall": 8,
+        }
+
+    def _has_checksums(self) -> bool:
+        cols = {r[1] for r in self._query("PRAGMA table_info(blocks)")}
+        return "checksum" in cols
+
+    def _check_row(
+        self,
+        row: Sequence[Any],
+        widths: Mapping[str, int],
+        stage_kind: Mapping[int, str],
+    ) -> DamagedBatch | None:
+        """None if the batch is sound, else what is damaged."""
+        block, stage, start, n, *blobs, checksum = row
+        problem = _size_problem(n, blobs, widths)
+        parts: tuple[str, ...] = ()
+        if problem is None and stage not in stage_kind:
+            problem = f"it belongs to stage {stage}, which the store does not hold"
+            parts = ("header",)
+        if problem is None and checksum is not None:
+            want = batch_checksum(stage, start, n, blobs).split(":", 1)[1].split(",")
+            have = str(checksum).split(":", 1)[-1].split(",")
+            if len(have) != len(want) or not str(checksum).startswith("crc32:"):
+                problem = f"its checksum field is unreadable ({str(checksum)[:40]!r})"
+                parts = ("checksum",)
+            else:
+                names = ["header"] + [a[0] for a in _ARRAYS]
+                labels = ["header (stage, sequence start, count)"] + [a[1] for a in _ARRAYS]
+                bad = [i for i, (a, b) in enumerate(zip(want, have)) if a != b]
+                if bad:
+                    parts = tuple(names[i] for i in bad)
+                    problem = "checksum mismatch in " + ", ".join(labels[i] for i in bad)
+        elif problem is not None:
+            parts = parts or ("size",)
+        if problem is None and checksum is None:
+            status = np.frombuffer(blobs[3], dtype="i1")
+            if np.any((status != 0) & (status != 1)):
+                problem = "status codes other than 0 (ok) and 1 (failed)"
+                parts = ("status",)
+        if problem is None:
+            return None
+        kind = stage_kind.get(stage, "sample")
+        try:
+            n_int = int(n)
+            start_int = int(start)
+            ids = trial_ids(kind, int(stage), np.array([start_int, start_int + max(n_int, 1) - 1]))
+            first, last = int(ids[0]), int(ids[1])
+        except (TypeError, ValueError, OverflowError):
+            first = last = -1
+            n_int = 0
+        return DamagedBatch(int(block), int(stage), int(start), n_int, first, last, problem, parts)
 
     def load(
         self, stages: Sequence[int] | None = None, kinds: Sequence[str] = ("sample",)
     ) -> Trials:
-        """Load trials into arrays.
+        """Load trials into arrays, from one consistent snapshot of the store.
+
+        Every batch is verified against its checksum; a damaged batch is left out (listed in
+        :attr:`Trials.damaged`) with a :class:`~vectorid.errors.VectoridWarning`.
 
         Parameters
         ----------
@@ -682,22 +1326,72 @@ class Store:
             Stage kinds to load; sample stages by default, so auxiliary trials (sections,
             robustness checks) never mix into the sample's statistics.
         """
+        with self.snapshot():
+            trials = self._load(stages, kinds)
+        if trials.damaged:
+            self._warn(_damage_warning(self.path, trials.damaged))
+        if trials.unverified:
+            self._warn(
+                f"store {self.path} was written by an older vectorid (schema 1): its "
+                f"{trials.unverified} batches carry no checksum, so damage to their numbers "
+                f"cannot be detected; any run on it, or `vectorid repair {self.path}`, adds "
+                "checksums"
+            )
+        return trials
+
+    def _warn(self, text: str) -> None:
+        if text in self._warned:
+            return
+        self._warned.add(text)
+        warnings.warn(VectoridWarning(text), stacklevel=3)
+
+    def _load(self, stages: Sequence[int] | None, kinds: Sequence[str]) -> Trials:
         spec = self.spec
         p, k, q = len(spec.space), len(spec.criteria), len(spec.constraints)
+        widths = self._widths(spec)
         stage_kind = {s.stage: s.kind for s in self.stages()}
         wanted = [
             s for s, kind in stage_kind.items() if kind in kinds and (stages is None or s in stages)
         ]
+        checksum_col = "checksum" if self._has_checksums() else "NULL"
         if not wanted:
             rows: list[Any] = []
         else:
             marks = ",".join("?" * len(wanted))
-            rows = self._con.execute(
-                f"SELECT stage, seq_start, n, x, f, g, status, wall FROM blocks "
-                f"WHERE stage IN ({marks}) ORDER BY seq_start, stage",
+            rows = self._query(
+                f"SELECT block, stage, seq_start, n, x, f, g, status, wall, {checksum_col} "
+                f"FROM blocks WHERE stage IN ({marks}) ORDER BY seq_start, stage",
                 wanted,
-            ).fetchall()
-        ns = np.array([r[2] for r in rows], dtype=np.int64)
+            )
+        damaged = []
+        good = []
+        unverified = 0
+        # batches of a stage the store does not hold (a damaged stage number) are damage too
+        known = ",".join(str(int(s)) for s in stage_kind) or "-1"
+        for block, stage, start, n in self._query(
+            f"SELECT block, stage, seq_start, n FROM blocks WHERE stage NOT IN ({known})"
+        ):
+            damaged.append(
+                DamagedBatch(
+                    int(block),
+                    int(stage) if isinstance(stage, int) else -1,
+                    int(start) if isinstance(start, int) else -1,
+                    int(n) if isinstance(n, int) else 0,
+                    -1,
+                    -1,
+                    f"it belongs to stage {stage!r}, which the store does not hold",
+                    ("header",),
+                )
+            )
+        for r in rows:
+            bad = self._check_row(r, widths, stage_kind)
+            if bad is not None:
+                damaged.append(bad)
+            else:
+                good.append(r)
+                unverified += r[-1] is None
+        rows = good
+        ns = np.array([r[3] for r in rows], dtype=np.int64)
         total = int(ns.sum()) if len(ns) else 0
 
         def cat(col: int, dtype: str, width: int | None) -> np.ndarray:
@@ -705,18 +1399,18 @@ class Store:
             out = np.empty(shape, dtype=dtype.lstrip("<"))
             pos = 0
             for r in rows:
-                m = r[2]
+                m = r[3]
                 chunk = np.frombuffer(r[col], dtype=dtype)
                 out[pos : pos + m] = chunk if width is None else chunk.reshape(m, width)
                 pos += m
             return out
 
         seq = (
-            np.concatenate([np.arange(r[1], r[1] + r[2]) for r in rows])
+            np.concatenate([np.arange(r[2], r[2] + r[3]) for r in rows])
             if rows
             else np.empty(0, np.int64)
         )
-        stage = np.repeat(np.array([r[0] for r in rows], dtype=np.int64), ns)
+        stage = np.repeat(np.array([r[1] for r in rows], dtype=np.int64), ns)
         ids = np.empty(total, dtype=np.int64)
         for s in set(stage.tolist()):
             m = stage == s
@@ -724,7 +1418,7 @@ class Store:
         messages = {}
         if wanted:
             marks = ",".join("?" * len(wanted))
-            for st, sq, msg in self._con.execute(
+            for st, sq, msg in self._query(
                 f"SELECT stage, seq, message FROM failures WHERE stage IN ({marks})", wanted
             ):
                 messages[(st, sq)] = msg
@@ -732,13 +1426,147 @@ class Store:
             id=ids,
             seq=seq.astype(np.int64),
             stage=stage,
-            status=cat(6, "i1", None),
-            X=cat(3, "<f8", p),
-            F=cat(4, "<f8", k),
-            G=cat(5, "<f8", q),
-            wall=cat(7, "<f8", None),
+            status=cat(7, "i1", None),
+            X=cat(4, "<f8", p),
+            F=cat(5, "<f8", k),
+            G=cat(6, "<f8", q),
+            wall=cat(8, "<f8", None),
             messages=messages,
+            damaged=tuple(damaged),
+            unverified=unverified,
         )
+
+    # -- integrity -------------------------------------------------------------------------
+
+    def verify(self) -> VerifyReport:
+        """Check the whole store: SQLite's own pages, the tables, the study definition, and
+        every batch against its checksum (all stages, sections included).
+
+        Returns
+        -------
+        VerifyReport
+        """
+        rep = VerifyReport(self.path)
+        try:
+            rep.schema = int(self._query("PRAGMA user_version")[0][0])
+        except StoreError as exc:
+            rep.problems.append(str(exc))
+        try:
+            rep.sqlite = [str(r[0]) for r in self._con.execute("PRAGMA integrity_check(20)")]
+        except sqlite3.Error as exc:
+            rep.sqlite = [f"integrity check failed: {exc}"]
+        try:
+            spec = self.spec
+            stage_kind = {s.stage: s.kind for s in self.stages()}
+        except StoreError as exc:
+            rep.problems.append(str(exc))
+            return rep
+        widths = self._widths(spec)
+        checksum_col = "checksum" if self._has_checksums() else "NULL"
+        try:
+            blocks = self._query("SELECT block FROM blocks ORDER BY stage, seq_start")
+        except StoreError as exc:
+            rep.problems.append(str(exc))
+            return rep
+        ranges: dict[int, list[tuple[int, int]]] = {}
+        failed = 0
+        for (block,) in blocks:
+            try:
+                found = self._query(
+                    f"SELECT block, stage, seq_start, n, x, f, g, status, wall, {checksum_col} "
+                    "FROM blocks WHERE block = ?",
+                    (block,),
+                )
+            except StoreError as exc:
+                rep.problems.append(f"batch {block} cannot be read: {exc}")
+                continue
+            if not found:
+                rep.problems.append(f"batch {block} is listed but cannot be read (SQLite index)")
+                continue
+            r = found[0]
+            rep.batches += 1
+            rep.trials += int(r[3]) if isinstance(r[3], int) else 0
+            bad = self._check_row(r, widths, stage_kind)
+            if bad is not None:
+                rep.damaged.append(bad)
+                continue
+            rep.unverified += r[-1] is None
+            failed += int(np.count_nonzero(np.frombuffer(r[7], dtype="i1")))
+            ranges.setdefault(r[1], []).append((r[2], r[2] + r[3]))
+        try:
+            n_msgs = int(self._query("SELECT count(*) FROM failures")[0][0])
+            if n_msgs < failed:
+                rep.notes.append(
+                    f"{failed - n_msgs} of {failed} failed trials have no stored reason "
+                    "(their numbers are sound; only the text is missing)"
+                )
+        except StoreError as exc:
+            rep.problems.append(f"the failure reasons cannot be read ({exc})")
+        for stage, rs in ranges.items():
+            rs.sort()
+            for (_, a1), (b0, b1) in itertools.pairwise(rs):
+                if b0 < a1:
+                    rep.problems.append(
+                        f"stage {stage}: batches overlap at sequence {b0}..{min(a1, b1) - 1}"
+                    )
+        return rep
+
+    def check_batches(self) -> list[DamagedBatch]:
+        """Every batch (all stages) checked against its checksum and sizes, one at a time:
+        the damaged ones (a cheaper :meth:`verify`, without SQLite's page check)."""
+        spec = self.spec
+        widths = self._widths(spec)
+        checksum_col = "checksum" if self._has_checksums() else "NULL"
+        out = []
+        with self.snapshot():
+            stage_kind = {s.stage: s.kind for s in self.stages()}
+            for (block,) in self._query("SELECT block FROM blocks ORDER BY stage, seq_start"):
+                found = self._query(
+                    f"SELECT block, stage, seq_start, n, x, f, g, status, wall, {checksum_col} "
+                    "FROM blocks WHERE block = ?",
+                    (block,),
+                )
+                if not found:
+                    raise StoreDamagedError(
+                        f"store {self.path} is damaged: batch {block} is listed but cannot be "
+                        f"read; `vectorid repair {self.path}` rebuilds the store"
+                    )
+                bad = self._check_row(found[0], widths, stage_kind)
+                if bad is not None:
+                    out.append(bad)
+        return out
+
+    def drop_batches(self, blocks: Sequence[int], why: str) -> int:
+        """Delete batches (and their failure reasons) in one transaction; logs it in the run
+        log. Returns the number of trials dropped."""
+        self._require_write()
+        if not blocks:
+            return 0
+        dropped = 0
+        with self._tx() as con:
+            for block in blocks:
+                row = con.execute(
+                    "SELECT stage, seq_start, n FROM blocks WHERE block = ?", (block,)
+                ).fetchone()
+                if row is None:
+                    continue
+                stage, start, n = row
+                con.execute("DELETE FROM blocks WHERE block = ?", (block,))
+                # reasons of the dropped trials only: a damaged header may claim a range
+                # that overlaps a sound neighbour
+                con.execute(
+                    "DELETE FROM failures WHERE stage = ? AND seq >= ? AND seq < ? AND NOT "
+                    "EXISTS (SELECT 1 FROM blocks b WHERE b.stage = failures.stage AND "
+                    "failures.seq >= b.seq_start AND failures.seq < b.seq_start + b.n)",
+                    (stage, start, start + n),
+                )
+                dropped += int(n)
+            con.execute(
+                "INSERT INTO runs (started, finished, pid, host, executor, workers, target, "
+                "outcome) VALUES (?, ?, ?, ?, 'repair', 0, NULL, ?)",
+                (time.time(), time.time(), os.getpid(), socket.gethostname(), why),
+            )
+        return dropped
 
     # -- run log ---------------------------------------------------------------------------
 
@@ -764,6 +1592,48 @@ class Store:
             )
 
     def runs(self) -> list[dict[str, Any]]:
-        cur = self._con.execute("SELECT * FROM runs ORDER BY run")
-        names = [d[0] for d in cur.description]
-        return [dict(zip(names, row)) for row in cur.fetchall()]
+        try:
+            cur = self._con.execute("SELECT * FROM runs ORDER BY run")
+            names = [d[0] for d in cur.description]
+            return [dict(zip(names, row)) for row in cur.fetchall()]
+        except sqlite3.Error as exc:
+            raise _sqlite_damage(self.path, exc) from None
+
+
+def _size_problem(n: Any, blobs: Sequence[Any], widths: Mapping[str, int]) -> str | None:
+    """Why a batch's arrays cannot hold ``n`` trials of the study (None: they can)."""
+    if not isinstance(n, int) or n < 1:
+        return f"its trial count is unreadable ({n!r})"
+    for (name, label, _), blob in zip(_ARRAYS, blobs):
+        if not isinstance(blob, bytes):
+            return f"its {label} are not stored as bytes"
+        want = n * widths[name]
+        if len(blob) != want:
+            return (
+                f"its {label} hold {len(blob)} bytes, expected {want} for {n} trials "
+                "(cut short or overwritten)"
+            )
+    return None
+
+
+def _text(data: bytes) -> str:
+    return data.decode("utf-8", errors="replace")
+
+
+def _stage_checksum_row(stage: int, kind: str, start: int, box: str) -> tuple[str, str]:
+    text = f"{int(stage)}:{kind}:{int(start)}:{box}"
+    return (f"stage_checksum:{int(stage)}", f"{zlib.crc32(text.encode()):08x}")
+
+
+def _writer_text() -> str:
+    return (
+        f"pid {os.getpid()} on {socket.gethostname()}, since {time.strftime('%Y-%m-%d %H:%M:%S')}"
+    )
+
+
+@contextmanager
+def _suppress_os() -> Iterator[None]:
+    try:
+        yield
+    except OSError:
+        pass

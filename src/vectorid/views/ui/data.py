@@ -390,10 +390,15 @@ class StoreCache:
                 self._tables.popitem(last=False)
             return tables
 
-    def rows_of(self, ids: np.ndarray) -> np.ndarray:
-        """Rows of the cached sample trials with these ids (all must exist)."""
-        t = self.trials()
+    def rows_of(self, ids: np.ndarray, trials: Trials | None = None) -> np.ndarray:
+        """Rows with these ids (all must exist) in ``trials`` — pass the trials of the
+        Analysis the rows index (``a.trials``): a run appending meanwhile must not shift
+        them — default: the cached sample trials."""
+        t = trials if trials is not None else self.trials()
         ids = np.asarray(ids, dtype=np.int64)
+        if trials is not None:  # ids from a newer version may be missing: -1
+            where = {int(v): i for i, v in enumerate(t.id)}
+            return np.array([where.get(int(v), -1) for v in ids], dtype=np.int64)
         if len(t) and np.all(t.id[1:] > t.id[:-1]):  # ids ascend: binary search
             return np.searchsorted(t.id, ids)
         where = {int(v): i for i, v in enumerate(t.id)}

@@ -94,7 +94,9 @@ def summary_view(
         ]
         ranges.append({"name": t.name, "min": num(t.min), "max": num(t.max)})
         top = min(m, len(t.ids))
-        inside = a.feasible[ctx.cache.rows_of(t.ids[:top])]
+        rows = ctx.cache.rows_of(t.ids[:top], a.trials)  # -1: appended since `a` was made
+        inside = np.zeros(len(rows), dtype=bool)
+        inside[rows >= 0] = a.feasible[rows[rows >= 0]]
         for i in range(top):
             data[i][f"c{j}_id"] = int(t.ids[i])
             data[i][f"c{j}_v"] = num(t.values[i])

@@ -7,8 +7,6 @@ import math
 import time
 from typing import Any
 
-import numpy as np
-
 from ...analysis.choice import best_per_criterion, suggest_choice
 from ...analysis.refine import refine_history
 from .context import UIContext, fmt, limit_source_of, num
@@ -26,7 +24,7 @@ def overview_view(ctx: UIContext) -> dict[str, Any]:
         ``boxes`` (variable rows, a low..high column per sample stage), ``failures``
         (reason, count, example trial), ``runs`` and ``timing`` (text).
     """
-    from ...run.loop import _reason_key
+    from ...run.loop import group_failures
 
     _, t, stages = ctx.cache.state()  # first: it re-reads a definition saved meanwhile
     spec = ctx.spec
@@ -96,17 +94,11 @@ def overview_view(ctx: UIContext) -> dict[str, Any]:
             var = s.space.variables[j]
             row[f"stage {s.stage}"] = f"[{fmt(var.low)}, {fmt(var.high)}]"
         boxes.append(row)
-    reasons: dict[str, list[Any]] = {}
-    for (stage, seq), msg in sorted(t.messages.items()):
-        key = _reason_key(msg)
-        ent = reasons.setdefault(key, [0, None])
-        ent[0] += 1
-        if ent[1] is None:
-            hit = np.flatnonzero((t.stage == stage) & (t.seq == seq))
-            ent[1] = int(t.id[hit[0]]) if len(hit) else None
+    # grouped by reason; each shown with the real message of its first trial (no masked digits)
+    ids = {(int(s), int(q)): int(i) for s, q, i in zip(t.stage, t.seq, t.id)}
     failures = [
-        {"reason": k, "count": c, "example trial": ex}
-        for k, (c, ex) in sorted(reasons.items(), key=lambda kv: -kv[1][0])
+        {"reason": g.message, "count": g.count, "example trial": g.trial}
+        for g in group_failures(t.messages, ids)
     ]
     n_failed = int((t.status != 0).sum())
     if n_failed and not failures:

@@ -1,0 +1,183 @@
+"""Problem builders by kind: how a study definition becomes a :class:`~vectorid.problem.Problem`.
+
+The core (:mod:`vectorid.spec`) never names a plug-in: it asks this registry. A builder is a
+function ``build(spec) -> Problem``, registered under a *kind*:
+
+* a **model scheme** — the part of ``model = "SCHEME:..."`` before the colon (``cmd``,
+  ``fmu``), or the whole model for a bare ``"cmd"``;
+* a **table** — a top-level table of the study file (``[identification]``) whose presence
+  makes the study that kind, whatever its model;
+* ``"python"`` — everything else: a built-in analytic problem or ``package.module:function``.
+
+Built-in builders are registered here as ``"module:function"`` references, imported on first
+use (so importing vectorid imports neither the identification stack nor FMPy). A package adds
+its own with :func:`register_problem_builder`, the way Optuna registers samplers and
+storages::
+
+    from vectorid.builders import register_problem_builder
+    register_problem_builder("mysim", build_mysim_problem)      # model = "mysim:..."
+    register_problem_builder("campaign", build_campaign, table=True)   # a [campaign] table
+
+A builder may also say which data files the study reads (``data_files(spec) -> {field:
+path}``), so that a store can record their content and a later run can tell an edited data
+file from a moved one (see :mod:`vectorid.store.agreement`).
+"""
+
+from __future__ import annotations
+
+import importlib
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from .errors import StudyDefinitionError
+
+__all__ = [
+    "Builder",
+    "build_problem",
+    "builder_for",
+    "data_files",
+    "kind_of",
+    "register_problem_builder",
+    "table_kinds",
+]
+
+
+@dataclass
+class Builder:
+    """A registered problem builder (see the module docstring)."""
+
+    kind: str
+    build: Callable[[Any], Any] | str
+    table: bool = False
+    data_files: Callable[[Any], Mapping[str, Path]] | str | None = None
+
+    def resolve(self, attr: str) -> Callable[..., Any] | None:
+        ref = getattr(self, attr)
+        if isinstance(ref, str):
+            module, _, name = ref.partition(":")
+            ref = getattr(importlib.import_module(module), name)
+            setattr(self, attr, ref)
+        return ref
+
+
+_BUILDERS: dict[str, Builder] = {}
+
+
+def register_problem_builder(
+    kind: str,
+    build: Callable[[Any], Any] | str,
+    *,
+    table: bool = False,
+    data_files: Callable[[Any], Mapping[str, Path]] | str | None = None,
+) -> None:
+    """Register how studies of ``kind`` become a Problem.
+
+    Parameters
+    ----------
+    kind : str
+        Model scheme (``model = "KIND:..."``) or, with ``table=True``, the name of a
+        top-level table of the study file.
+    build : callable or str
+        ``build(spec) -> Problem``, or a ``"module:function"`` reference imported on first
+        use.
+    table : bool
+        The kind is a top-level table (it is then accepted by the study-file parser).
+    data_files : callable or str, optional
+        ``data_files(spec) -> {field: path}``: the data files the study reads.
+    """
+    if not isinstance(kind, str) or not kind or ":" in kind:
+        raise ValueError(f"a builder kind is a non-empty name without ':', got {kind!r}")
+    _BUILDERS[kind] = Builder(kind, build, table, data_files)
+
+
+def table_kinds() -> list[str]:
+    """Top-level tables that make a study a registered kind (``["identification"]``)."""
+    return sorted(k for k, b in _BUILDERS.items() if b.table)
+
+
+def kind_of(spec: Any) -> str:
+    """The kind of a study: a registered table it holds, else its model's scheme, else
+    ``"python"``."""
+    for kind in table_kinds():
+        if kind in getattr(spec, "extra", {}):
+            return kind
+    model = spec.model
+    if isinstance(model, str):
+        scheme = model.partition(":")[0]
+        b = _BUILDERS.get(scheme)
+        if b is not None and not b.table and scheme != "python":
+            return scheme
+    return "python"
+
+
+def builder_for(spec: Any) -> Builder:
+    kind = kind_of(spec)
+    try:
+        return _BUILDERS[kind]
+    except KeyError:  # pragma: no cover - "python" is always registered
+        raise StudyDefinitionError("study.model", f"no problem builder for kind {kind!r}") from None
+
+
+def build_problem(spec: Any) -> Any:
+    """The Problem of ``spec``, built by the builder of its kind."""
+    build = builder_for(spec).resolve("build")
+    assert build is not None
+    return build(spec)
+
+
+def data_files(spec: Any) -> dict[str, Path]:
+    """``{field: path}`` of the data files the study reads (empty when its builder does not
+    say). Paths are resolved against the study file's folder."""
+    b = builder_for(spec)
+    if b.data_files is None:
+        return {}
+    fn = b.resolve("data_files")
+    assert fn is not None
+    return dict(fn(spec))
+
+
+def _identification_files(spec: Any) -> dict[str, Path]:
+    """Data files of an ``[identification]`` table: each drop's ``file`` (or ``files``) and
+    ``wind``."""
+    table = spec.extra.get("identification")
+    base = Path(spec.base_dir) if spec.base_dir else Path.cwd()
+    out: dict[str, Path] = {}
+    if not isinstance(table, Mapping):
+        return out
+    drops = table.get("drops")
+    if not isinstance(drops, list):
+        return out
+    for i, drop in enumerate(drops):
+        if not isinstance(drop, Mapping):
+            continue
+        where = f"identification.drops[{i}]"
+        for key in ("file", "wind"):
+            if isinstance(drop.get(key), str):
+                out[f"{where}.{key}"] = base / drop[key]
+        files = drop.get("files")
+        if isinstance(files, list):
+            for j, src in enumerate(files):
+                if isinstance(src, Mapping) and isinstance(src.get("file"), str):
+                    out[f"{where}.files[{j}].file"] = base / src["file"]
+    return out
+
+
+def _fmu_files(spec: Any) -> dict[str, Path]:
+    rest = str(spec.model).partition(":")[2].strip()
+    if not rest:
+        return {}
+    base = Path(spec.base_dir) if spec.base_dir else Path.cwd()
+    return {"study.model": base / rest}
+
+
+register_problem_builder("python", "vectorid.problem:build_python_problem")
+register_problem_builder("cmd", "vectorid.external:build_external_problem")
+register_problem_builder("fmu", "vectorid.external:build_external_problem", data_files=_fmu_files)
+register_problem_builder(
+    "identification",
+    "vectorid.identify.identification:problem_from_spec",
+    table=True,
+    data_files=_identification_files,
+)
