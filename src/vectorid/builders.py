@@ -20,7 +20,11 @@ storages::
 
 A builder may also say which data files the study reads (``data_files(spec) -> {field:
 path}``), so that a store can record their content and a later run can tell an edited data
-file from a moved one (see :mod:`vectorid.store.agreement`).
+file from a moved one (see :mod:`vectorid.store.agreement`); how a definition is completed
+once when its store is created (``prepare(spec) -> spec``: an identification computes its
+noise-floor criteria constraints there); and which keys of its table only shape the
+analysis (``analysis_keys``: the noise statement behind those constraints), so that editing
+them is taken into an existing store rather than refused.
 """
 
 from __future__ import annotations
@@ -35,10 +39,12 @@ from .errors import StudyDefinitionError
 
 __all__ = [
     "Builder",
+    "analysis_only",
     "build_problem",
     "builder_for",
     "data_files",
     "kind_of",
+    "prepare_spec",
     "register_problem_builder",
     "table_kinds",
 ]
@@ -52,6 +58,8 @@ class Builder:
     build: Callable[[Any], Any] | str
     table: bool = False
     data_files: Callable[[Any], Mapping[str, Path]] | str | None = None
+    prepare: Callable[[Any], Any] | str | None = None
+    analysis_keys: tuple[str, ...] = ()
 
     def resolve(self, attr: str) -> Callable[..., Any] | None:
         ref = getattr(self, attr)
@@ -71,6 +79,8 @@ def register_problem_builder(
     *,
     table: bool = False,
     data_files: Callable[[Any], Mapping[str, Path]] | str | None = None,
+    prepare: Callable[[Any], Any] | str | None = None,
+    analysis_keys: tuple[str, ...] = (),
 ) -> None:
     """Register how studies of ``kind`` become a Problem.
 
@@ -86,10 +96,16 @@ def register_problem_builder(
         The kind is a top-level table (it is then accepted by the study-file parser).
     data_files : callable or str, optional
         ``data_files(spec) -> {field: path}``: the data files the study reads.
+    prepare : callable or str, optional
+        ``prepare(spec) -> spec``: the definition completed once when its store is created
+        (derived criteria constraints, units filled); it must be deterministic.
+    analysis_keys : tuple of str
+        Keys of the kind's table (at any depth, e.g. ``noise`` also inside a drop) that
+        only shape the analysis, never a computed trial.
     """
     if not isinstance(kind, str) or not kind or ":" in kind:
         raise ValueError(f"a builder kind is a non-empty name without ':', got {kind!r}")
-    _BUILDERS[kind] = Builder(kind, build, table, data_files)
+    _BUILDERS[kind] = Builder(kind, build, table, data_files, prepare, tuple(analysis_keys))
 
 
 def table_kinds() -> list[str]:
@@ -138,6 +154,29 @@ def data_files(spec: Any) -> dict[str, Path]:
     return dict(fn(spec))
 
 
+def prepare_spec(spec: Any) -> Any:
+    """``spec`` completed by its builder's ``prepare`` hook (unchanged when it has none)."""
+    b = builder_for(spec)
+    if b.prepare is None:
+        return spec
+    fn = b.resolve("prepare")
+    assert fn is not None
+    return fn(spec)
+
+
+def analysis_only(spec: Any, path: str) -> bool:
+    """Whether the flattened field ``path`` (``"identification.drops[0].noise.velocity"``) of
+    ``spec``'s own table only shapes the analysis (see ``analysis_keys``)."""
+    b = builder_for(spec)
+    if not b.table or not b.analysis_keys:
+        return False
+    head, _, rest = path.partition(".")
+    if head != b.kind:
+        return False
+    parts = [p.split("[")[0] for p in rest.split(".")]
+    return any(p in b.analysis_keys for p in parts)
+
+
 def _identification_files(spec: Any) -> dict[str, Path]:
     """Data files of an ``[identification]`` table: each drop's ``file`` (or ``files``) and
     ``wind``."""
@@ -180,4 +219,14 @@ register_problem_builder(
     "vectorid.identify.identification:problem_from_spec",
     table=True,
     data_files=_identification_files,
+    prepare="vectorid.identify.noise:resolve_noise_limits",
+    analysis_keys=(
+        "noise",
+        "discrepancy",
+        "limits",
+        "noise_quantile",
+        "noise_coverage",
+        "noise_draws",
+        "noise_seed",
+    ),
 )

@@ -522,7 +522,7 @@ def _parse_criterion(where: str, item: Mapping[str, Any]) -> Criterion:
         if limit != "noise":
             raise StudyDefinitionError(
                 f"criteria.{item['name']}.limit",
-                f'expected a number or "noise", got {limit!r}',
+                f'expected a number or "noise", got {shown(limit)} (str)',
                 'write limit = 40.0, or limit = "noise" in an identification study',
             )
         limit, source = None, "noise"

@@ -48,8 +48,9 @@ class Study:
     def create(cls, spec: StudySpec | str | Path, store: str | Path) -> Study:
         """Create the store for ``spec`` (a spec or a study file path).
 
-        An identification study's noise-floor limits (``limit = "noise"``, see
-        :mod:`vectorid.identify.noise`) are computed here, once, and kept with the study.
+        The definition is completed here, once, by its builder's ``prepare`` hook (an
+        identification study's noise-floor limits, ``limit = "noise"``: see
+        :mod:`vectorid.identify.noise`) and kept with the study.
 
         Raises
         ------
@@ -58,11 +59,10 @@ class Study:
         """
         if not isinstance(spec, StudySpec):
             spec = load_study(spec)
-        if "identification" in spec.extra:
-            from .identify.noise import resolve_noise_limits
-
-            spec = resolve_noise_limits(spec)
+        from .builders import prepare_spec
         from .store.agreement import data_file_hashes
+
+        spec = prepare_spec(spec)
 
         return cls(Store.create(store, spec, data_files=data_file_hashes(spec)))
 
@@ -110,6 +110,11 @@ class Study:
         st = Store.open(path, write=True)
         try:
             agreement = compare(st.spec, spec, st.data_files())
+            if agreement and not agreement.refused and _derived(st.spec, spec):
+                # the file leaves derived parts (noise-floor limits) to be computed: take the
+                # stored ones when nothing they derive from changed, else compute them anew
+                spec = _with_derived(st.spec, spec, agreement)
+                agreement = compare(st.spec, spec, st.data_files())
         except BaseException:
             st.close()
             raise
@@ -183,6 +188,44 @@ class Study:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+def _derived(held: StudySpec, given: StudySpec) -> bool:
+    """Whether ``given`` leaves to its builder a criteria constraint that the store holds as
+    derived (a noise floor: ``limit = "noise"`` or ``[identification] limits = "noise"``)."""
+    stored = {c.name: c for c in held.criteria}
+    return any(
+        c.limit is None and c.name in stored and stored[c.name].limit_source == "noise"
+        for c in given.criteria
+    ) or any(c.limit is None and c.limit_source == "noise" for c in given.criteria)
+
+
+def _with_derived(held: StudySpec, given: StudySpec, agreement: Any) -> StudySpec:
+    """``given`` with its derived criteria constraints: the stored ones where nothing they
+    derive from changed (only limits, their notes and units differ), else computed anew by
+    the builder's ``prepare`` hook (which also drops them when the file no longer asks)."""
+    from dataclasses import replace as _replace
+
+    from .builders import analysis_only, prepare_spec
+
+    if any(analysis_only(given, d.field) for d in agreement.differences):
+        return prepare_spec(given)
+    stored = {c.name: c for c in held.criteria}
+    crit = []
+    for c in given.criteria:
+        h = stored.get(c.name)
+        if c.limit is None and h is not None and h.limit_source == "noise":
+            c = _replace(
+                c,
+                limit=h.limit,
+                limit_source="noise",
+                limit_note=h.limit_note,
+                unit=c.unit or h.unit,
+            )
+        elif c.limit is None and c.limit_source == "noise":
+            return prepare_spec(given)
+        crit.append(c)
+    return _replace(given, criteria=tuple(crit))
 
 
 def _refusal(path: Path, study_file: str | Path | None, agreement: Any, n: int) -> str:

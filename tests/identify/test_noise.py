@@ -387,6 +387,42 @@ def test_limit_noise_on_one_criterion_and_the_expert_keeps_his(tmp_path):
     assert again.criteria == out.criteria
 
 
+@pytest.mark.parametrize("per_criterion", [False, True])
+def test_rerunning_the_study_file_keeps_or_recomputes_the_noise_limits(tmp_path, per_criterion):
+    """The file says limits = "noise" (unresolved); the store holds the resolved floors. A
+    re-run of the unchanged file keeps them; a changed noise statement recomputes them (taken,
+    no trial changes); dropping the request drops them."""
+    import warnings
+
+    if per_criterion:
+        crit = [{"name": "alt_abs", "limit": "noise"}, {"name": "vz_abs", "limit": "noise"}]
+        extra = {"noise": {"altitude": SIGMA_H}}
+    else:
+        crit, extra = None, {"noise": {"altitude": SIGMA_H}, "limits": "noise"}
+    store = tmp_path / "s.db"
+    with Study.create(_study(tmp_path, extra, crit), store) as st:
+        st.run(executor="serial")
+        first = {c.name: c.limit for c in st.spec.criteria}
+    assert all(v is not None for v in first.values())
+
+    def rerun(extra, crit):
+        with warnings.catch_warnings(record=True):
+            warnings.simplefilter("always")
+            with Study.create_or_open(_study(tmp_path, extra, crit), store) as st:
+                return {c.name: (c.limit, c.source) for c in st.spec.criteria}
+
+    same = rerun(extra, crit)
+    assert {k: v[0] for k, v in same.items()} == first
+    assert all(src == "noise" for _, src in same.values())
+    louder = rerun({**extra, "noise": {"altitude": 3 * SIGMA_H}}, crit)
+    assert all(louder[k][0] > first[k] for k in first)  # recomputed, larger floors
+    if not per_criterion:
+        gone = rerun({"noise": {"altitude": SIGMA_H}}, crit)
+        assert all(v[0] is None for v in gone.values())
+    with Study.open(store) as st:
+        assert st.store.count() == 64  # nothing recomputed, nothing lost
+
+
 def test_noise_statement_errors_name_the_fix(tmp_path):
     with pytest.raises(StudyDefinitionError, match="no noise is stated"):
         resolve_noise_limits(_study(tmp_path, {"limits": "noise"}))

@@ -30,6 +30,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from ..builders import analysis_only
 from ..spec import StudySpec
 
 __all__ = ["Agreement", "Difference", "compare", "data_file_hashes"]
@@ -51,6 +52,8 @@ TAKEN_CRITERION = {
     "sense": "how stored values are read",
     "role": "an analysis choice",
     "limit": "a criteria constraint (analysis only)",
+    "limit_source": "where a criteria constraint came from (analysis only)",
+    "limit_note": "where a criteria constraint came from (analysis only)",
     "unit": "a label",
     "description": "a label",
 }
@@ -240,7 +243,10 @@ def compare(
             if path in files_held or path in files_given:
                 continue  # data files: compared by content below
             if vx != vy:
-                add(path, vx, vy, False, "changes the trials")
+                if analysis_only(given, path):
+                    add(path, vx, vy, True, "what the criteria constraints derive from")
+                else:
+                    add(path, vx, vy, False, "changes the trials")
 
     # data files, by content
     recorded = dict(recorded or {})
