@@ -169,7 +169,7 @@ def run(model: TwoDrops, store: Path, trials: int, limits: dict | None, name: st
         crit.append(Criterion(c, unit="m·s", limit=lim, limit_source=src, limit_note=note))
     spec = StudySpec(
         name=name, model=evaluate, space=space, criteria=tuple(crit),
-        trials=trials, seed=1, executor="serial",
+        trials=trials, seed=1, executor="inline",
     )  # fmt: skip
     meanings = {**MEANINGS, **{v: "uniform wind of the drop, m/s" for v in model.variables
                                if v.startswith("wind_")}}  # fmt: skip

@@ -3,7 +3,7 @@
 Verbs (a contract; more may be added)::
 
     vectorid run STUDY.toml|STORE [--trials N] [--store PATH]
-                                  [--executor serial|processes|dask] [--scheduler tcp://H:P]
+                                  [--executor serial|processes|dask|inline] [--scheduler tcp://H:P]
                                   [--timeout SECONDS] [--workers N] [--batch-size N] [--quiet]
     vectorid info STORE [--json]
     vectorid verify STORE [--json]
@@ -101,7 +101,7 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--store", help="store path (default: the study's, else STUDY.db)")
     r.add_argument(
         "--executor",
-        choices=["serial", "processes", "dask"],
+        choices=["serial", "processes", "dask", "inline"],
         help="default: the study's, else processes (dask with --scheduler)",
     )
     r.add_argument("--workers", type=positive_int, help="worker processes (default: all cores)")
@@ -135,7 +135,7 @@ def _parser() -> argparse.ArgumentParser:
     rp.add_argument("store")
     rp.add_argument(
         "--executor",
-        choices=["serial", "processes", "dask"],
+        choices=["serial", "processes", "dask", "inline"],
         help="how to recompute (default: the study's, else processes)",
     )
     rp.add_argument("--workers", type=positive_int, help="worker processes (default: all cores)")

@@ -625,15 +625,17 @@ def run_stage(
                 study.store.set_limits(noise, sources={c: ("noise", notes0[c]) for c in noise})
             return f, a0.n_feasible
 
+        # the study's own executor ("inline" for the examples' stateful models), else serial
+        executor = study.spec.executor or "serial"
         if coarse > 0 and len([s for s in study.store.stages() if s.kind == "sample"]) == 1:
-            study.run(trials=coarse, executor="serial", progress=progress)
+            study.run(trials=coarse, executor=executor, progress=progress)
             relax(None)
             a = study.analysis()
             if a.n_feasible >= 5:
                 proposal = noise_refine(a, study.store.stages(), reference)
                 apply_refine(study.store, proposal)
                 proposals.append(proposal)
-        study.run(trials=coarse + trials, executor="serial", progress=progress)
+        study.run(trials=coarse + trials, executor=executor, progress=progress)
         f, n_noise = relax(None)
         a = study.analysis()
         spec_now = study.spec

@@ -58,7 +58,7 @@ _STUDY_KEYS = {
     "scramble": "Owen-scramble the Sobol sequence (default false)",
     "store": "path of the SQLite store, relative to the study file",
     "description": "free text",
-    "executor": "'serial', 'processes' or 'dask'",
+    "executor": "'serial', 'processes', 'dask' or 'inline' (no model process)",
     "workers": "number of worker processes",
     "scheduler": "Dask scheduler 'tcp://HOST:PORT' (executor 'dask'; default: local cluster)",
     "timeout": "most seconds one trial may take (default: no limit)",
@@ -72,7 +72,7 @@ _CRITERION_KEYS = {
 }  # fmt: skip
 _CONSTRAINT_KEYS = {"name", "low", "high", "unit", "description"}
 _VARIABLE_TYPES = ("continuous", "integer", "choice")
-EXECUTORS = ("serial", "processes", "dask")
+EXECUTORS = ("serial", "processes", "dask", "inline")
 
 
 _ADDRESS = re.compile(
@@ -146,7 +146,7 @@ class StudySpec:
     base_dir : str, optional
         Folder of the study file, put on the import path for ``module:function`` models.
     executor, workers : optional
-        Default executor (``"serial"``, ``"processes"``, ``"dask"``) and worker count.
+        Default executor (``"serial"``, ``"processes"``, ``"dask"``, ``"inline"``) and worker count.
     scheduler : str, optional
         Dask scheduler address ``"tcp://HOST:PORT"`` (executor ``"dask"``).
     timeout : float, optional

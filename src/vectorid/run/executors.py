@@ -74,9 +74,11 @@ __all__ = [
     "EXECUTORS",
     "WORKER_MEMORY",
     "Executor",
+    "InlineExecutor",
     "ProcessExecutor",
     "SerialExecutor",
     "check_workers",
+    "end_with_parent",
     "executor_options",
     "make_executor",
 ]
@@ -492,6 +494,18 @@ def _watch_parent(parent: int) -> None:
     threading.Thread(target=watch, name="vectorid-parent-watch", daemon=True).start()
 
 
+def end_with_parent(parent: int, *, pdeathsig: bool = True) -> None:
+    """Make this (child) process end when its parent ``parent`` does: the kernel's parent
+    death signal where it applies (Linux; the parent must have started this process from the
+    thread that stays alive), and a watchdog thread everywhere. For the long-lived helper
+    processes vectorid starts (executor workers, the UI's job worker)."""
+    if pdeathsig:
+        _set_parent_death_signal()
+    if os.getppid() != parent:  # the parent died before we got here
+        os._exit(0)
+    _watch_parent(parent)
+
+
 def _worker_main(
     conn: mpc.Connection,
     spec: StudySpec | bytes,
@@ -500,11 +514,7 @@ def _worker_main(
     one_thread: bool = True,
 ) -> None:
     """Body of a worker process: build the model once, then evaluate what comes in."""
-    if pdeathsig:
-        _set_parent_death_signal()
-    if os.getppid() != parent:  # the parent died before we got here
-        os._exit(0)
-    _watch_parent(parent)
+    end_with_parent(parent, pdeathsig=pdeathsig)
     from ..store.sqlite import close_inherited_locks
 
     close_inherited_locks()
@@ -869,12 +879,47 @@ class _Inline(Exception):
     """The model cannot be sent to a child process (internal)."""
 
 
+class InlineExecutor(SerialExecutor):
+    """Evaluates batches one after the other in this process, with no model process.
+
+    For a model that only this process can build: a function whose module keeps state the
+    calling script set up (the real-parafoil examples), or one that cannot be imported or
+    pickled by a fresh interpreter. Nothing protects the study from the model: a timeout is
+    not enforced, and a crash or ``sys.exit`` in the model ends the run (what was stored
+    stays stored; ``vectorid run STORE`` resumes). Use ``serial`` when the model can run in
+    a child process.
+    """
+
+    name = "inline"
+
+    def __init__(
+        self,
+        spec: StudySpec,
+        workers: int | None = None,
+        timeout: float | None = None,
+        memory_limit: int | None = None,
+    ) -> None:
+        if timeout is not None:
+            raise StudyDefinitionError(
+                "timeout",
+                f"executor 'inline' runs the model in this process and cannot stop a trial "
+                f"after {timeout:g} s",
+                "use executor 'serial' (one model process) for a timeout, or drop it",
+            )
+        super().__init__(spec, workers, None, memory_limit)
+
+    def start(self) -> None:
+        if self._inline is None:
+            self._inline = self.spec.problem()
+
+
 # -- registry ------------------------------------------------------------------------------
 
 #: Executors by name: a class, or ``"module:Class"`` imported on first use (so importing
 #: vectorid never imports Dask).
 EXECUTORS: dict[str, type[Executor] | str] = {
     "serial": SerialExecutor,
+    "inline": InlineExecutor,
     "processes": ProcessExecutor,
     "dask": "vectorid.run.dask:DaskExecutor",
 }

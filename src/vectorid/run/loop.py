@@ -312,7 +312,7 @@ def run_store(
         Total number of trials the study should hold (default: the study's ``trials``). A
         larger number than before extends the study along the same sequence; a smaller one
         than is stored computes nothing and keeps every stored trial (the summary says so).
-    executor : {"serial", "processes", "dask"}, optional
+    executor : {"serial", "processes", "dask", "inline"}, optional
         Default: the study's executor, else ``"processes"``.
     workers : int, optional
         Worker processes (default: all cores).

@@ -16,6 +16,7 @@ then waits for the next job. A worker that died is started again for the next jo
 
 from __future__ import annotations
 
+import atexit
 import multiprocessing as mp
 import os
 import queue as queue_mod
@@ -23,6 +24,7 @@ import signal
 import threading
 import time
 import traceback
+import weakref
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -199,9 +201,14 @@ def _one_job(kind: str, store_path: str, params: dict[str, Any]) -> tuple[str, s
         return "error", f"{type(exc).__name__}: {exc}"
 
 
-def _worker_main(inbox: Any, out: Any) -> None:
+def _worker_main(inbox: Any, out: Any, parent: int) -> None:
     """The worker process: warm the imports, then run each job from ``inbox`` and report
-    ``(job id, state, message)`` on ``out``, until it receives None."""
+    ``(job id, state, message)`` on ``out``, until it receives None. It is not a daemon
+    (its jobs run the study's executor, whose serial form keeps the model in a child
+    process), so it ends with the UI's process instead (:func:`end_with_parent`)."""
+    from vectorid.run.executors import end_with_parent
+
+    end_with_parent(parent, pdeathsig=False)  # started from a request thread: watchdog only
     import vectorid.run.extra
     import vectorid.run.loop  # noqa: F401
 
@@ -224,6 +231,12 @@ def _worker_main(inbox: Any, out: Any) -> None:
                 break
             except KeyboardInterrupt:
                 continue
+
+
+def _shutdown_at_exit(ref: Any) -> None:
+    manager = ref()
+    if manager is not None:
+        manager.shutdown(timeout=5.0)
 
 
 class JobManager:
@@ -260,6 +273,7 @@ class JobManager:
         self._inbox: Any = None
         self._status = JobStatus()
         self._base = 0  # sample trials stored when the run job began
+        self._atexit = False
 
     def _worker_locked(self) -> None:
         """Start the worker process when none is alive."""
@@ -268,10 +282,14 @@ class JobManager:
         self._inbox = self._ctx.Queue()
         self._queue = self._ctx.Queue()
         self._proc = self._ctx.Process(
-            target=_worker_main, args=(self._inbox, self._queue), name="vectorid-ui-jobs"
+            target=_worker_main,
+            args=(self._inbox, self._queue, os.getpid()),
+            name="vectorid-ui-jobs",
         )
-        self._proc.daemon = True
         self._proc.start()
+        if not self._atexit:  # before multiprocessing's own exit handler joins the worker
+            atexit.register(_shutdown_at_exit, weakref.ref(self))
+            self._atexit = True
 
     def warm(self) -> None:
         """Start the worker now (it imports vectorid once; jobs then start at once)."""
