@@ -149,3 +149,26 @@ def test_verdicts_json_shape(store):
     with Study.open(store) as st:
         doc = verdicts_json(identifiability(st.analysis()))
     assert json.loads(json.dumps(doc))["parameters"][0]["name"] == "x1"
+
+
+def test_ranges_in_one_pass_equal_the_ranges_column_by_column():
+    """The ranges per variable over a set of trials (computed for every variable at once)
+    are those of each column's finite values, NaN where a column has none."""
+    import numpy as np
+
+    from vectorid.analysis.identifiability import _col_ranges
+
+    rng = np.random.default_rng(3)
+    X = rng.normal(size=(500, 4))
+    X[rng.random(500) < 0.1, 1] = np.nan
+    X[:7, 2] = np.inf
+    X[:, 3] = np.nan
+    for mask in (rng.random(500) < 0.3, np.zeros(500, bool), np.ones(500, bool)):
+        lo, hi = _col_ranges(np.ascontiguousarray(X.T), mask)
+        for j in range(4):
+            col = X[mask, j]
+            col = col[np.isfinite(col)]
+            if col.size:
+                assert (lo[j], hi[j]) == (col.min(), col.max())
+            else:
+                assert np.isnan(lo[j]) and np.isnan(hi[j])
