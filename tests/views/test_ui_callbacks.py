@@ -339,7 +339,7 @@ def test_parallel_brushes_set_constraints_and_select_a_sub_box(ctx, bk):
 
 def test_history_counts_grow_with_the_trials(ctx, bk):
     fig = _fig(cb.history_view(ctx, ["40", ""], PURE2))
-    n, nd, npar = (np.asarray(t.y, float) for t in fig.data)
+    n, nd, npar = (np.asarray(t.y, float) for t in fig.data[:3])
     x = np.asarray(fig.data[0].x)
     a = _direct(bk, {"f1": 40.0})
     assert x[-1] == a.n and nd[-1] == a.n_feasible and npar[-1] == a.n_pareto
