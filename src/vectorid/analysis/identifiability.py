@@ -159,6 +159,7 @@ def identifiability(
     hints: Mapping[str, str] | None = None,
     stages: Sequence[Any] | None = None,
     reference: Mapping[str, tuple[float, float]] | None = None,
+    columns: np.ndarray | None = None,
 ) -> list[ParameterVerdict]:
     """A verdict per design variable of ``a``'s study (see the module docstring).
 
@@ -185,6 +186,10 @@ def identifiability(
         reaches an edge of the narrower study box, "earlier step's box" is among the
         constraints that cut the range. Default: the study's ``[x-identifiability]
         reference`` table (the two-step writes it into step 2's study).
+    columns : (p, n) float array, optional
+        ``a.trials.X`` transposed, C-contiguous, where the caller keeps it across analyses of
+        the same trials (the browser UI does: at 1e6 trials the transpose costs more than
+        the verdicts); made here when not given.
 
     Returns
     -------
@@ -203,16 +208,20 @@ def identifiability(
     masks = {(b.name, b.side): a._bound_mask(b.name, b.side) for b in bounds}
     # ranges of every variable over D, the Pareto set and the trials meeting every
     # constraint but one: one pass over the chosen trials per set (about 10 ms at 1e5 trials)
-    XT = np.ascontiguousarray(X.T) if len(X) else np.zeros((len(space), 0))
-    others = {}
+    if columns is not None and np.shape(columns) == (len(space), len(X)):
+        XT = np.ascontiguousarray(columns, dtype=float)
+    else:
+        XT = np.ascontiguousarray(X.T) if len(X) else np.zeros((len(space), 0))
+    feas_r = _col_ranges(XT, a.feasible)
+    par_r = _col_ranges(XT, a.pareto)
+    others = {}  # D lies inside each of these sets: only the trials outside D are gathered
     for b in bounds:
-        m = a.ok.copy()
+        m = a.ok & ~a.feasible
         for key, mk in masks.items():
             if key != (b.name, b.side):
                 m &= mk
-        others[(b.name, b.side)] = _col_ranges(XT, m)
-    feas_r = _col_ranges(XT, a.feasible)
-    par_r = _col_ranges(XT, a.pareto)
+        lo, hi = _col_ranges(XT, m)
+        others[(b.name, b.side)] = (np.fmin(lo, feas_r[0]), np.fmax(hi, feas_r[1]))
     if len(X):
         all_lo, all_hi = np.fmin.reduce(XT, axis=1), np.fmax.reduce(XT, axis=1)
     out = []

@@ -3,8 +3,9 @@
 * :func:`verdicts_of` — each design variable's verdict (identified / weak / not identified),
   feasible and Pareto ranges, the constraints that cut it and what would identify it, under
   the constraints in force, from the same :class:`~vectorid.analysis.Analysis` the other
-  views use (:func:`vectorid.analysis.identifiability.identifiability`; about 10 ms at 1e5
-  trials and 12 variables, memoised per analysis);
+  views use (:func:`vectorid.analysis.identifiability.identifiability`; about 5 ms at 1e5
+  trials and 12 variables and 60 ms at 1e6, memoised per analysis; the transposed
+  parameters it reads are kept once per store version);
 * :func:`verdict_rows`, :func:`verdict_line`, :func:`chosen_text` — the verdicts as the
   refine view, the explorer and the chosen trial show them: a value only for an identified
   variable, otherwise its feasible range with the verdict, never a lone value;
@@ -17,6 +18,8 @@ from __future__ import annotations
 
 from collections import OrderedDict
 from typing import Any
+
+import numpy as np
 
 from ...analysis.identifiability import ParameterVerdict, identifiability
 from ...analysis.results import Analysis
@@ -57,7 +60,13 @@ def verdicts_of(ctx: UIContext, a: Analysis) -> list[ParameterVerdict]:
         return hit[1]
     _, _, stages = ctx.cache.state()
     meanings = {n: ctx.labels.meaning.get(n, "") for n in a.spec.space.names}
-    vs = identifiability(a, meanings={k: v for k, v in meanings.items() if v}, stages=stages)
+    cols = ctx.extra.get("columns")  # the trials' parameters transposed, once per store version
+    if cols is None or cols[0] is not a.trials:
+        cols = (a.trials, np.ascontiguousarray(a.trials.X.T))
+        ctx.extra["columns"] = cols
+    vs = identifiability(
+        a, meanings={k: v for k, v in meanings.items() if v}, stages=stages, columns=cols[1]
+    )
     memo[id(a)] = (a, vs)
     while len(memo) > _MEMO:
         memo.popitem(last=False)
