@@ -13,8 +13,9 @@ among its quantiles, seeded) goes through the *same plain functions the Dash cal
 (:mod:`vectorid.views.ui.callbacks`), each response serialised with
 ``plotly.io.json.to_json_plotly`` as Dash does: ``counts`` (N/ND/NP alone), ``test tables``,
 ``scatter`` (criterion vs criterion), ``histograms``, ``criterion vs param``, ``parallel``,
-``verdicts`` (the identifiability verdicts and the limits' sources under the new limit: their
-own request, never on the counts' path).
+and ``verdicts`` (the identifiability verdicts and the limits' sources under the new limit,
+computed once per constraint set; the ``test tables`` request, which shows them in one line
+on the explorer, reuses them).
 Baselines in the same run, same changes: ``reload`` (no trial cache: the store is read and
 analysed again on every change) and ``no thinning`` (every trial drawn as a point).
 ``ratio`` = baseline / ours (> 1: ours is faster).
@@ -104,11 +105,11 @@ def _measure(ctx, texts, roles, *, cvp: bool) -> dict[str, float]:
     out = {}
     steps = [
         ("counts", lambda: cb.counts_view(ctx, texts, roles)),
+        ("verdicts", lambda: cb.identifiability_view(ctx, texts, roles)),
         ("test tables", lambda: cb.summary_view(ctx, texts, roles)),
         ("scatter", lambda: cb.scatter_view(ctx, texts, roles, "f1", "f2", None, None)),
         ("histograms", lambda: cb.panel_view(ctx, texts, roles, "histograms")),
         ("parallel", lambda: cb.parallel_view(ctx, texts, roles)),
-        ("verdicts", lambda: cb.identifiability_view(ctx, texts, roles)),
     ]
     if cvp:
         steps.append(("criterion vs param", lambda: cb.panel_view(ctx, texts, roles, "cvp", "f1")))

@@ -709,6 +709,7 @@ def test_verdicts_follow_the_constraints_in_force(tmp_path):
         ]
         assert [r["ranges"]["feasible"] for r in rows] == [list(w.feasible) for w in want]
         got[f1] = rows
+        assert cb.summary_view(c, [f1, "30"], PURE2)["verdicts"] == v["line"]  # the explorer's
         # the refine view and the chosen trial show the same verdicts
         ref = cb.refine_view(c, [f1, "30"], PURE2, "feasible", "0.05", "0.1")
         assert [r["identifiability"] for r in ref["rows"]] == [w.verdict for w in want]

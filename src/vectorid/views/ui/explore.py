@@ -16,7 +16,7 @@ from ...errors import StudyDefinitionError, VectoridError
 from .. import clouds
 from .context import UIContext, analysis_of, fmt, num
 from .data import parse_trial_id
-from .verdicts import limit_sources
+from .verdicts import limit_sources, verdict_line, verdicts_of
 
 __all__ = [
     "box_to_limits",
@@ -68,8 +68,10 @@ def summary_view(
         ``counts`` (n, nd, np, failed, functional), ``invalid`` (per criterion),
         ``invalid_functional`` (``[low, high]`` per functional constraint), ``messages``,
         ``in_force`` (text), ``pure``, ``ranges`` (min/max per criterion), ``table``
-        (columns, data, styles of the test tables) and ``sources`` (where each criterion's
-        limit in force came from, :func:`~vectorid.views.ui.verdicts.limit_sources`).
+        (columns, data, styles of the test tables), ``sources`` (where each criterion's
+        limit in force came from, :func:`~vectorid.views.ui.verdicts.limit_sources`) and
+        ``verdicts`` (the identifiability verdicts in one line,
+        :func:`~vectorid.views.ui.verdicts.verdict_line`).
     """
     a, c = analysis_of(ctx, limit_texts, roles, functional)
     messages = list(c.messages)
@@ -125,6 +127,7 @@ def summary_view(
         "ranges": ranges,
         "table": {"columns": columns, "data": data, "styles": styles},
         "sources": limit_sources(ctx, a, c),
+        "verdicts": verdict_line(verdicts_of(ctx, a)),
     }
 
 

@@ -19,7 +19,7 @@ from ..explore import (
     summary_view,
 )
 from ..overview import initial_choice
-from ..verdicts import identifiability_view, limit_sources
+from ..verdicts import limit_sources
 from .common import Wiring, err, safe, table
 
 __all__ = ["counts_children", "header", "layout", "register"]
@@ -434,6 +434,7 @@ def register(app: Any, ctx: UIContext, w: Wiring) -> None:
         Output("test-table", "columns"),
         Output("test-table", "data"),
         Output("test-table", "style_data_conditional"),
+        Output("vid-verdicts", "children"),
         [Output(i, "className") for i in lim_ids]
         + [Output(i, "className") for i in w.ids("low")]
         + [Output(i, "className") for i in w.ids("high")]
@@ -451,7 +452,7 @@ def register(app: Any, ctx: UIContext, w: Wiring) -> None:
             s = summary_view(ctx, texts, roles, pairs)
         except Exception as exc:
             keep = [no_update] * (4 * K + 2 * Q)
-            return (err(exc), no_update, no_update, no_update, no_update, *keep)
+            return (err(exc), no_update, no_update, no_update, no_update, no_update, *keep)
         t = s["table"]
         cls = ["invalid" if bad else "" for bad in s["invalid"]]
         cls += ["invalid" if lo else "" for lo, _ in s["invalid_functional"]]
@@ -467,17 +468,9 @@ def register(app: Any, ctx: UIContext, w: Wiring) -> None:
             t["columns"] if shown else no_update,
             t["data"] if shown else no_update,
             t["styles"] if shown else no_update,
+            s["verdicts"],
             *cls,
         )
-
-    # -- identifiability verdicts (their own request: never on the counts' path) ---------------
-    @app.callback(Output("vid-verdicts", "children"), *CON, Input("version", "data"))
-    def verdicts(*values):
-        texts, roles, pairs = w.split(list(values[:-1]))
-        try:
-            return identifiability_view(ctx, texts, roles, pairs)["line"]
-        except Exception as exc:
-            return err(exc)
 
     # -- plots ----------------------------------------------------------------------------------
     @app.callback(
