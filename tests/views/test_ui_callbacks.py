@@ -805,6 +805,7 @@ def test_limit_sources_and_saving_keeps_them(tmp_path):
     c.jobs.shutdown()
 
 
+@pytest.mark.filterwarnings("ignore:(?s).*DataTable will be removed:DeprecationWarning")
 def test_flight_view_flies_the_chosen_drop(tmp_path):
     """A study of two drops (a rocket descent under drogue, then main): the chosen trial is
     flown over the drop the user picks, altitude against the barometer."""
@@ -829,3 +830,21 @@ def test_flight_view_flies_the_chosen_drop(tmp_path):
     with pytest.raises(StudyDefinitionError, match="no drop named 'mian'.*main"):
         cb.trial_view(c, "3", None, None, None, None, "mian")
     c.jobs.shutdown()
+    # the page offers the drops (the list is hidden for a study of one drop)
+    pytest.importorskip("dash", reason="the UI needs the ui extra (dash)")
+    from vectorid.views.ui.pages.detail import trial_layout
+
+    def find(node, id_):
+        if getattr(node, "id", None) == id_:
+            return node
+        kids = getattr(node, "children", None)
+        for k in kids if isinstance(kids, list | tuple) else [kids]:
+            hit = find(k, id_) if hasattr(k, "to_plotly_json") else None
+            if hit is not None:
+                return hit
+        return None
+
+    page = trial_layout(c)
+    drop = find(page, "trial-drop")
+    assert [o["value"] for o in drop.options] == ["drogue", "main"] and drop.value == "drogue"
+    assert find(page, "trial-drop-label").style == {}

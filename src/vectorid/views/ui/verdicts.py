@@ -16,6 +16,7 @@
 
 from __future__ import annotations
 
+import threading
 from collections import OrderedDict
 from typing import Any
 
@@ -42,6 +43,7 @@ __all__ = [
 UI_NOTE = "set in the browser UI"
 
 _MEMO = 8
+_LOCK = threading.Lock()
 
 
 def verdicts_of(ctx: UIContext, a: Analysis) -> list[ParameterVerdict]:
@@ -53,23 +55,25 @@ def verdicts_of(ctx: UIContext, a: Analysis) -> list[ParameterVerdict]:
     a range; a study that inherited a narrowed box says so in its ``[x-identifiability]``
     table (see :func:`~vectorid.analysis.identifiability.identifiability`).
     """
-    memo: OrderedDict = ctx.extra.setdefault("verdicts", OrderedDict())
-    hit = memo.get(id(a))
-    if hit is not None and hit[0] is a:
-        memo.move_to_end(id(a))
-        return hit[1]
+    with _LOCK:  # the server answers requests in threads
+        memo: OrderedDict = ctx.extra.setdefault("verdicts", OrderedDict())
+        hit = memo.get(id(a))
+        if hit is not None and hit[0] is a:
+            memo.move_to_end(id(a))
+            return hit[1]
+        cols = ctx.extra.get("columns")  # the parameters transposed, once per store version
+        if cols is None or cols[0] is not a.trials:
+            cols = (a.trials, np.ascontiguousarray(a.trials.X.T))
+            ctx.extra["columns"] = cols
     _, _, stages = ctx.cache.state()
     meanings = {n: ctx.labels.meaning.get(n, "") for n in a.spec.space.names}
-    cols = ctx.extra.get("columns")  # the trials' parameters transposed, once per store version
-    if cols is None or cols[0] is not a.trials:
-        cols = (a.trials, np.ascontiguousarray(a.trials.X.T))
-        ctx.extra["columns"] = cols
     vs = identifiability(
         a, meanings={k: v for k, v in meanings.items() if v}, stages=stages, columns=cols[1]
     )
-    memo[id(a)] = (a, vs)
-    while len(memo) > _MEMO:
-        memo.popitem(last=False)
+    with _LOCK:
+        memo[id(a)] = (a, vs)
+        while len(memo) > _MEMO:
+            memo.popitem(last=False)
     return vs
 
 
