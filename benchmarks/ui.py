@@ -12,7 +12,10 @@ form, 0.5 % failed trials, four criteria constraints saved with the study). Then
 among its quantiles, seeded) goes through the *same plain functions the Dash callbacks call*
 (:mod:`vectorid.views.ui.callbacks`), each response serialised with
 ``plotly.io.json.to_json_plotly`` as Dash does: ``counts`` (N/ND/NP alone), ``test tables``,
-``scatter`` (criterion vs criterion), ``histograms``, ``criterion vs param``, ``parallel``.
+``scatter`` (criterion vs criterion), ``histograms``, ``criterion vs param``, ``parallel``,
+and ``verdicts`` (the identifiability verdicts and the limits' sources under the new limit,
+computed once per constraint set; the ``test tables`` request, which shows them in one line
+on the explorer, reuses them).
 Baselines in the same run, same changes: ``reload`` (no trial cache: the store is read and
 analysed again on every change) and ``no thinning`` (every trial drawn as a point).
 ``ratio`` = baseline / ours (> 1: ours is faster).
@@ -102,6 +105,7 @@ def _measure(ctx, texts, roles, *, cvp: bool) -> dict[str, float]:
     out = {}
     steps = [
         ("counts", lambda: cb.counts_view(ctx, texts, roles)),
+        ("verdicts", lambda: cb.identifiability_view(ctx, texts, roles)),
         ("test tables", lambda: cb.summary_view(ctx, texts, roles)),
         ("scatter", lambda: cb.scatter_view(ctx, texts, roles, "f1", "f2", None, None)),
         ("histograms", lambda: cb.panel_view(ctx, texts, roles, "histograms")),
@@ -441,7 +445,9 @@ def main() -> None:
     ap.add_argument("--params", type=int, default=12)
     ap.add_argument("--changes", type=int, default=8)
     ap.add_argument("--browser", action="store_true", help="also measure in headless Chromium")
-    ap.add_argument("--job-trials", type=int, default=200_000, help="trials of the run jobs")
+    ap.add_argument(
+        "--job-trials", type=int, default=200_000, help="trials of the run jobs (0: skip them)"
+    )
     ap.add_argument(
         "--browser-trials",
         type=int,
@@ -460,7 +466,8 @@ def main() -> None:
         f"({time.perf_counter() - t0:.1f} s to write)"
     )
     server_side(path, args.changes)
-    jobs_throughput(Path(tmp.name), args.job_trials)
+    if args.job_trials:
+        jobs_throughput(Path(tmp.name), args.job_trials)
     if not args.browser:
         return
     from vectorid.views.ui.data import StoreCache

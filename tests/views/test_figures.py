@@ -171,6 +171,20 @@ def test_correlation_spread_sensitivity_figures(user):
     s = fg.spread_figure(sp)
     np.testing.assert_allclose(np.asarray(s.data[0].y, float), [0.5, 0.5])
     assert list(s.data[0].x) == ["p", "q [box]"]
+    # with verdicts: D's and the Pareto set's ranges on the same scale, the verdict under the
+    # name, and a hollow marker where the value is not an estimate
+    from vectorid.analysis.identifiability import ParameterVerdict
+
+    vs = [
+        ParameterVerdict("p", "identified", (0.8, 1.2), (0.9, 1.1), (0.0, 4.0)),
+        ParameterVerdict("q", "not identified", (0.4, 3.6), None, (0.0, 4.0)),
+    ]
+    s = fg.spread_figure(sp, verdicts=vs)
+    band, pareto, line = s.data
+    assert list(line.x) == ["p<br>identified", "q [box]<br>not identified"]
+    np.testing.assert_allclose(np.asarray(band.y[:2], float), [0.4, 0.6])  # / nominal 2
+    np.testing.assert_allclose(np.asarray(band.y[3:5], float), [0.1, 0.9])  # position in box
+    assert len(pareto.y) == 3 and list(line.marker.symbol) == ["circle", "circle-open"]
     sens = sensitivity(a)
     f = fg.sensitivity_figure(sens)
     np.testing.assert_allclose(np.asarray(f.data[1].x, float), sens.ks)
@@ -230,3 +244,19 @@ def test_channels_figure_highlighted_runs_and_bands():
     np.testing.assert_allclose(np.asarray(drop[1].y, float), euler["pitch"] + 0.02)
     none = fg.channels_figure(t, euler, sims, show_runs=False)
     assert not {"run 1", "run 2", "run 3"} & {d.name for d in none.data}
+
+
+def test_history_stage_lines_stay_on_the_trials_axis():
+    """A stage that starts after 32 trials is a dashed line at 32 whose label sits at
+    log10(32) (plotly.js reads annotation positions on log axes in decades): the axis ends
+    at the last trial count, not at 1e32."""
+    from vectorid.views.history import History, history_figure
+
+    n = np.array([1, 10, 32, 100, 160])
+    h = History(n, n // 2, n // 4, [(1, 0), (2, 32)])
+    fig = history_figure(h)
+    assert len(fig.data) == 4 and list(fig.data[3].x) == [32, 32]
+    assert list(fig.data[3].y) == [1, 160]
+    (ann,) = fig.layout.annotations
+    assert ann.text == "stage 2" and ann.x == pytest.approx(np.log10(32))
+    assert not fig.layout.shapes

@@ -339,7 +339,7 @@ def test_parallel_brushes_set_constraints_and_select_a_sub_box(ctx, bk):
 
 def test_history_counts_grow_with_the_trials(ctx, bk):
     fig = _fig(cb.history_view(ctx, ["40", ""], PURE2))
-    n, nd, npar = (np.asarray(t.y, float) for t in fig.data)
+    n, nd, npar = (np.asarray(t.y, float) for t in fig.data[:3])
     x = np.asarray(fig.data[0].x)
     a = _direct(bk, {"f1": 40.0})
     assert x[-1] == a.n and nd[-1] == a.n_feasible and npar[-1] == a.n_pareto
@@ -671,3 +671,180 @@ def test_serve_warns_off_localhost(bk, monkeypatch, capsys):
     assert "warning" not in capsys.readouterr().err
     assert [c["host"] for c in calls] == ["0.0.0.0", "127.0.0.1"]
     assert all(c["debug"] is False for c in calls)
+
+
+# -- identifiability verdicts, limit sources, drops -----------------------------------------------
+
+
+def _sourced_store(tmp_path: Path) -> Path:
+    """binh-korn with limits saved as a noise floor (f1) and a quantile stand-in (f2)."""
+    path = make_store(tmp_path, "binh-korn", trials=512)
+    with Store.open(path, write=True) as st:
+        st.set_limits(
+            {"f1": 40.0, "f2": 30.0},
+            sources={"f1": ("noise", "noise floor q=0.99 + 2 m"), "f2": ("quantile", "q=0.1")},
+        )
+    return path
+
+
+def test_verdicts_follow_the_constraints_in_force(tmp_path):
+    from vectorid.analysis.identifiability import identifiability
+    from vectorid.views.ui.verdicts import span, verdicts_of
+
+    path = _sourced_store(tmp_path)
+    c = _ctx(path)
+    stages = Store.open(path).stages()
+    got = {}
+    for f1 in ("40", "20"):
+        a = _direct(path, {"f1": float(f1)})
+        want = identifiability(a, stages=stages)
+        v = cb.identifiability_view(c, [f1, "30"], PURE2)
+        rows = v["rows"]
+        assert [r["name"] for r in rows] == ["x1", "x2"]
+        assert [r["verdict"] for r in rows] == [w.verdict for w in want]
+        assert [r["feasible"] for r in rows] == [span(w.feasible) for w in want]
+        assert [r["pareto"] for r in rows] == [span(w.pareto) for w in want]
+        assert [r["constrained_by"] for r in rows] == [
+            ", ".join(w.constrained_by) or "-" for w in want
+        ]
+        assert [r["ranges"]["feasible"] for r in rows] == [list(w.feasible) for w in want]
+        got[f1] = rows
+        assert cb.summary_view(c, [f1, "30"], PURE2)["verdicts"] == v["line"]  # the explorer's
+        # the refine view and the chosen trial show the same verdicts
+        ref = cb.refine_view(c, [f1, "30"], PURE2, "feasible", "0.05", "0.1")
+        assert [r["identifiability"] for r in ref["rows"]] == [w.verdict for w in want]
+        assert [r["verdict"] for r in ref["verdicts"]] == [w.verdict for w in want]
+        tid = int(a.trials.id[a.feasible][0])
+        row = int(np.flatnonzero(a.trials.id == tid)[0])
+        tv = cb.trial_view(c, str(tid), [f1, "30"], PURE2)
+        for p, w, x in zip(tv["params"], want, a.trials.X[row]):
+            assert p["verdict"] == w.verdict
+            if w.identified:
+                assert p["shown"].startswith(f"{x:.5g}")
+            else:  # never a lone value: the range and the verdict come first
+                assert p["shown"].startswith(("feasible [", "box [")), p["shown"]
+                assert f"({w.verdict})" in p["shown"]
+        # memoised per analysis
+        a_ui = c.cache.analysis(parse_constraints(c.spec, [f1, "30"], PURE2))
+        assert verdicts_of(c, a_ui) is verdicts_of(c, a_ui)
+    # a tighter f1 narrows what D allows of x1
+    lo40, hi40 = got["40"][0]["ranges"]["feasible"]
+    lo20, hi20 = got["20"][0]["ranges"]["feasible"]
+    assert hi20 - lo20 < hi40 - lo40
+    c.jobs.shutdown()
+
+
+def test_chosen_text_shows_a_value_only_where_identified():
+    from vectorid.analysis.identifiability import ParameterVerdict
+    from vectorid.views.ui.verdicts import chosen_text, verdict_line
+
+    ok = ParameterVerdict("x6", "identified", (0.47705, 0.61797), (0.5, 0.6), (0.2, 1.0))
+    weak = ParameterVerdict("x8", "weak", (0.8, 1.2), None, (0.75, 1.5), unit="m")
+    empty = ParameterVerdict("x9", "not identified", None, None, (0.0, 1.0))
+    assert chosen_text(ok, 0.553861) == "0.55386 (feasible [0.47705, 0.61797])"
+    assert chosen_text(weak, 1.0225) == (
+        "feasible [0.8, 1.2] m (weak); this trial 1.0225, one value the data allow"
+    )
+    assert chosen_text(empty, None) == "box [0, 1] (not identified)"
+    assert verdict_line([ok, weak, empty]) == (
+        "identified: x6 [0.47705, 0.61797]; weak: x8; not identified: x9"
+    )
+
+
+def test_limit_sources_and_saving_keeps_them(tmp_path):
+    path = _sourced_store(tmp_path)
+    c = _ctx(path)
+    t0 = limits_text(c.spec)
+    assert t0 == ["40", "30"]
+
+    def sources(texts):
+        return {s["name"]: s for s in cb.summary_view(c, texts, PURE2)["sources"]}
+
+    s = sources(t0)
+    assert (s["f1"]["kind"], s["f1"]["text"]) == ("noise", "noise floor q=0.99 + 2 m")
+    assert (s["f2"]["kind"], s["f2"]["text"]) == ("quantile", "quantile stand-in: q=0.1")
+    assert s["f1"]["bound"] == "<= 40"
+    s = sources(["20", "30"])  # typed in this page
+    assert s["f1"]["kind"] == "session" and s["f2"]["kind"] == "quantile"
+    assert s["f1"]["text"] == "this session: replaces the saved <= 40 (noise floor)"
+    s = sources(["", "30"])  # removed in this page
+    assert s["f1"]["kind"] == "session" and s["f1"]["label"] == "no limit (this session)"
+    s = sources(["twenty", "30"])  # not a number: the study's limit stays in force
+    assert s["f1"]["kind"] == "noise"
+    # the chosen trial's criteria say the same
+    tv = cb.trial_view(c, "5", ["20", "30"], PURE2)
+    assert [r["limit source"] for r in tv["criteria"][:2]] == [
+        "this session: replaces the saved <= 40 (noise floor)",
+        "quantile stand-in: q=0.1",
+    ]
+    # saving: an unchanged limit keeps its source and note, a changed one is the expert's
+    params = cb.limits_to_save(c, ["20", "30"], PURE2)
+    assert params["sources"] == {
+        "f1": ["expert", "set in the browser UI"],
+        "f2": ["quantile", "q=0.1"],
+    }
+    run_job("limits", str(path), params)
+    saved = {cr.name: cr for cr in Store.open(path).spec.criteria}
+    assert (saved["f1"].limit, saved["f1"].source, saved["f1"].limit_note) == (
+        20.0,
+        "expert",
+        "set in the browser UI",
+    )
+    assert (saved["f2"].limit, saved["f2"].source, saved["f2"].limit_note) == (
+        30.0,
+        "quantile",
+        "q=0.1",
+    )
+    # after a reload the page starts from them (the page's layout reads the store first)
+    c.cache.state()
+    s = sources(limits_text(c.spec))
+    assert (s["f1"]["kind"], s["f1"]["text"]) == ("expert", "expert: set in the browser UI")
+    assert s["f2"]["text"] == "quantile stand-in: q=0.1"
+    ov = {r["name"]: r for r in cb.overview_view(c)["criteria"]}
+    assert ov["f2"]["limit source"] == "quantile stand-in: q=0.1"
+    c.jobs.shutdown()
+
+
+@pytest.mark.filterwarnings("ignore:(?s).*DataTable will be removed:DeprecationWarning")
+def test_flight_view_flies_the_chosen_drop(tmp_path):
+    """A study of two drops (a rocket descent under drogue, then main): the chosen trial is
+    flown over the drop the user picks, altitude against the barometer."""
+    from tests.identify.test_identification import _study
+    from vectorid.views.ui.trial import drop_names
+
+    spec = _study(tmp_path, trials=32)
+    path = tmp_path / "two-drops.db"
+    with Study.create(spec, path) as st:
+        st.run(trials=32, executor="serial")
+    c = _ctx(path)
+    assert drop_names(c.spec) == ["drogue", "main"]
+    first = cb.trial_view(c, "3", None, None)
+    assert first["drops"] == ["drogue", "main"] and first["identification_note"].startswith(
+        "drop 1 of 2"
+    )
+    v = cb.trial_view(c, "3", None, None, None, None, "main")
+    assert v["identification"].layout.title.text == "Drop main: flight vs trial 3"
+    assert v["identification_note"] == "drop 2 of 2 (main)"
+    assert v["rms"][0]["altitude.altitude RMS [m]"] > 0
+    assert v["rms"][0] != first["rms"][0]
+    with pytest.raises(StudyDefinitionError, match="no drop named 'mian'.*main"):
+        cb.trial_view(c, "3", None, None, None, None, "mian")
+    c.jobs.shutdown()
+    # the page offers the drops (the list is hidden for a study of one drop)
+    pytest.importorskip("dash", reason="the UI needs the ui extra (dash)")
+    from vectorid.views.ui.pages.detail import trial_layout
+
+    def find(node, id_):
+        if getattr(node, "id", None) == id_:
+            return node
+        kids = getattr(node, "children", None)
+        for k in kids if isinstance(kids, list | tuple) else [kids]:
+            hit = find(k, id_) if hasattr(k, "to_plotly_json") else None
+            if hit is not None:
+                return hit
+        return None
+
+    page = trial_layout(c)
+    drop = find(page, "trial-drop")
+    assert [o["value"] for o in drop.options] == ["drogue", "main"] and drop.value == "drogue"
+    assert find(page, "trial-drop-label").style == {}

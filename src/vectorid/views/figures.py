@@ -543,13 +543,63 @@ def correlation_figure(corr: CorrelationResult) -> go.Figure:
     return fig
 
 
-def spread_figure(spread: Spread) -> go.Figure:
+def spread_figure(spread: Spread, verdicts: Sequence[Any] | None = None) -> go.Figure:
     """Chosen vectors relative to nominal (seed 000 Fig. 13): one line per vector over the
     parameters; the nominal is the line at 1 (parameters without a nominal are shown as the
-    position in their box, marked ``[box]``)."""
+    position in their box, marked ``[box]``).
+
+    With ``verdicts`` (:func:`vectorid.analysis.identifiability.identifiability`, one per
+    parameter), each parameter's feasible range (blue band) and Pareto range (green) are
+    drawn on the same scale and its verdict is written under its name: a vector's value of a
+    parameter the data do not identify is one value among those the band allows, not an
+    estimate (its marker is hollow)."""
+    ver = {getattr(v, "name", ""): v for v in verdicts or ()}
     labels = [n + (" [box]" if m == "box" else "") for n, m in zip(spread.names, spread.mode)]
+    if ver:
+        labels = [
+            lab + (f"<br>{ver[n].verdict}" if n in ver else "")
+            for lab, n in zip(labels, spread.names)
+        ]
+
+    def rel(j: int, x: float) -> float:
+        if spread.mode[j] == "nominal":
+            return x / spread.nominal[j]
+        w = spread.highs[j] - spread.lows[j]
+        return (x - spread.lows[j]) / (w if w > 0 else 1.0)
+
     fig = go.Figure()
+    for kind, width, name in (
+        ("feasible", 16, "feasible range (D)"),
+        ("pareto", 5, "Pareto range"),
+    ):
+        xs: list[Any] = []
+        ys: list[Any] = []
+        text: list[Any] = []
+        for j, n in enumerate(spread.names):
+            v = ver.get(n)
+            r = getattr(v, kind, None) if v is not None else None
+            if r is None:
+                continue
+            xs += [labels[j], labels[j], None]
+            ys += [rel(j, r[0]), rel(j, r[1]), None]
+            span = f"{n} {kind}: [{r[0]:.4g}, {r[1]:.4g}] ({v.verdict})"
+            text += [span, span, None]
+        if xs:
+            fig.add_trace(
+                go.Scatter(
+                    x=xs,
+                    y=ys,
+                    mode="lines",
+                    name=name,
+                    text=text,
+                    hoverinfo="text",
+                    opacity=0.35 if kind == "feasible" else 0.8,
+                    line={"color": CLASS_COLOURS[kind], "width": width},
+                )
+            )
+    open_ = [n in ver and not ver[n].identified for n in spread.names]
     for i, lab in enumerate(spread.labels):
+        colour = _RUN_COLOURS[i % len(_RUN_COLOURS)]
         fig.add_trace(
             go.Scatter(
                 x=labels,
@@ -560,14 +610,25 @@ def spread_figure(spread: Spread) -> go.Figure:
                 hovertemplate="%{x}: %{customdata:.6g} (relative %{y:.3f})<extra>"
                 + lab
                 + "</extra>",
-                line={"color": _RUN_COLOURS[i % len(_RUN_COLOURS)]},
+                line={"color": colour},
+                marker={
+                    "symbol": ["circle-open" if o else "circle" for o in open_],
+                    "size": 9,
+                    "color": colour,
+                },
             )
         )
     if np.any(spread.mode == "nominal"):
         fig.add_hline(y=1.0, line=LIMIT_LINE, annotation_text="nominal")
+    title = "Parameter spread of the chosen vectors relative to nominal"
+    if ver:
+        title += (
+            "<br><sub>bands: feasible (blue) and Pareto (green) ranges; hollow marker: "
+            "not identified, one value the data allow</sub>"
+        )
     fig.update_layout(
         template=TEMPLATE,
-        title="Parameter spread of the chosen vectors relative to nominal",
+        title=title,
         yaxis_title="value / nominal",
         height=460,
     )

@@ -1,6 +1,6 @@
-"""A chosen trial's flight against the measured one: position, velocity and attitude over
-time, one panel per component, with the RMS difference per channel component for each
-trial (two or three trials overlaid)."""
+"""A chosen trial's flight against the measured one: position, velocity, attitude and (a
+barometric descent) altitude over time, one panel per component, with the RMS difference
+per channel component for each trial (two or three trials overlaid)."""
 
 from __future__ import annotations
 
@@ -15,8 +15,8 @@ from .clouds import TEMPLATE
 
 __all__ = ["CHANNELS", "flight_figure", "rms_table"]
 
-#: Channels shown, in order, with the name of each component.
-CHANNELS = ("position", "velocity", "euler")
+#: Channels shown, in order (those the drop measures).
+CHANNELS = ("position", "velocity", "euler", "altitude")
 _COLOURS = ["#ff7f0e", "#9467bd", "#17becf", "#8c564b"]
 
 

@@ -9,6 +9,7 @@ new trial dominates old ones). Sample stages are drawn as vertical lines where t
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -96,13 +97,28 @@ def history_figure(h: History, *, title: str | None = None) -> go.Figure:
                 meta={"class": name.split()[0]},
             )
         )
+    top = float(max(h.n.max(), 1)) if len(h.n) else 1.0
     for stage, start in h.stages:
         if start > 0:
-            fig.add_vline(
-                x=start,
-                line={"color": "#444", "dash": "dash", "width": 1},
-                annotation_text=f"stage {stage}",
-                annotation_position="top left",
+            # a trace, not add_vline: on log axes plotly.js reads a shape's annotation x as
+            # log10, so the annotation of a line at 32 trials stretched the axis to 1e32
+            fig.add_trace(
+                go.Scatter(
+                    x=[start, start],
+                    y=[1, top],
+                    mode="lines",
+                    line={"color": "#444", "dash": "dash", "width": 1},
+                    showlegend=False,
+                    hovertemplate=f"stage {stage} starts after %{{x:,}} trials<extra></extra>",
+                )
+            )
+            fig.add_annotation(
+                x=math.log10(start),
+                y=math.log10(top),
+                text=f"stage {stage}",
+                showarrow=False,
+                xanchor="right",
+                yanchor="bottom",
             )
     last = (int(h.n[-1]), int(h.nd[-1]), int(h.np_[-1])) if len(h.n) else (0, 0, 0)
     fig.update_layout(

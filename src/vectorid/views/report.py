@@ -374,7 +374,7 @@ def _chosen(
         space.highs,
         labels=[f"№{i} {lab}" for i, lab in zip(tab.ids, labels)],
     )
-    page.fig(fg.spread_figure(spread), "seed 000 Fig. 13")
+    page.fig(fg.spread_figure(spread, verdicts=verdicts), "seed 000 Fig. 13")
     return ids
 
 

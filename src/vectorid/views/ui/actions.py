@@ -14,6 +14,7 @@ from .context import UIContext, analysis_of
 from .data import parse_constraints, parse_number, parse_trial_id
 from .jobs import JobBusy
 from .refine import _overrides, _refine_args
+from .verdicts import sources_to_save
 
 __all__ = ["job_action", "job_message", "job_view", "limits_to_save", "start_job"]
 
@@ -23,13 +24,16 @@ def limits_to_save(
 ) -> dict[str, Any]:
     """The constraints in force, as :meth:`~vectorid.store.sqlite.Store.set_limits` saves
     them (the rule of ``vectorid table --save``: a criterion's saved limit is its worse-side
-    bound; functional constraints keep both bounds).
+    bound; functional constraints keep both bounds), with where each limit came from: a
+    limit still equal to the saved one keeps its source and note (a noise floor stays a
+    noise floor), one set in this page is the expert's, noted "set in the browser UI".
 
     Returns
     -------
     dict
         ``criteria`` (name -> limit or None), ``constraints`` (name -> [low, high], None for
-        no bound) and ``text`` (the bounds in words).
+        no bound), ``sources`` (name -> [limit_source, limit_note]) and ``text`` (the bounds
+        in words).
 
     Raises
     ------
@@ -61,7 +65,8 @@ def limits_to_save(
         name: [None if math.isinf(v) else float(v) for v in a.bounds[name]] for name in a.con_names
     }
     text = ", ".join(str(b) for b in a.active_bounds()) or "no limits"
-    return {"criteria": criteria, "constraints": constraints, "text": text}
+    sources = {k: list(v) for k, v in sources_to_save(ctx, a, c).items()}
+    return {"criteria": criteria, "constraints": constraints, "sources": sources, "text": text}
 
 
 def start_job(ctx: UIContext, kind: str, **values: Any) -> str:

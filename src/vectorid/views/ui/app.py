@@ -66,6 +66,18 @@ progress{width:160px}
 .scroll td,.scroll th{border:1px solid #ddd;padding:2px 6px;text-align:left}
 .scroll th{background:#f3f3f3}
 h3{margin:6px 0;font-size:15px}
+.source{font-size:11px;color:#555;line-height:1.25;margin:2px 0;display:-webkit-box;
+-webkit-line-clamp:2;-webkit-box-orient:vertical;overflow:hidden}
+.source.src-session,.chip.src-session{color:#222;font-weight:600}
+.chip{display:inline-block;border:1px solid #ccc;border-radius:10px;padding:0 7px;margin:1px 3px;
+font-size:12px;background:#fff}
+.chip.src-session{border-color:#777;background:#eee}
+.scroll .vtable td{vertical-align:top}.vtable td.num{font-family:monospace;white-space:nowrap}
+.verdict{border:1px solid #999;border-radius:3px;padding:0 5px;white-space:nowrap}
+.v-identified{font-weight:700;background:#e9e9e9}.v-weak{font-style:italic}
+.v-not-identified{border-style:dashed;color:#444}
+.rangebar{position:relative;width:140px;height:12px;background:#e4e4e4;border-radius:2px;
+margin-top:3px}.rangebar>div{position:absolute}.rb-trial{top:-3px;height:18px;width:2px}
 """
 
 _INDEX = (

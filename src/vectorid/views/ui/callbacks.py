@@ -7,6 +7,7 @@ under one name (tests and ``benchmarks/ui.py`` call them directly, without a bro
 * :mod:`.table` — the server-side trial table and its CSV;
 * :mod:`.trial` — the chosen trial;
 * :mod:`.refine` — double tuning;
+* :mod:`.verdicts` — identifiability verdicts and where each limit came from;
 * :mod:`.actions` — background jobs and saving the constraints;
 * :mod:`.overview` — the study overview.
 
@@ -34,6 +35,7 @@ from .parallel import brush_to_fields, history_view, parallel_view
 from .refine import refine_view
 from .table import csv_rows, table_page
 from .trial import identification_view, trial_view
+from .verdicts import identifiability_view
 
 __all__ = [
     "UIContext",
@@ -42,6 +44,7 @@ __all__ = [
     "counts_view",
     "csv_rows",
     "history_view",
+    "identifiability_view",
     "identification_view",
     "initial_choice",
     "job_action",

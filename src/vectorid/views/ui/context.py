@@ -16,7 +16,20 @@ from ..labels import Labels, labels_of
 from .data import Constraints, StoreCache, finite, parse_constraints
 from .jobs import JobManager
 
-__all__ = ["DIGITS", "Labels", "UIContext", "analysis_of", "fmt", "labels_of", "num"]
+__all__ = [
+    "DIGITS",
+    "SOURCE_LABELS",
+    "Labels",
+    "UIContext",
+    "analysis_of",
+    "fmt",
+    "labels_of",
+    "limit_source_of",
+    "num",
+]
+
+#: How the UI names each ``Criterion.limit_source``.
+SOURCE_LABELS = {"noise": "noise floor", "quantile": "quantile stand-in", "expert": "expert"}
 
 #: Significant digits shown for a number a person reads (limits, table cells, ranges).
 DIGITS = 5
@@ -96,28 +109,14 @@ def analysis_of(
     return ctx.cache.analysis(c), c
 
 
-def verdicts_of(a: Analysis) -> dict[str, str]:
-    """Identifiability verdict per parameter ('identified', 'weak', 'not identified'), where
-    :mod:`vectorid.analysis.identifiability` provides them; {} until it does. The refine view
-    and the chosen trial's parameter table show them in their "identifiability" column."""
-    try:
-        from ...analysis import identifiability  # type: ignore[attr-defined]
-    except ImportError:
-        return {}
-    fn = getattr(identifiability, "verdicts", None)
-    if fn is None:
-        return {}
-    try:
-        return {str(k): str(v) for k, v in dict(fn(a)).items()}
-    except Exception:  # the verdicts are an extra: never break the view over them
-        return {}
-
-
 def limit_source_of(criterion: Any) -> str:
-    """Where a criterion's limit comes from ("expert", "noise", "quantile" and its note),
-    where the study records it (``Criterion.limit_source``); "" until it does."""
-    src = getattr(criterion, "limit_source", None)
-    if not src:
+    """Where a criterion's saved limit comes from, in words: "noise floor", "quantile
+    stand-in" or "expert", with its note ("" when the study saves no limit for it)."""
+    src = getattr(criterion, "source", "")
+    if not src or getattr(criterion, "limit", None) is None:
         return ""
+    label = SOURCE_LABELS.get(src, src)
     note = getattr(criterion, "limit_note", "") or ""
-    return f"{src}: {note}" if note else str(src)
+    if not note:
+        return label
+    return note if note.lower().startswith(label.lower()) else f"{label}: {note}"

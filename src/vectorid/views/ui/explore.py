@@ -16,6 +16,7 @@ from ...errors import StudyDefinitionError, VectoridError
 from .. import clouds
 from .context import UIContext, analysis_of, fmt, num
 from .data import parse_trial_id
+from .verdicts import limit_sources, verdict_line, verdicts_of
 
 __all__ = [
     "box_to_limits",
@@ -66,8 +67,11 @@ def summary_view(
     dict
         ``counts`` (n, nd, np, failed, functional), ``invalid`` (per criterion),
         ``invalid_functional`` (``[low, high]`` per functional constraint), ``messages``,
-        ``in_force`` (text), ``pure``, ``ranges`` (min/max per criterion) and ``table``
-        (columns, data, styles of the test tables).
+        ``in_force`` (text), ``pure``, ``ranges`` (min/max per criterion), ``table``
+        (columns, data, styles of the test tables), ``sources`` (where each criterion's
+        limit in force came from, :func:`~vectorid.views.ui.verdicts.limit_sources`) and
+        ``verdicts`` (the identifiability verdicts in one line,
+        :func:`~vectorid.views.ui.verdicts.verdict_line`).
     """
     a, c = analysis_of(ctx, limit_texts, roles, functional)
     messages = list(c.messages)
@@ -124,6 +128,8 @@ def summary_view(
         "pure": [a.crit_names[i] for i in a.pure],
         "ranges": ranges,
         "table": {"columns": columns, "data": data, "styles": styles},
+        "sources": limit_sources(ctx, a, c),
+        "verdicts": verdict_line(verdicts_of(ctx, a)),
     }
 
 

@@ -107,8 +107,9 @@ def run_job(kind: str, store_path: str, params: Mapping[str, Any]) -> str:
         Already validated by the UI: ``trial``, ``param``, ``points``, ``range``, ``radius``,
         ``seed``, ``limits``, ``roles``, ``basis``, ``quantile``, ``margin``, ``bounds``,
         ``trials``, ``executor``, ``workers``; for ``limits``: ``criteria`` (name -> limit or
-        None), ``constraints`` (name -> (low, high), None for no bound) and ``text`` (the
-        bounds in words), as :meth:`vectorid.store.sqlite.Store.set_limits` takes them.
+        None), ``constraints`` (name -> (low, high), None for no bound), ``sources`` (name ->
+        (limit_source, limit_note)) and ``text`` (the bounds in words), as
+        :meth:`vectorid.store.sqlite.Store.set_limits` takes them.
 
     Returns
     -------
@@ -128,6 +129,9 @@ def run_job(kind: str, store_path: str, params: Mapping[str, Any]) -> str:
             store.set_limits(
                 dict(params.get("criteria") or {}),
                 {k: tuple(v) for k, v in dict(params.get("constraints") or {}).items()},
+                sources={
+                    k: (str(v[0]), str(v[1])) for k, v in (params.get("sources") or {}).items()
+                },
             )
             return f"saved with the study: {params.get('text') or 'no limits'}"
         if kind == "section":

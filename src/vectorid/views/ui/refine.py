@@ -12,8 +12,9 @@ from ...analysis.refine import propose_refine
 from ...analysis.results import Analysis
 from ...errors import StudyDefinitionError
 from .. import clouds
-from .context import UIContext, analysis_of, fmt, num, verdicts_of
+from .context import UIContext, analysis_of, fmt, num
 from .data import finite, parse_number
+from .verdicts import verdict_line, verdict_rows, verdicts_of
 
 __all__ = ["refine_view"]
 
@@ -39,13 +40,16 @@ def refine_view(
     functional: Any = None,
 ) -> dict[str, Any]:
     """The proposed box (double tuning, :func:`~vectorid.analysis.propose_refine`) under the
-    constraints in force: editable rows (old and new bounds per variable), the figure of the
-    old and new box, and a summary line."""
+    constraints in force: editable rows (old and new bounds per variable, with each
+    variable's identifiability verdict), the figure of the old and new box, a summary line,
+    and the verdicts under the same constraints
+    (:func:`~vectorid.views.ui.verdicts.verdict_rows`: ``verdicts``, and ``verdict_line``)."""
     args = _refine_args(basis, quantile, margin)
     a, _ = analysis_of(ctx, limit_texts, roles, functional)
     _, _, stages = ctx.cache.state()
     prop = propose_refine(a, stages, **args)
-    verdict = verdicts_of(a)
+    vs = verdicts_of(ctx, a)
+    verdict = {v.name: v.verdict for v in vs}
     rows = [
         {
             "name": r["name"],
@@ -55,7 +59,7 @@ def refine_view(
             "new_high": finite(r["new_high"]),
             "width_ratio": num(r["width_ratio"], 3),
             "unit": ctx.labels.unit.get(r["name"], ""),
-            "identifiability": verdict.get(r["name"], "n/a (not computed yet)"),
+            "identifiability": verdict.get(r["name"], ""),
         }
         for r in prop.rows()
     ]
@@ -64,7 +68,13 @@ def refine_view(
         f"{fmt(prop.volume_ratio, 3)}, {prop.feasible_inside:,} of {prop.n_feasible:,} feasible "
         f"trials inside, {prop.pareto_outside:,} Pareto trials outside"
     )
-    return {"rows": rows, "figure": ranges_figure(ctx, a, prop), "summary": summary}
+    return {
+        "rows": rows,
+        "figure": ranges_figure(ctx, a, prop),
+        "summary": summary,
+        "verdicts": verdict_rows(vs),
+        "verdict_line": verdict_line(vs),
+    }
 
 
 def ranges_figure(ctx: UIContext, a: Analysis, prop: Any) -> Any:

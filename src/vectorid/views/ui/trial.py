@@ -4,6 +4,7 @@ checks, and its flight against the measured one (identification studies)."""
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -15,10 +16,11 @@ from ...analysis.robustness import load_robustness
 from ...analysis.sections import load_sections
 from ...errors import VectoridError
 from .. import figures as fg
-from .context import UIContext, analysis_of, fmt, limit_source_of, num, verdicts_of
+from .context import UIContext, analysis_of, fmt, num
 from .data import parse_trial_id
+from .verdicts import chosen_text, limit_sources, verdict_rows, verdicts_of
 
-__all__ = ["identification_view", "trial_view"]
+__all__ = ["drop_names", "identification_view", "trial_view"]
 
 
 def trial_view(
@@ -28,6 +30,7 @@ def trial_view(
     roles: Any,
     functional: Any = None,
     overlay: Any = None,
+    drop: Any = None,
 ) -> dict[str, Any]:
     """Details of one sample trial: status, criteria against the constraints in force,
     parameters against nominal (seed 000 Fig. 13), its stored sections and robustness
@@ -36,13 +39,18 @@ def trial_view(
     Returns
     -------
     dict
-        ``id``, ``summary`` (text), ``criteria`` and ``params`` (table rows), ``spread``
-        (figure), ``sections`` and ``robustness`` (figures), ``robustness_text``,
-        ``identification`` (figure or None) and ``identification_note``.
+        ``id``, ``summary`` (text), ``criteria`` (rows, with where each limit in force came
+        from) and ``params`` (rows: the verdict fields of
+        :func:`~vectorid.views.ui.verdicts.verdict_rows`, ``value`` — the trial's number —
+        and ``shown``, how the page shows it: a value only where identified), ``spread``
+        (figure, with D's range per parameter), ``sections`` and ``robustness`` (figures),
+        ``robustness_text``, ``identification`` (figure or None), ``identification_note``,
+        ``rms`` and ``drops`` (the drops one can fly it over).
     """
     tid = parse_trial_id(trial_text)
     row = ctx.cache.row_of(tid)
-    a, _ = analysis_of(ctx, limit_texts, roles, functional)
+    a, c = analysis_of(ctx, limit_texts, roles, functional)
+    sources = limit_sources(ctx, a, c)
     t = a.trials
     pc = point_classes(a)
     cls = "Pareto" if pc.pareto[row] else "feasible (in D)" if pc.feasible[row] else "infeasible"
@@ -65,7 +73,7 @@ def trial_view(
                 "bound": num(hi if a.senses[j] == "min" else lo),
                 "unit": ctx.labels.unit.get(name, ""),
                 "meets": "yes" if ok else "no",
-                "limit source": limit_source_of(a.spec.criteria[j]) or "n/a (not recorded)",
+                "limit source": sources[j]["text"],
             }
         )
     for j, name in enumerate(a.con_names):
@@ -87,31 +95,32 @@ def trial_view(
     space = a.spec.space
     x = t.X[row]
     params = []
-    verdict = verdicts_of(a)
+    vs = verdicts_of(ctx, a)
     lab = ctx.labels
-    for j, v in enumerate(space):
+    for j, (v, vr) in enumerate(zip(space, verdict_rows(vs))):
         nom = lab.nominal.get(v.name)
+        ident = vs[j].identified
         params.append(
             {
-                "name": v.name,
-                "meaning": lab.meaning.get(v.name, ""),
+                **vr,
                 "value": num(x[j]),
+                "shown": chosen_text(vs[j], float(x[j])),
                 "nominal": num(nom),
-                "relative": num(x[j] / nom, 4) if nom not in (None, 0) else None,
+                "relative": num(x[j] / nom, 4) if ident and nom not in (None, 0) else None,
                 "low": num(v.low),
                 "high": num(v.high),
-                "unit": lab.unit.get(v.name, ""),
-                "identifiability": verdict.get(v.name, "n/a (not computed yet)"),
+                "unit": "" if lab.unit.get(v.name, "") in ("", "-") else lab.unit[v.name],
             }
         )
     noms = np.array([np.nan if lab.nominal.get(n) is None else lab.nominal[n] for n in space.names])
     spread = fg.spread_figure(
-        parameter_spread(x[None, :], space.names, noms, space.lows, space.highs, [f"trial {tid}"])
+        parameter_spread(x[None, :], space.names, noms, space.lows, space.highs, [f"trial {tid}"]),
+        verdicts=vs,
     )
     with ctx.cache.open() as st:
         sections = [s for s in load_sections(st) if s.trial == tid]
         checks = [r for r in load_robustness(st, a) if r.trial == tid]
-    ident, note, rms = identification_view(ctx, tid, x, overlay)
+    ident, note, rms = identification_view(ctx, tid, x, overlay, drop)
     return {
         "id": tid,
         "summary": summary,
@@ -124,6 +133,7 @@ def trial_view(
         "identification": ident,
         "identification_note": note,
         "rms": rms,
+        "drops": drop_names(ctx.spec),
     }
 
 
@@ -149,22 +159,45 @@ def overlay_ids(ctx: UIContext, text: Any, tid: int) -> list[int]:
     return out
 
 
+def drop_names(spec: Any) -> list[str]:
+    """The drops of an identification study, by name, in the study's order (read from the
+    study's ``[identification]`` table; no data file is opened); [] for another study."""
+    table = spec.extra.get("identification") if isinstance(spec.extra, Mapping) else None
+    if not isinstance(table, Mapping):
+        return []
+    out = []
+    for i, d in enumerate(table.get("drops") or []):
+        name = d.get("name") if isinstance(d, Mapping) else None
+        out.append(str(name) if name else f"drop{i + 1}")
+    return out
+
+
 def identification_view(
-    ctx: UIContext, tid: int, x: np.ndarray, overlay: Any = None
+    ctx: UIContext, tid: int, x: np.ndarray, overlay: Any = None, drop: Any = None
 ) -> tuple[go.Figure | None, str, list[dict[str, Any]]]:
-    """The chosen trial (and up to two others) simulated over the first drop against the
-    measured flight: position, velocity and attitude over time with the RMS per channel
-    component (:func:`vectorid.views.flight.flight_figure`). For a study without an
-    ``[identification]`` table: None and a note saying why.
+    """The chosen trial (and up to two others) simulated over one drop (``drop``, by name;
+    the first when None) against the measured flight: position, velocity and attitude over
+    time with the RMS per channel component (:func:`vectorid.views.flight.flight_figure`).
+    For a study without an ``[identification]`` table: None and a note saying why.
 
     Returns
     -------
     figure or None, note, RMS rows (one per trial)
+
+    Raises
+    ------
+    StudyDefinitionError
+        When ``drop`` names no drop of the study.
     """
     spec = ctx.spec
     if "identification" not in spec.extra:
         return None, "Not an identification study (no [identification] table): no flight data.", []
     ids = overlay_ids(ctx, overlay, tid)
+    names = drop_names(spec)
+    if drop not in (None, "") and str(drop) not in names:
+        from ...errors import StudyDefinitionError, suggest
+
+        raise StudyDefinitionError("drop", f"no drop named {drop!r}", suggest(str(drop), names))
     try:
         from ...identify import views_data as vd
         from ...identify.identification import Identification
@@ -177,13 +210,15 @@ def identification_view(
             ctx.extra[key] = ident
         rows = [ctx.cache.row_of(i) for i in ids]
         X = ctx.cache.trials().X[rows]
-        drop = ident.drops[0]
-        runs = vd.simulate_trials(ident, X, drop, labels=[f"trial {i}" for i in ids])
-    except (VectoridError, OSError, KeyError) as exc:
+        want = str(drop) if drop not in (None, "") else ident.drops[0].name
+        d = next(dd for dd in ident.drops if dd.name == want)
+        runs = vd.simulate_trials(ident, X, d, labels=[f"trial {i}" for i in ids])
+    except (VectoridError, OSError, KeyError, StopIteration) as exc:
         return None, f"cannot simulate trial {tid} against the flight: {exc}", []
     idx = list(range(len(ids)))
     fig = flight_figure(
-        runs, idx, title=f"Drop {drop.name}: flight vs trial " + ", ".join(map(str, ids))
+        runs, idx, title=f"Drop {d.name}: flight vs trial " + ", ".join(map(str, ids))
     )
-    note = "" if len(ident.drops) == 1 else f"first of {len(ident.drops)} drops shown"
+    k = [dd.name for dd in ident.drops].index(d.name) + 1
+    note = "" if len(ident.drops) == 1 else f"drop {k} of {len(ident.drops)} ({d.name})"
     return fig, note, rms_table(runs, idx)

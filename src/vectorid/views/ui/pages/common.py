@@ -5,12 +5,12 @@ from __future__ import annotations
 
 import logging
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 from ....errors import VectoridError
 
-__all__ = ["Wiring", "err", "rows_table", "safe", "table"]
+__all__ = ["Wiring", "err", "range_bar", "rows_table", "safe", "table", "verdict_table"]
 
 log = logging.getLogger("vectorid.ui")
 
@@ -67,6 +67,7 @@ class Wiring:
 
     crit: list[str]
     cons: list[str]
+    gated: set[str] = field(default_factory=set)
 
     def ids(self, kind: str) -> list[str]:
         names = self.crit if kind in ("limit", "role", "slider") else self.cons
@@ -91,9 +92,13 @@ class Wiring:
     def gate(self, app: Any, tab: str) -> Any:
         """An Input carrying the constraint fields to a view on tab ``tab`` only while that tab
         is shown (a clientside callback fills ``vid-con-<tab>``), so that a constraint change
-        sends no request for the views that are hidden. The value is ``[fields, stamp]``."""
+        sends no request for the views that are hidden. The value is ``[fields, stamp]``.
+        Several views of one tab share its gate (registered once)."""
         from dash import Input, Output
 
+        if tab in self.gated:
+            return Input(f"vid-con-{tab}", "data")
+        self.gated.add(tab)
         app.clientside_callback(
             "function(tab, ...v) { return tab === "
             + repr(tab)
@@ -114,3 +119,102 @@ class Wiring:
         highs = values[2 * k + q : 2 * k + 2 * q]
         pairs = [[lo, hi] for lo, hi in zip(lows, highs)] if q else None
         return texts, roles, pairs
+
+
+#: Colours of the ranges drawn in a verdict row: the sets' own (feasible blue, Pareto green)
+#: over the box (grey), the chosen trial orange.
+_RANGE_COLOURS = {"feasible": "rgba(31,119,180,0.45)", "pareto": "#2ca02c", "trial": "#ff7f0e"}
+
+
+def range_bar(ranges: dict[str, Any], value: float | None = None) -> Any:
+    """A small drawing of one variable's ranges over its box: D (blue band), the Pareto
+    set (green line) and, when given, the chosen trial's value (orange tick)."""
+    from dash import html
+
+    lo, hi = ranges["box"]
+    w = hi - lo if hi > lo else 1.0
+
+    def at(x: float) -> float:
+        return max(0.0, min(100.0, 100.0 * (x - lo) / w))
+
+    parts = []
+    for kind, top, height in (("feasible", 1, 10), ("pareto", 5, 2)):
+        r = ranges.get(kind)
+        if r is None:
+            continue
+        left, right = at(r[0]), at(r[1])
+        parts.append(
+            html.Div(
+                className=f"rb-{kind}",
+                style={
+                    "left": f"{left:.2f}%",
+                    "width": f"max(2px, {right - left:.2f}%)",
+                    "top": f"{top}px",
+                    "height": f"{height}px",
+                    "background": _RANGE_COLOURS[kind],
+                },
+            )
+        )
+    if value is not None:
+        parts.append(
+            html.Div(
+                className="rb-trial",
+                style={"left": f"{at(value):.2f}%", "background": _RANGE_COLOURS["trial"]},
+            )
+        )
+    return html.Div(parts, className="rangebar", title="box (grey), D (blue), Pareto (green)")
+
+
+def verdict_table(rows: list[dict[str, Any]], prefix: str, *, trial: bool = False) -> Any:
+    """The identifiability verdicts as an HTML table, one row per design variable with the
+    stable id ``<prefix>-<variable>`` and ``data-verdict``: the variable (meaning, unit), its
+    verdict, (``trial``: how the chosen trial shows it: a value only where identified, and
+    the nominal), its ranges drawn and written (D, Pareto set, box), the constraints that
+    cut it, and why / what would identify it."""
+    from dash import html
+
+    if not rows:
+        return html.P("no design variable", className="muted")
+    head = ["variable", "verdict"]
+    if trial:
+        head += ["this trial", "nominal"]
+    head += [
+        "ranges",
+        "feasible (D)",
+        "Pareto",
+        "judged against",
+        "cut by",
+        "why / to identify it",
+    ]
+    body = []
+    for r in rows:
+        unit = f" [{r['unit']}]" if r.get("unit") else ""
+        name = [html.B(r["name"]), html.Span(unit, className="muted")]
+        if r.get("meaning"):
+            name += [html.Br(), html.Span(r["meaning"], className="muted small")]
+        cls = "verdict v-" + r["verdict"].replace(" ", "-")
+        cells = [html.Td(name), html.Td(html.Span(r["verdict"], className=cls))]
+        if trial:
+            cells += [
+                html.Td(r["shown"], className="shown"),
+                html.Td("" if r.get("nominal") is None else f"{r['nominal']:.5g}"),
+            ]
+        todo = r["reason"] + (f"; to identify it: {r['suggestion']}" if r["suggestion"] else "")
+        cells += [
+            html.Td(range_bar(r["ranges"], r.get("value") if trial else None)),
+            html.Td(r["feasible"], className="num"),
+            html.Td(r["pareto"], className="num"),
+            html.Td(r["box"], className="num"),
+            html.Td(r["constrained_by"]),
+            html.Td(todo, className="small"),
+        ]
+        body.append(
+            html.Tr(cells, id=f"{prefix}-{safe(r['name'])}", **{"data-verdict": r["verdict"]})
+        )
+    return html.Div(
+        html.Table(
+            [html.Thead(html.Tr([html.Th(h) for h in head])), html.Tbody(body)],
+            className="vtable",
+        ),
+        className="scroll",
+    )

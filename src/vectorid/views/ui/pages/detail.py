@@ -7,10 +7,27 @@ from typing import Any
 from ..context import UIContext
 from ..overview import overview_view
 from ..refine import refine_view
-from ..trial import trial_view
-from .common import Wiring, err, rows_table, table
+from ..trial import drop_names, trial_view
+from ..verdicts import identifiability_view
+from .common import Wiring, err, rows_table, table, verdict_table
 
 __all__ = ["overview_layout", "refine_layout", "register", "trial_layout"]
+
+
+def _W(px: int) -> dict[str, str]:
+    """The width of a field in a bar: Dash 4's input container (``container-type:
+    inline-size``) has no width of its own, so a field in a label gets the label text's."""
+    return {"width": f"{px}px", "display": "inline-flex"}
+
+
+def _drop_options(ctx: UIContext) -> dict[str, Any]:
+    names = drop_names(ctx.spec)
+    return {
+        "options": [{"label": n, "value": n} for n in names],
+        "value": names[0] if names else None,
+        "clearable": False,
+        "style": {"width": "200px", "display": "inline-block", "verticalAlign": "middle"},
+    }
 
 
 def trial_layout(ctx: UIContext) -> Any:
@@ -22,22 +39,29 @@ def trial_layout(ctx: UIContext) -> Any:
             html.Div(id="trial-msg", className="msg"),
             html.Div(id="trial-summary", className="section"),
             html.Div(
-                className="row",
+                className="section",
                 children=[
-                    html.Div(
-                        className="col",
-                        children=[
-                            html.H3("Criteria and functionals against the bounds in force"),
-                            table("trial-criteria"),
+                    html.H3("Criteria and functionals against the bounds in force"),
+                    table(
+                        "trial-criteria",
+                        style_cell_conditional=[
+                            {"if": {"column_id": "limit source"}, "textAlign": "left"}
                         ],
                     ),
-                    html.Div(
-                        className="col",
-                        children=[
-                            html.H3("Parameters against nominal and the box"),
-                            table("trial-params"),
-                        ],
+                ],
+            ),
+            html.Div(
+                className="section",
+                children=[
+                    html.H3("Parameters: what the data determine, and this trial's values"),
+                    html.P(
+                        "Verdict under the constraints in force (vectorid.analysis."
+                        "identifiability): a value is shown only for an identified parameter; "
+                        "any other is shown as its feasible range with its verdict (the trial's "
+                        "own value is one value the data allow, not an estimate).",
+                        className="muted",
                     ),
+                    html.Div(id="trial-params"),
                 ],
             ),
             dcc.Graph(id="trial-spread", config={"displaylogo": False}),
@@ -45,11 +69,26 @@ def trial_layout(ctx: UIContext) -> Any:
                 className="section",
                 children=[
                     html.H3("Flight against the measured one"),
-                    html.Label(
-                        [
-                            "overlay up to two more trials (ids, comma-separated) ",
-                            dcc.Input(id="trial-overlay", type="text", debounce=True, size="14"),
-                        ]
+                    html.Div(
+                        className="bar",
+                        children=[
+                            html.Label(
+                                [
+                                    "overlay up to two more trials (ids, comma-separated) ",
+                                    dcc.Input(
+                                        id="trial-overlay",
+                                        type="text",
+                                        debounce=True,
+                                        style={"width": "140px"},
+                                    ),
+                                ]
+                            ),
+                            html.Label(
+                                ["drop ", dcc.Dropdown(id="trial-drop", **_drop_options(ctx))],
+                                id="trial-drop-label",
+                                style={} if len(drop_names(spec)) > 1 else {"display": "none"},
+                            ),
+                        ],
                     ),
                     html.Div(id="trial-ident"),
                     table("trial-rms"),
@@ -76,18 +115,20 @@ def trial_layout(ctx: UIContext) -> Any:
                             html.Label(
                                 [
                                     "points ",
-                                    dcc.Input(id="sec-points", type="text", value="21", size="4"),
+                                    dcc.Input(
+                                        id="sec-points", type="text", value="21", style=_W(50)
+                                    ),
                                 ]
                             ),
                             html.Label(
                                 [
                                     "range ",
                                     dcc.Input(
-                                        id="sec-lo", type="text", placeholder="low", size="6"
+                                        id="sec-lo", type="text", placeholder="low", style=_W(70)
                                     ),
                                     " .. ",
                                     dcc.Input(
-                                        id="sec-hi", type="text", placeholder="high", size="6"
+                                        id="sec-hi", type="text", placeholder="high", style=_W(70)
                                     ),
                                 ]
                             ),
@@ -100,13 +141,17 @@ def trial_layout(ctx: UIContext) -> Any:
                             html.Label(
                                 [
                                     "robustness radius (fraction of the box) ",
-                                    dcc.Input(id="rob-radius", type="text", value="0.02", size="5"),
+                                    dcc.Input(
+                                        id="rob-radius", type="text", value="0.02", style=_W(60)
+                                    ),
                                 ]
                             ),
                             html.Label(
                                 [
                                     "points ",
-                                    dcc.Input(id="rob-points", type="text", value="32", size="4"),
+                                    dcc.Input(
+                                        id="rob-points", type="text", value="32", style=_W(50)
+                                    ),
                                 ]
                             ),
                             html.Button("Check robustness", id="rob-run"),
@@ -141,7 +186,7 @@ def refine_layout(ctx: UIContext) -> Any:
                         [
                             "quantile ",
                             dcc.Input(
-                                id="ref-q", type="text", value="0.05", size="5", debounce=True
+                                id="ref-q", type="text", value="0.05", debounce=True, style=_W(60)
                             ),
                         ]
                     ),
@@ -149,7 +194,11 @@ def refine_layout(ctx: UIContext) -> Any:
                         [
                             "margin (fraction of the width) ",
                             dcc.Input(
-                                id="ref-margin", type="text", value="0.1", size="5", debounce=True
+                                id="ref-margin",
+                                type="text",
+                                value="0.1",
+                                debounce=True,
+                                style=_W(60),
                             ),
                         ]
                     ),
@@ -159,8 +208,9 @@ def refine_layout(ctx: UIContext) -> Any:
             html.Div(id="ref-summary", className="muted"),
             html.P(
                 "Edit new_low / new_high to move or widen the box (an edited row overrides the "
-                "rule). The identifiability column shows each parameter's verdict where the "
-                "study has one.",
+                "rule). The identifiability column is each parameter's verdict (details below): "
+                "narrowing the box of a parameter that is not identified cuts what the data "
+                "still allow.",
                 className="muted",
             ),
             table(
@@ -174,10 +224,27 @@ def refine_layout(ctx: UIContext) -> Any:
                 className="bar",
                 children=[
                     html.Label(
-                        ["trials ", dcc.Input(id="ref-n", type="text", value="1024", size="8")]
+                        ["trials ", dcc.Input(id="ref-n", type="text", value="1024", style=_W(100))]
                     ),
                     html.Button("Apply this box and run the trials", id="ref-apply"),
                     html.Button("Run the trials in the current box", id="ref-continue"),
+                ],
+            ),
+            html.Div(
+                className="section",
+                children=[
+                    html.H3("Identifiability under the constraints in force"),
+                    html.P(
+                        "Per parameter: the verdict from the spread of the feasible set D "
+                        "relative to the box it is judged against (the study's, or an earlier "
+                        "step's when this step inherited a narrowed box; identified: D spans at "
+                        "most 25 % of it, off its edges; not identified: more than 60 %), D's "
+                        "and the Pareto set's ranges, the constraints whose limits cut the "
+                        "range, and what would identify it. It follows every limit typed, "
+                        "dragged or brushed.",
+                        className="muted",
+                    ),
+                    html.Div(id="ref-verdicts"),
                 ],
             ),
             dcc.Graph(id="ref-graph", config={"displaylogo": False}),
@@ -203,8 +270,7 @@ def register(app: Any, ctx: UIContext, w: Wiring) -> None:
         Output("trial-summary", "children"),
         Output("trial-criteria", "columns"),
         Output("trial-criteria", "data"),
-        Output("trial-params", "columns"),
-        Output("trial-params", "data"),
+        Output("trial-params", "children"),
         Output("trial-spread", "figure"),
         Output("trial-results", "children"),
         Output("trial-ident", "children"),
@@ -213,18 +279,19 @@ def register(app: Any, ctx: UIContext, w: Wiring) -> None:
         w.gate(app, "trial"),
         Input("trial-id", "value"),
         Input("trial-overlay", "value"),
+        Input("trial-drop", "value"),
         State("tabs", "value"),
         Input("version", "data"),
     )
-    def trial(cons, tid, overlay, tab, _v):
+    def trial(cons, tid, overlay, drop, tab, _v):
         if tab != "trial" or not cons:
             raise PreventUpdate
         texts, roles, pairs = w.split(list(cons[0]))
         empty = {"data": [], "layout": {}}
         try:
-            v = trial_view(ctx, tid, texts, roles, pairs, overlay)
+            v = trial_view(ctx, tid, texts, roles, pairs, overlay, drop)
         except Exception as exc:
-            return (err(exc), "", [], [], [], [], empty, [], "", [], [])
+            return (err(exc), "", [], [], [], empty, [], "", [], [])
         results: list[Any] = []
         if v["robustness_text"]:
             results.append(
@@ -243,18 +310,18 @@ def register(app: Any, ctx: UIContext, w: Wiring) -> None:
                     "No section or robustness check stored for this trial yet.", className="muted"
                 )
             ]
+        note = html.P(v["identification_note"], className="muted", id="trial-ident-note")
         ident = (
-            dcc.Graph(figure=v["identification"])
+            [note, dcc.Graph(figure=v["identification"])]
             if v["identification"] is not None
-            else html.P(v["identification_note"], className="muted")
+            else note
         )
         return (
             "",
             html.Span(v["summary"], id="trial-summary-text"),
             cols(v["criteria"]),
             v["criteria"],
-            cols(v["params"]),
-            v["params"],
+            verdict_table(v["params"], "vid-trial-param", trial=True),
             v["spread"],
             results,
             ident,
@@ -293,6 +360,22 @@ def register(app: Any, ctx: UIContext, w: Wiring) -> None:
             for k in v["rows"][0]
         ]
         return "", v["summary"], columns, v["rows"], v["figure"]
+
+    @app.callback(
+        Output("ref-verdicts", "children"),
+        w.gate(app, "refine"),
+        State("tabs", "value"),
+        Input("version", "data"),
+    )
+    def ref_verdicts(cons, tab, _v):
+        if tab != "refine" or not cons:
+            raise PreventUpdate
+        texts, roles, pairs = w.split(list(cons[0]))
+        try:
+            v = identifiability_view(ctx, texts, roles, pairs)
+        except Exception as exc:
+            return html.Div(err(exc), className="msg")
+        return verdict_table(v["rows"], "vid-verdict")
 
     @app.callback(Output("overview", "children"), Input("tabs", "value"), Input("version", "data"))
     def overview(tab, _v):

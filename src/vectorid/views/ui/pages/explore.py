@@ -9,7 +9,7 @@ import numpy as np
 
 from .. import client
 from ..context import UIContext, fmt
-from ..data import bounds_text, limits_text
+from ..data import bounds_text, limits_text, parse_constraints
 from ..explore import (
     box_to_limits,
     counts_view,
@@ -19,6 +19,7 @@ from ..explore import (
     summary_view,
 )
 from ..overview import initial_choice
+from ..verdicts import limit_sources
 from .common import Wiring, err, safe, table
 
 __all__ = ["counts_children", "header", "layout", "register"]
@@ -91,8 +92,9 @@ def _cards(ctx: UIContext) -> list[Any]:
     lab = ctx.labels
     a = ctx.cache.analysis()
     texts = limits_text(spec)
+    sources = limit_sources(ctx, a, parse_constraints(spec, texts, None))
     cards = []
-    for j, c in enumerate(spec.criteria):
+    for j, (c, src) in enumerate(zip(spec.criteria, sources)):
         # the range over the trials meeting the functional constraints (the test table's)
         col = a.trials.F[a.functional_ok, j]
         col = col[np.isfinite(col)]
@@ -126,6 +128,12 @@ def _cards(ctx: UIContext) -> list[Any]:
                                 size="9",
                             ),
                         ]
+                    ),
+                    html.Div(
+                        src["text"],
+                        id=f"vid-source-{safe(c.name)}",
+                        className=f"source src-{src['kind']}",
+                        title=src["text"],
                     ),
                     dcc.Slider(
                         id=f"vid-slider-{safe(c.name)}",
@@ -211,6 +219,17 @@ def layout(ctx: UIContext) -> Any:
                     html.Span(id="in-force", className="muted"),
                     html.Button("Save constraints with the study", id="save-limits"),
                 ],
+            ),
+            html.Div(
+                [
+                    html.Span("identifiability under these constraints: ", className="muted"),
+                    html.Span(id="vid-verdicts"),
+                    html.Span(
+                        " (ranges of D; details on Refine & continue and Chosen trial)",
+                        className="muted",
+                    ),
+                ],
+                className="note",
             ),
             html.Div(
                 className="row",
@@ -333,6 +352,7 @@ def register(app: Any, ctx: UIContext, w: Wiring) -> None:
     CON = w.constraint_inputs(Input)
     CON_S = w.constraint_inputs(State)
     lim_ids, sld_ids = w.ids("limit"), w.ids("slider")
+    src_ids = [f"vid-source-{safe(n)}" for n in w.crit]
 
     # -- constraints typed or dragged (in the page), or from a box (server) --------------------
     app.clientside_callback(
@@ -414,9 +434,13 @@ def register(app: Any, ctx: UIContext, w: Wiring) -> None:
         Output("test-table", "columns"),
         Output("test-table", "data"),
         Output("test-table", "style_data_conditional"),
+        Output("vid-verdicts", "children"),
         [Output(i, "className") for i in lim_ids]
         + [Output(i, "className") for i in w.ids("low")]
-        + [Output(i, "className") for i in w.ids("high")],
+        + [Output(i, "className") for i in w.ids("high")]
+        + [Output(i, "children") for i in src_ids]
+        + [Output(i, "title") for i in src_ids]
+        + [Output(i, "className") for i in src_ids],
         *CON,
         Input("panel", "value"),
         Input("version", "data"),
@@ -427,12 +451,15 @@ def register(app: Any, ctx: UIContext, w: Wiring) -> None:
         try:
             s = summary_view(ctx, texts, roles, pairs)
         except Exception as exc:
-            keep = [no_update] * (K + 2 * Q)
-            return (err(exc), no_update, no_update, no_update, no_update, *keep)
+            keep = [no_update] * (4 * K + 2 * Q)
+            return (err(exc), no_update, no_update, no_update, no_update, no_update, *keep)
         t = s["table"]
         cls = ["invalid" if bad else "" for bad in s["invalid"]]
         cls += ["invalid" if lo else "" for lo, _ in s["invalid_functional"]]
         cls += ["invalid" if hi else "" for _, hi in s["invalid_functional"]]
+        src = s["sources"]
+        cls += [x["text"] for x in src] + [x["text"] for x in src]
+        cls += [f"source src-{x['kind']}" for x in src]
         shown = which == "tables"
         return (
             "\n".join(s["messages"]),
@@ -441,6 +468,7 @@ def register(app: Any, ctx: UIContext, w: Wiring) -> None:
             t["columns"] if shown else no_update,
             t["data"] if shown else no_update,
             t["styles"] if shown else no_update,
+            s["verdicts"],
             *cls,
         )
 

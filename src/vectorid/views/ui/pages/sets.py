@@ -11,7 +11,8 @@ from typing import Any
 from ..context import UIContext
 from ..parallel import brush_to_fields, history_view, parallel_view
 from ..table import SETS, TABLE_STYLES, csv_rows, table_columns, table_page
-from .common import Wiring, err, table
+from ..verdicts import identifiability_view
+from .common import Wiring, err, safe, table
 
 __all__ = ["csv_route", "parallel_layout", "register", "table_layout"]
 
@@ -29,6 +30,20 @@ def parallel_layout(ctx: UIContext) -> Any:
                 className="muted",
             ),
             html.Div(id="par-msg", className="note"),
+            html.Div(
+                [
+                    html.Span("constraints in force: ", className="muted"),
+                    html.Span(id="par-in-force"),
+                ],
+                className="note",
+            ),
+            html.Div(
+                [
+                    html.Span("identifiability under these constraints: ", className="muted"),
+                    html.Span(id="par-verdicts"),
+                ],
+                className="note",
+            ),
             dcc.Graph(id="par-graph", config={"displaylogo": False}),
             html.H3("History: N, ND, NP against the number of trials"),
             html.P(
@@ -90,6 +105,28 @@ def table_layout(ctx: UIContext) -> Any:
             ),
         ]
     )
+
+
+def in_force_children(sources: list[dict[str, Any]]) -> list[Any]:
+    """The criteria constraints in force, one chip each (``vid-force-<criterion>``): the
+    bound and where it came from; a limit set in this session is marked and says which saved
+    limit it replaces."""
+    from dash import html
+
+    out: list[Any] = []
+    for s in sources:
+        if s["kind"] == "none":
+            continue
+        text = f"{s['name']} {s['bound']}".strip() if s["bound"] else f"{s['name']}: no limit"
+        out.append(
+            html.Span(
+                [text, html.Span(f" ({s['label']})", className="muted")],
+                id=f"vid-force-{safe(s['name'])}",
+                className=f"chip src-{s['kind']}",
+                title=s["text"],
+            )
+        )
+    return out or ["no criteria constraint"]
 
 
 class CsvTokens:
@@ -164,6 +201,25 @@ def register(app: Any, ctx: UIContext, w: Wiring, tokens: CsvTokens) -> None:
         except Exception as exc:
             err(exc)
             return no_update, no_update
+
+    @app.callback(
+        Output("par-in-force", "children"),
+        Output("par-verdicts", "children"),
+        w.gate(app, "parallel"),
+        State("tabs", "value"),
+        Input("version", "data"),
+    )
+    def status(cons, tab, _v):
+        """Where a brush sets the constraints, what is now in force (the limits changed in
+        this session marked, with the saved ones they replace) and the verdicts."""
+        if tab != "parallel" or not cons:
+            raise PreventUpdate
+        texts, roles, pairs = w.split(list(cons[0]))
+        try:
+            v = identifiability_view(ctx, texts, roles, pairs)
+        except Exception as exc:
+            return err(exc), no_update
+        return in_force_children(v["sources"]), v["line"]
 
     lim, low, high = w.ids("limit"), w.ids("low"), w.ids("high")
 
