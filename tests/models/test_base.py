@@ -5,6 +5,8 @@ import subprocess
 import sys
 import textwrap
 
+import pytest
+
 TINY = """
 import numpy as np
 from numba import njit
@@ -81,3 +83,18 @@ def test_models_without_a_compiled_kernel_say_nothing():
             raise AssertionError
 
     assert Plain().kernel_cached() is None
+
+
+@pytest.mark.parametrize("name", ["parachute6dof", "parafoil8dof", "parafoil6dof"])
+def test_shipped_kernels_can_be_cached(name):
+    """numba refuses to cache a kernel that uses dynamic globals (e.g. a thread-count call in
+    a parallel loop), silently but for a warning: every new process would compile again."""
+    from vectorid import models
+
+    m = models.get(name)
+    m.simulate(m.nominal, t_final=0.1, dt=0.05)
+    kernels = m._kernels()
+    assert kernels
+    for kernel in kernels:
+        for compiled in kernel.overloads.values():
+            assert not compiled.library.has_dynamic_globals

@@ -118,3 +118,52 @@ def test_a_loop_over_them_is_vectorised():
     asm = next(iter(_apply.inspect_asm().values()))
     simd = len(re.findall(r"\b(vfmadd\d+pd|vmulpd|vaddpd)\s+%[yz]mm", asm))
     assert simd > 20, "the loop over vecmath calls was not vectorised"
+
+
+# The loop of _apply compiled for an AVX2 machine (no AVX-512), in a fresh process and cache.
+_AVX2_PROBE = """
+import re
+import numpy as np
+from numba import njit
+from vectorid.models import vecmath as vm
+
+@njit(error_model="numpy", fastmath={"contract"})
+def apply(x, y, out):
+    for i in range(x.shape[0]):
+        s, c = vm.sincos(x[i])
+        out[0, i] = s + c
+        out[1, i] = vm.atan2(y[i], x[i])
+        out[2, i] = vm.exp(x[i])
+
+x = np.linspace(-5.0, 5.0, 64)
+apply(x, x, np.empty((3, 64)))
+asm = next(iter(apply.inspect_asm().values()))
+print(len(re.findall(r"%zmm", asm)),
+      len(re.findall(r"\\b(vfmadd\\d+pd|vmulpd|vaddpd)\\s+%ymm", asm)),
+      len(re.findall(r"\\bv?cvtt?sd2si", asm)))
+"""
+
+
+def test_no_float_to_integer_conversion_in_the_vector_loop():
+    """Quadrant and exponent are found in floating point: AVX2 has no vector double -> int64
+    conversion, so one would make LLVM convert lane by lane inside the loop."""
+    asm = next(iter(_apply.inspect_asm().values()))
+    assert not re.search(r"\bv?cvtt?(sd2si|pd2qq|pd2dq)", asm)
+
+
+def test_the_loop_vectorises_for_avx2_as_well(tmp_path):
+    """Compiled for Haswell (AVX2 + FMA, 4 doubles per instruction) in a fresh process: ymm
+    arithmetic, no AVX-512 register, no scalar conversion."""
+    import os
+    import subprocess
+    import sys
+
+    env = dict(os.environ, NUMBA_CPU_NAME="haswell", NUMBA_CPU_FEATURES="")
+    env["NUMBA_CACHE_DIR"] = str(tmp_path)
+    out = subprocess.run(
+        [sys.executable, "-c", _AVX2_PROBE], env=env, capture_output=True, text=True, check=True
+    )
+    zmm, ymm_ops, scalar_cvt = (int(v) for v in out.stdout.split())
+    assert zmm == 0
+    assert ymm_ops > 15
+    assert scalar_cvt == 0

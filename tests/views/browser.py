@@ -193,9 +193,17 @@ def by_id(id_: str):
     return lambda d: d.find_element(By.ID, id_)
 
 
-def tab(drv, label: str) -> None:
-    for el in drv.find_elements(By.CSS_SELECTOR, ".tab"):
-        if el.text.strip() == label:
-            el.click()
-            return
-    raise AssertionError(f"no tab {label!r}")
+def tab(drv, label: str, wait: float = 30.0) -> None:
+    """Click the tab named ``label``, waiting (up to ``wait`` s) for the page to render it."""
+    deadline = time.monotonic() + wait
+    while True:
+        try:
+            for el in drv.find_elements(By.CSS_SELECTOR, ".tab"):
+                if el.text.strip() == label:
+                    el.click()
+                    return
+        except StaleElementReferenceException:  # re-rendered while we looked: look again
+            pass
+        if time.monotonic() > deadline:
+            raise AssertionError(f"no tab {label!r} after {wait:.0f} s")
+        time.sleep(0.2)

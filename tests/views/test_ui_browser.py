@@ -239,8 +239,12 @@ def test_saved_constraints_are_in_force_after_reload(browser, server):
     # a malformed bound is marked and named, and nothing is saved while it is
     _type(drv, lambda d: _bound_input(d, "g2", "low"), "seven")
     _until(drv, lambda d: "low bound of g2" in _text(d, "#messages"), "the bound's message")
-    assert _bound_input(drv, "g2", "low").find_elements(
-        By.XPATH, "ancestor-or-self::*[contains(concat(' ', @class, ' '), ' invalid ')]"
+    _until(  # re-found on every poll: Dash may re-render the field meanwhile
+        drv,
+        lambda d: _bound_input(d, "g2", "low").find_elements(
+            By.XPATH, "ancestor-or-self::*[contains(concat(' ', @class, ' '), ' invalid ')]"
+        ),
+        "the malformed bound marked invalid",
     )
     drv.find_element(By.ID, "save-limits").click()
     _until(drv, lambda d: "outlined in red" in _text(d, "#job-msg"), "the refusal to save")

@@ -30,6 +30,13 @@ Methods
 - ``exp``: ``x = k ln 2 + r`` (``|r| <= ln2/2``, ln 2 in two parts), Taylor polynomial of
   degree 13, times ``2**(k//2) * 2**(k - k//2)`` built from the exponent bits (two factors so
   that subnormal results round once).
+
+No float -> integer conversion anywhere: AVX2 (and NEON's 64-bit lanes before SVE) has no
+vector double -> int64 conversion, and a single one makes LLVM convert lane by lane inside the
+caller's loop (measured: ten scalar ``cvttsd2si`` in the lockstep loop compiled for Haswell).
+The quadrant is ``n - 4 floor(n/4)`` in floating point; the exponent bits of ``2**j`` are the
+low bits of ``j + 1.5 * 2**52`` shifted into place (``tests/models/test_vecmath.py`` compiles the
+loop for Haswell and checks).
 """
 
 from __future__ import annotations
@@ -98,6 +105,8 @@ _F = [1.0 / math.factorial(k) for k in range(14)]
 _LOG2E = 1.4426950408889634
 _LN2_HI = float.fromhex("0x1.62e42fee00000p-1")  # 32 significant bits: k * _LN2_HI is exact
 _LN2_LO = float.fromhex("0x1.a39ef35793c76p-33")  # ln 2 - _LN2_HI
+# 1.5 * 2**52 plus the exponent bias: see the end of ``exp``
+_EXP_BIAS_MAGIC = 1.5 * 2.0**52 + 1023.0
 _E2, _E3, _E4, _E5, _E6, _E7, _E8, _E9, _E10, _E11, _E12, _E13 = _F[2:14]
 
 
@@ -114,6 +123,19 @@ def _bits_as_float(typingctx, bits):
     return types.float64(bits), codegen
 
 
+@intrinsic
+def _float_as_bits(typingctx, value):
+    """Reinterpret the bits of a float64 as an int64 (an LLVM bitcast)."""
+    if not isinstance(value, types.Float):
+        return None
+
+    def codegen(context, builder, signature, args):
+        x = context.cast(builder, args[0], signature.args[0], types.float64)
+        return builder.bitcast(x, ir.IntType(64))
+
+    return types.int64(value), codegen
+
+
 @njit(**_JIT)
 def sincos(x):  # pragma: no cover - compiled
     """``(sin x, cos x)`` of an angle ``x`` in radians; see the module docstring."""
@@ -122,14 +144,16 @@ def sincos(x):  # pragma: no cover - compiled
     z = r * r
     s = r + r * z * (_S0 + z * (_S1 + z * (_S2 + z * (_S3 + z * (_S4 + z * _S5)))))
     c = 1.0 - 0.5 * z + z * z * (_C0 + z * (_C1 + z * (_C2 + z * (_C3 + z * (_C4 + z * _C5)))))
-    q = int(n)
-    swap = (q & 1) != 0
+    # The quadrant n mod 4 in floating point (m in {0, 1, 2, 3}): a float -> int64 conversion
+    # has no vector instruction before AVX-512, and LLVM would do it one lane at a time.
+    m = n - 4.0 * np.floor(n * 0.25)
+    swap = (m == 1.0) | (m == 3.0)
     sn = c if swap else s
     cs = s if swap else c
     neg_sn = -sn
     neg_cs = -cs
-    sn = neg_sn if (q & 2) != 0 else sn
-    cs = neg_cs if ((q + 1) & 2) != 0 else cs
+    sn = neg_sn if m >= 2.0 else sn
+    cs = neg_cs if (m == 1.0) | (m == 2.0) else cs
     return sn, cs
 
 
@@ -202,10 +226,15 @@ def exp(x):  # pragma: no cover - compiled
     p = _E3 + r * p
     p = _E2 + r * p
     p = 1.0 + r * (1.0 + r * p)
-    ki = int(k)
-    k1 = ki >> 1
-    k2 = ki - k1
-    return p * _bits_as_float((k1 + 1023) << 52) * _bits_as_float((k2 + 1023) << 52)
+    # 2**k1 * 2**k2 with k1 = floor(k/2), k2 = k - k1, built without a float -> int64
+    # conversion (none exists in vector form before AVX-512): for an integer j with
+    # 0 <= j < 2**51, the bits of j + 1.5 * 2**52 are those of 1.5 * 2**52 plus j, and shifting
+    # them left by 52 keeps the low 12 bits, j itself (here 485 <= j <= 1535), as an exponent.
+    k1 = np.floor(k * 0.5)
+    k2 = k - k1
+    b1 = _float_as_bits(k1 + _EXP_BIAS_MAGIC) << 52
+    b2 = _float_as_bits(k2 + _EXP_BIAS_MAGIC) << 52
+    return p * _bits_as_float(b1) * _bits_as_float(b2)
 
 
 # Hot-loop twins, inlined by numba itself (``inline="always"``) from the same source: measured
