@@ -4,6 +4,7 @@ Run::
 
     .venv/bin/python benchmarks/models.py                       # parachute6dof and parafoil8dof
     .venv/bin/python benchmarks/models.py --models parachute6dof --baseline-trials 2
+    .venv/bin/python benchmarks/models.py --target avx2 --busy 1   # AVX2 code; a shared machine
 
 For each model: a batch of ``--n`` Sobol parameter vectors over the model's box, ``--t-final``
 seconds at ``--dt`` with outputs every second, on all cores; against the baseline "what a user
@@ -17,13 +18,15 @@ what matters.
 Also printed: trials per second; an estimate of the GFLOP/s achieved (``model.flops_per_step``,
 a hand count documented in the model, divided by the wall time) against the numpy matmul
 GFLOP/s measured in the same run; the time to the first trial in a fresh process (compile cache
-warm); the peak resident memory of a 16,384-trial batch with 1-s outputs.
+warm); the peak resident memory of a 16,384-trial batch with 1-s outputs; with ``--busy N``,
+the batch's wall time with N CPU-bound processes running and its throughput as a fraction of
+the quiet one. The first lines name the machine: CPU, the ISA numba compiles for, threads, load
+(``benchmarks/_machine.py``); ``--target avx2`` measures AVX2 code on an AVX-512 machine.
 """
 
 from __future__ import annotations
 
 import argparse
-import os
 import subprocess
 import sys
 import time
@@ -32,6 +35,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.stats import qmc
 
+import _machine
 from vectorid import models
 
 
@@ -137,6 +141,14 @@ def bench_model(name: str, args: argparse.Namespace, gflops_peak: float) -> dict
         t0 = time.perf_counter()
         res = model.simulate(X, t_final=args.t_final, dt=args.dt, output_dt=1.0, **env)
         wall = min(wall, time.perf_counter() - t0)
+    busy_wall = None
+    if args.busy:  # the same batch with --busy CPU-bound processes running alongside
+        busy_wall = np.inf
+        with _machine.Busy(args.busy):
+            for _ in range(args.repeat):
+                t0 = time.perf_counter()
+                model.simulate(X, t_final=args.t_final, dt=args.dt, output_dt=1.0, **env)
+                busy_wall = min(busy_wall, time.perf_counter() - t0)
     # Trials that diverge stop early: count the batch in full-flight equivalents, and time the
     # baseline on full-length (status 0) trials only, so early stops flatter neither side.
     flown = np.where(np.isnan(res.t_fail), args.t_final, np.minimum(res.t_fail, args.t_final))
@@ -150,6 +162,9 @@ def bench_model(name: str, args: argparse.Namespace, gflops_peak: float) -> dict
         "ok": int(res.ok.sum()),
         "full_flight_equivalents": equivalent,
     }
+    if busy_wall is not None:
+        row["busy_wall_s"] = busy_wall
+        row["busy_fraction"] = wall / busy_wall
     n_steps = round(args.t_final / args.dt)
     flops = getattr(model, "flops_per_step", None)
     if flops:
@@ -210,13 +225,27 @@ def main(argv: list[str] | None = None) -> None:
         help="calm: no control, calm air (the goal's benchmark); controlled: control steps "
         "and a wind profile, as identification flights are flown",
     )
+    ap.add_argument(
+        "--target",
+        choices=["native", *_machine.TARGETS],
+        default="native",
+        help="compile for this vector ISA (avx2: emulated on an AVX-512 machine, in its own "
+        "numba cache; see benchmarks/_machine.py)",
+    )
+    ap.add_argument(
+        "--busy",
+        type=int,
+        default=0,
+        help="also time the batch with this many CPU-bound processes running (a shared machine)",
+    )
     args = ap.parse_args(argv)
-    import numba
-
+    rc = _machine.reexec_for_target(__file__, args.target, sys.argv[1:] if argv is None else argv)
+    if rc is not None:
+        raise SystemExit(rc)
     gpk = matmul_gflops()
+    print(_machine.describe())
     print(
-        f"cores: {os.cpu_count()}, numba threads: {numba.get_num_threads()}, "
-        f"load average: {os.getloadavg()[0]:.2f}, numpy matmul: {gpk:.1f} GFLOP/s, "
+        f"target measured: {_machine.measured_target()}; numpy matmul: {gpk:.1f} GFLOP/s; "
         f"scenario: {args.scenario}"
     )
     rows = [r for name in args.models if (r := bench_model(name, args, gpk)) is not None]
@@ -224,9 +253,9 @@ def main(argv: list[str] | None = None) -> None:
     print(
         "| model | trials | batch wall (s) | trials/s | baseline s/trial (nfev) | speed-up "
         "| est. GFLOP/s (% of matmul) | first trial, fresh process (s) | 16k-trial peak RSS "
-        "(MB) / outputs (MB) |"
+        f"(MB) / outputs (MB) | with {args.busy} busy: wall (s), % of quiet throughput |"
     )
-    print("|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         base = (
             f"{r['baseline_per_trial_s']:.3f} ({r['baseline_nfev']:.0f})"
@@ -235,6 +264,11 @@ def main(argv: list[str] | None = None) -> None:
         )
         sp = f"{r['speedup']:.0f}x" if "speedup" in r else "n/a"
         gf = f"{r['gflops']:.2f} ({100 * r['gflops_frac']:.1f}%)" if "gflops" in r else "n/a"
+        busy = (
+            f"{r['busy_wall_s']:.2f}, {100 * r['busy_fraction']:.0f}%"
+            if "busy_wall_s" in r
+            else "not measured"
+        )
         mem = (
             f"{r['mem_peak_mb']:.0f} / {r['mem_outputs_mb']:.0f}"
             if "mem_peak_mb" in r
@@ -244,7 +278,7 @@ def main(argv: list[str] | None = None) -> None:
             f"| {r['model']} | {r['n']} ({r['ok']} ok, {r['full_flight_equivalents']:.0f} full) | "
             f"{r['wall_s']:.2f} | "
             f"{r['trials_per_s']:.0f} | {base} | {sp} | {gf} | {r['first_trial_s']:.2f} | "
-            f"{mem} |"
+            f"{mem} | {busy} |"
         )
 
 

@@ -198,7 +198,12 @@ def _parser() -> argparse.ArgumentParser:
 
 #: Modules adding verbs: each has ``add_parsers(subparsers)`` and ``COMMANDS`` (verb -> function
 #: taking the parsed arguments and returning an exit code).
-_EXTENSION_MODULES = ("vectorid.cli_analysis", "vectorid.cli_ui", "vectorid.cli_descent")
+_EXTENSION_MODULES = (
+    "vectorid.cli_analysis",
+    "vectorid.cli_ui",
+    "vectorid.cli_descent",
+    "vectorid.cli_step",
+)
 
 
 def _extensions() -> list[Any]:

@@ -25,6 +25,7 @@ from vectorid.models.base import (
 )
 from vectorid.models.controls import ControlSchedule, flap_deflections, riser_commands
 from vectorid.models.integrate import STATUS_MESSAGES
+from vectorid.models.steps import StepChoice, choose_step
 from vectorid.models.wind import DrydenTurbulence, Wind, WindProfile
 
 __all__ = [
@@ -37,9 +38,11 @@ __all__ = [
     "Model",
     "Parameter",
     "SimulationResult",
+    "StepChoice",
     "Wind",
     "WindProfile",
     "available",
+    "choose_step",
     "flap_deflections",
     "get",
     "register",
