@@ -37,29 +37,9 @@ from pathlib import Path
 
 import numpy as np
 
+import _machine
+
 ROOT = Path(__file__).resolve().parents[1]
-
-
-def cpu_model() -> str:
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    import platform
-
-    return platform.processor() or platform.machine()
-
-
-def vector_isa() -> str:
-    """The widest vector instruction sets LLVM (numba's compiler) sees on this CPU."""
-    from llvmlite import binding
-
-    feats = binding.get_host_cpu_features()
-    names = [n for n in ("avx512f", "avx512vl", "avx2", "fma", "avx", "sse4.2", "neon", "sve")
-             if feats.get(n, False)]  # fmt: skip
-    return ", ".join(names) + f" (LLVM CPU {binding.get_host_cpu_name()})"
 
 
 def write_study(folder: Path, trials: int) -> Path:
@@ -91,7 +71,6 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--batch", type=int, default=1024, help="model-only batch size")
     ap.add_argument("--keep", help="folder to keep the study and store in (default: a temp dir)")
     args = ap.parse_args(argv)
-    import numba
 
     from vectorid.identify import Identification
     from vectorid.spec import load_study
@@ -107,9 +86,7 @@ def main(argv: list[str] | None = None) -> int:
     drop = ident.drops[0]
     ident.evaluate(np.tile(ident.model.nominal, (4, 1)))  # compile or load the cached kernel
 
-    print(f"CPU: {cpu_model()}")
-    print(f"vector ISA: {vector_isa()}")
-    print(f"cores: {os.cpu_count()}, numba threads: {numba.get_num_threads()}")
+    print(_machine.describe())
     load0 = os.getloadavg()
     print(f"load average before: {load0[0]:.2f} {load0[1]:.2f} {load0[2]:.2f}")
     print(

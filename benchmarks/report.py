@@ -30,6 +30,8 @@ from pathlib import Path
 
 import numpy as np
 
+import _machine
+
 
 def synthetic_store(path: Path, n: int, k: int, p: int, seed: int = 0):
     from vectorid.problem import Criterion, FunctionalConstraint
@@ -158,6 +160,7 @@ def main() -> None:
     ap.add_argument("--params", type=int, default=15)
     ap.add_argument("--max-points", type=int, default=3_000)
     args = ap.parse_args()
+    print(_machine.describe())
 
     import importlib.util
 

@@ -35,6 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
+import _machine
 from vectorid import Continuous, Criterion, Space, StudySpec
 from vectorid.run.executors import make_executor
 
@@ -178,6 +179,7 @@ def main() -> None:
         help="trial durations in ms, comma-separated (default 5,50,500; the goal needs 50)",
     )
     args = ap.parse_args()
+    print(_machine.describe())
     reps = args.reps or (2 if args.quick else 3)
     durations = [float(v) / 1e3 for v in args.durations.split(",")]
     workers = args.workers

@@ -23,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
+import _machine
 from vectorid import Continuous, Criterion, FunctionalConstraint, Space, StudySpec
 from vectorid.store import Store
 
@@ -42,6 +43,7 @@ def main() -> None:
     ap.add_argument("--n", type=int, default=1_000_000)
     ap.add_argument("--batch", type=int, default=10_000)
     args = ap.parse_args()
+    print(_machine.describe())
     n, b = args.n, args.batch
     p, k, q = 30, 12, 8  # 50 columns
     rng = np.random.default_rng(0)

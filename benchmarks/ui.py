@@ -44,8 +44,6 @@ from __future__ import annotations
 
 import argparse
 import importlib.util
-import os
-import platform
 import statistics
 import sys
 import tempfile
@@ -53,6 +51,8 @@ import time
 from pathlib import Path
 
 import numpy as np
+
+import _machine
 
 
 def _synthetic_store():
@@ -62,25 +62,6 @@ def _synthetic_store():
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     return mod.synthetic_store
-
-
-def machine() -> str:
-    """CPU model, vector ISA, cores and load average, one line."""
-    model, flags = platform.processor() or "unknown CPU", set()
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name") and model in ("", "unknown CPU", platform.machine()):
-                model = line.split(":", 1)[1].strip()
-            if line.startswith("flags"):
-                flags = set(line.split(":", 1)[1].split())
-    except OSError:
-        pass
-    isa = [f for f in ("avx512f", "avx2", "avx", "sse4_2", "neon") if f in flags] or ["?"]
-    load = os.getloadavg() if hasattr(os, "getloadavg") else (float("nan"),) * 3
-    return (
-        f"{model}; ISA {isa[0]}; {os.cpu_count()} cores; load average "
-        f"{load[0]:.2f} {load[1]:.2f} {load[2]:.2f}; python {sys.version.split()[0]}"
-    )
 
 
 def make_store(path: Path, n: int, k: int, p: int) -> None:
@@ -456,7 +437,7 @@ def main() -> None:
         help="store sizes driven in the browser (default 1e5 and 1e6)",
     )
     args = ap.parse_args()
-    print(f"machine: {machine()}")
+    print(f"machine: {_machine.describe()}")
     tmp = tempfile.TemporaryDirectory()
     path = Path(tmp.name) / "bench.db"
     t0 = time.perf_counter()
@@ -491,14 +472,14 @@ def main() -> None:
                     goal,
                 )
             )
-        print(f"  measured {n:,} trials; machine now: {machine()}")
+        print(f"  measured {n:,} trials; machine now: {_machine.describe()}")
     print("\nin headless Chromium (software WebGL), action to redrawn DOM, seconds:")
     print(f"{'trials':>10}  {'what':<38}{'median':>8}{'max':>8}{'n':>4}{'goal':>8}  verdict")
     for n, key, med, mx, cnt, goal in rows:
         verdict = "" if goal is None else ("meets" if med <= goal else "MISSES")
         g = "" if goal is None else f"{goal:.2f}"
         print(f"{n:>10,}  {key:<38}{med:8.3f}{mx:8.3f}{cnt:4d}{g:>8}  {verdict}")
-    print(f"machine at the end: {machine()}")
+    print(f"machine at the end: {_machine.describe()}")
 
 
 if __name__ == "__main__":
