@@ -978,6 +978,7 @@ def run_parafoil_demo(
     print()
     _criteria_legend()
     sys.stdout.flush()
+    model.compile()  # says so if it compiles (first use): not inside a progress bar
 
     # ---- stage 1 -------------------------------------------------------------------------
     v1 = [(n, *_box(model, n)) for n in STAGE1]
@@ -1210,6 +1211,7 @@ def run_parafoil_demo(
         encoding="utf-8",
     )  # fmt: skip
     spec6 = load_study(f6)
+    models.get("parafoil6dof").compile()  # first use: said before the progress bar
     st6 = run_stage(spec6, out / "parafoil-6dof.db", trials=stage3_trials, coarse=coarse3,
                     reference=ref3, progress=progress, name="6-DoF")  # fmt: skip
     r6 = st6.result
