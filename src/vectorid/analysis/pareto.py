@@ -7,13 +7,20 @@ Algorithm
 All work is done in float64 on "signed" values ``v = s_j * F[i, j]`` with ``s_j = +1`` for a
 minimised and ``-1`` for a maximised criterion, so that every column is minimised.
 
-1. One pass finds the feasible rows (no NaN) and the range of the finite values per column.
-2. A streaming pass discards every row strictly dominated by one of up to 64 *pivots* (the
-   lowest-key rows seen so far; the pivot that dropped the previous row is tried first) and gives
-   each surviving row a monotone key: the sum of its min–max normalised columns, with ``-1`` for
-   ``-inf`` and ``2`` for ``+inf``, so that a dominating row never has a larger key. Any row may
-   serve as a pivot (dominance is transitive), so this only removes dominated rows. The survivors
-   are checked once more against the final pivots.
+1. A strided sample of at most 4096 rows gives per-column offsets and scales (the min and
+   spread of its finite values) for the key below; any positive scales are correct.
+2. One streaming pass drops the rows with a NaN and every row strictly dominated by one of up
+   to 64 *pivots* (the lowest-key rows seen so far). Rows are read 64 at a time and first tried
+   against two of them at once, column by column (the pivot of lowest key and the latest
+   dominator; vectorised, no branch, comparison flags kept 64-bit wide, which AVX2 handles
+   without packing); the rows left are checked against all pivots. Each surviving row gets a
+   monotone key, the sum over columns of ``clamp((v - offset) * scale, -1e300, 1e300)``
+   (non-decreasing in every ``v`` under rounding, NaN only for a NaN row), so that a dominating
+   row never has a larger key. Any row may serve as a pivot (dominance is transitive), so this
+   only removes dominated rows. The survivors are checked once more against the final pivots.
+   Large matrices on an idle machine are scanned in contiguous parts by several threads, each
+   with its own pivots, then every survivor is checked against all of them (see
+   :func:`_choose_threads` for when).
 3. The survivors (usually a small fraction of the rows) go to an exact kernel chosen by ``k``:
 
    * ``k = 1``: the rows equal to the column minimum (no pass 2).
@@ -34,8 +41,10 @@ NaN are "failed trials": never in the mask, never dominating; ``±inf`` are ordi
 
 from __future__ import annotations
 
+import contextlib
+import os
 import sys
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 
 import numpy as np
 import numpy.typing as npt
@@ -52,6 +61,10 @@ _ROWS_PER_CELL = 64
 _GRID_SAMPLE = 4096
 #: Number of pivots used by the streaming pre-filter (one block: checking fewer costs the same).
 _N_PIVOTS = 64
+#: Rows sampled (strided) for the per-column offsets and scales of the key.
+_KEY_SAMPLE = 4096
+#: Matrices with fewer values are pre-filtered in one thread (see :func:`_choose_threads`).
+_PARALLEL_MIN_VALUES = 1_000_000
 #: The numpy engine is used for matrices of at most this many values when numba is not loaded
 #: yet: loading numba and the cached kernels (0.5-1 s) costs more than its passes there.
 _NUMPY_MAX_VALUES = 2_000_000
@@ -211,24 +224,117 @@ def _exact(G: np.ndarray, sgn: np.ndarray, rows: np.ndarray, keys: np.ndarray) -
     return order[K._sfs(X, *_grid(X))]
 
 
-def _mask_signed(G: np.ndarray, sgn: np.ndarray, n_pivots: int) -> np.ndarray:
+def _scales(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """Offsets and scales of the key's per-column map, shape (2, k), from sampled bounds.
+
+    The key term of column ``j`` is ``clamp((v - nrm[0, j]) * nrm[1, j], -1e300, 1e300)``: with
+    a finite offset and a positive finite scale it is non-decreasing in ``v`` under rounding
+    (and NaN only for a NaN ``v``), whatever the bounds were; the bounds of a sample only make
+    the columns weigh alike in the key. ``lo``/``hi`` are the sample's finite min/max (``+inf``
+    / ``-inf`` when it had none).
+    """
+    k = lo.shape[0]
+    nrm = np.empty((2, k))
+    fin = np.isfinite(lo) & np.isfinite(hi)
+    nrm[0] = np.where(fin, lo, 0.0)
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        half = np.where(fin, 0.5 * hi - 0.5 * lo, 0.0)  # never overflows
+        scale = 0.5 / np.where(half > 0, half, 1.0)
+    nrm[1] = np.where((half > 0) & np.isfinite(scale) & (scale > 0), scale, 1.0)
+    return nrm
+
+
+def _runnable_others() -> float | None:
+    """Other runnable tasks right now (Linux: ``/proc/loadavg``, minus this thread), or None."""
+    try:
+        with open("/proc/loadavg", encoding="ascii") as fh:
+            running = fh.read().split()[3].split("/")[0]
+        return max(int(running) - 1, 0)
+    except (OSError, IndexError, ValueError):
+        return None
+
+
+def _usable_cpus() -> int:
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):  # not on Linux
+        return os.cpu_count() or 1
+
+
+def _choose_threads(
+    n_values: int, max_threads: int, cpus: int, load1: float, others: float | None
+) -> int:
+    """Threads for the pre-filter of an ``n_values``-value matrix (pure: testable).
+
+    One thread when ``n_values < _PARALLEL_MIN_VALUES`` (starting the threads costs more than
+    they save) or when ``max_threads`` or ``cpus`` (CPUs this process may use) is 1. Otherwise
+    as many threads as CPUs are free, at most ``max_threads``: ``cpus - others`` rounded, where
+    ``others`` is the number of *other* runnable tasks now (``/proc/loadavg``), or, where that is
+    not known, the 1-minute load average ``load1`` (which may count this process too: then the
+    rule errs towards one thread). A busy 2-core machine (one other CPU-bound process) thus gets
+    one thread: a two-thread kernel there waits for its slower half and loses to the serial one.
+    """
+    if max_threads <= 1 or cpus <= 1 or n_values < _PARALLEL_MIN_VALUES:
+        return 1
+    busy = float(others) if others is not None else float(load1)
+    free = int(np.floor(cpus - busy + 0.5))
+    return max(1, min(max_threads, cpus, free))
+
+
+@contextlib.contextmanager
+def _numba_threads(n: int) -> Iterator[None]:
+    """Run numba's parallel kernels with ``n`` threads, restoring the previous count after."""
+    import numba
+
+    old = numba.get_num_threads()
+    numba.set_num_threads(max(1, min(n, numba.config.NUMBA_NUM_THREADS)))
+    try:
+        yield
+    finally:
+        numba.set_num_threads(old)
+
+
+def _threads_for(n_values: int, threads: int | None) -> int:
+    """The thread count of a call: ``threads`` if given, else :func:`_choose_threads`."""
+    import numba
+
+    if threads is not None:
+        return max(1, min(int(threads), numba.config.NUMBA_NUM_THREADS))
+    if n_values < _PARALLEL_MIN_VALUES:
+        return 1
+    return _choose_threads(
+        n_values, numba.get_num_threads(), _usable_cpus(), os.getloadavg()[0], _runnable_others()
+    )
+
+
+def _mask_signed(
+    G: np.ndarray, sgn: np.ndarray, n_pivots: int, threads: int | None = 1, chunks: int = 0
+) -> np.ndarray:
     """Pareto mask of a validated float64 C-contiguous matrix; ``sgn`` = ±1 per column.
 
-    The compiled engine: every pass in numba kernels."""
+    The compiled engine: every pass in numba kernels; ``threads`` as in :func:`pareto_mask`.
+    ``chunks``: parts of the parallel pre-filter, 0 (default) for one per thread (one thread:
+    the serial kernel); the tests set it to run the parallel kernel on any machine."""
     from . import _pareto_kernels as K
 
     n, k = G.shape
     mask = np.zeros(n, dtype=bool)
     if n == 0:
         return mask
-    feas, lo, hi = K._feasible_bounds(G, sgn)
     if k == 1:
         v = sgn[0] * G[:, 0]
+        feas = ~np.isnan(v)
         if feas.any():
             mask[feas] = v[feas] == v[feas].min()
         return mask
-    nrm = _normalisation(lo, hi)
-    rows, keys = K._prefilter(G, sgn, feas, nrm, n_pivots)
+    nrm = _scales(*K._sample_bounds(G, sgn, max(1, n // _KEY_SAMPLE)))
+    nt = _threads_for(n * k, threads)
+    parts = chunks or nt
+    if parts > 1:
+        with _numba_threads(nt):
+            rows, keys = K._prefilter_parallel(G, sgn, nrm, n_pivots, parts)
+    else:
+        rows, keys = K._prefilter(G, sgn, nrm, n_pivots)
     if rows.size:
         mask[rows[_exact(G, sgn, rows, keys)]] = True
     return mask
@@ -278,7 +384,9 @@ def _mask_numpy(
     return mask
 
 
-def pareto_mask(F: npt.ArrayLike, senses: Sequence[str] | None = None) -> np.ndarray:
+def pareto_mask(
+    F: npt.ArrayLike, senses: Sequence[str] | None = None, *, threads: int | None = None
+) -> np.ndarray:
     """Boolean mask of the non-dominated (Edgeworth–Pareto optimal) rows of a criteria matrix.
 
     Parameters
@@ -292,6 +400,11 @@ def pareto_mask(F: npt.ArrayLike, senses: Sequence[str] | None = None) -> np.nda
     senses : sequence of str, optional
         ``k`` strings, ``"min"`` or ``"max"``: whether each criterion is minimised or maximised.
         ``None`` (default) minimises every criterion.
+    threads : int, optional
+        Threads of the streaming pre-filter (compiled engine). ``None`` (default): chosen at call
+        time: one thread for fewer than 1e6 values or when the machine is busy, else as many as
+        CPUs are free, at most ``numba.get_num_threads()`` (see :func:`_choose_threads`); an
+        ``int`` forces that many (at most ``NUMBA_NUM_THREADS``). The mask does not depend on it.
 
     Returns
     -------
@@ -338,7 +451,7 @@ def pareto_mask(F: npt.ArrayLike, senses: Sequence[str] | None = None) -> np.nda
     sgn = _signs(senses, G.shape[1])
     global _numpy_calls
     if "numba" in sys.modules or G.size > _NUMPY_MAX_VALUES or _numpy_calls >= _NUMPY_CALLS:
-        return _mask_signed(G, sgn, _N_PIVOTS)
+        return _mask_signed(G, sgn, _N_PIVOTS, threads)
     _numpy_calls += 1
     return _mask_numpy(G, sgn, _N_PIVOTS)
 
