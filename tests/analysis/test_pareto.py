@@ -426,11 +426,12 @@ def test_key_scales_are_positive_and_finite_for_any_sample():
     ("n_values", "max_threads", "cpus", "load1", "others", "expected"),
     [
         (10**8, 2, 2, 0.0, 0, 2),  # idle 2-core machine, large input: both threads
-        (10**8, 2, 2, 3.0, 0, 2),  # nothing else runnable now: the stale load average is ignored
-        (10**8, 2, 2, 0.1, 1, 1),  # one other CPU-bound process: serial
+        (10**8, 2, 2, 1.0, 0, 2),  # load 1: this process's own work, nothing else runnable
+        (10**8, 2, 2, 0.1, 1, 1),  # one other runnable task now: serial
+        (10**8, 2, 2, 2.0, 0, 1),  # none runnable this instant, but load 2 (a sleeping job)
         (10**8, 2, 2, 0.0, 2, 1),  # two others: serial
-        (10**8, 2, 2, 0.4, None, 2),  # no /proc/loadavg: the load average decides
-        (10**8, 2, 2, 0.6, None, 1),  # ... rounded: 1.4 CPUs free -> one thread
+        (10**8, 2, 2, 1.4, None, 2),  # no /proc/loadavg: the load average decides
+        (10**8, 2, 2, 1.6, None, 1),  # ... rounded: 1.4 CPUs free -> one thread
         (10**8, 8, 8, 0.0, 3, 5),  # 8 CPUs, 3 others: 5 threads
         (10**8, 4, 8, 0.0, 0, 4),  # never more than numba's thread count
         (10**8, 8, 4, 0.0, 0, 4),  # nor than the usable CPUs

@@ -266,17 +266,18 @@ def _choose_threads(
 ) -> int:
     """Threads for the pre-filter of an ``n_values``-value matrix (pure: testable).
 
-    One thread when ``n_values < _PARALLEL_MIN_VALUES`` (starting the threads costs more than
-    they save) or when ``max_threads`` or ``cpus`` (CPUs this process may use) is 1. Otherwise
-    as many threads as CPUs are free, at most ``max_threads``: ``cpus - others`` rounded, where
-    ``others`` is the number of *other* runnable tasks now (``/proc/loadavg``), or, where that is
-    not known, the 1-minute load average ``load1`` (which may count this process too: then the
-    rule errs towards one thread). A busy 2-core machine (one other CPU-bound process) thus gets
-    one thread: a two-thread kernel there waits for its slower half and loses to the serial one.
+    The rule: one thread when ``n_values < _PARALLEL_MIN_VALUES`` (starting the threads costs
+    more than they save) or when ``max_threads`` (numba's thread count) or ``cpus`` (CPUs this
+    process may use) is 1. Otherwise as many threads as CPUs are free, at most ``max_threads``:
+    ``round(cpus - busy)``, where ``busy`` is the larger of ``others``, the number of *other*
+    tasks runnable right now (``/proc/loadavg``; None where unknown), and ``load1 - 1``, the
+    1-minute load average less this process (which may itself have kept a CPU busy). A 2-core
+    machine with one other CPU-bound process thus gets one thread: a two-thread kernel there
+    waits for its descheduled half (measured: +16 ms a call) and loses to the serial one.
     """
     if max_threads <= 1 or cpus <= 1 or n_values < _PARALLEL_MIN_VALUES:
         return 1
-    busy = float(others) if others is not None else float(load1)
+    busy = max(float(others) if others is not None else 0.0, float(load1) - 1.0)
     free = int(np.floor(cpus - busy + 0.5))
     return max(1, min(max_threads, cpus, free))
 
