@@ -13,7 +13,9 @@ import numpy as np
 from .pareto import _BLOCK
 
 #: Rows the streaming pre-filter tries first for every row (vectorised over rows).
-_HOT = 2  # slot 0: the pivot of lowest key; the others: latest dominators (>= 2)
+#: Slot 0: the pivot of lowest key; slot 1: the latest dominator. The unrolled k = 2 and
+#: k = 4 passes of :func:`_scan` are written for exactly two.
+_HOT = 2
 #: Clamp of each normalised column term of the key: keeps the key finite (no inf - inf = NaN).
 _BIG = 1e300
 
@@ -69,10 +71,11 @@ def _scan(G, sgn, nrm, n_pivots, start, stop, surv, keys, P, pkey):  # pragma: n
 
     Rows are copied ``_BLOCK`` at a time, signed and column-wise, into ``T`` and tried against
     the ``_HOT`` "hot" rows (the pivot of lowest key and the latest dominator found; column by
-    column, vectorised, no branch, 64-bit flags); the rest one by one against all pivots
-    block-wise. A row with a NaN gets a NaN key and is dropped. A survivor's index and
-    monotone key go to ``surv[start + w]`` / ``keys[start + w]`` and it replaces the pivot of
-    largest key when its key is lower (or fills a free slot).
+    column, vectorised, no branch, 64-bit flags; the copy and this test are unrolled for k = 2
+    and k = 4, whose runtime-k loops LLVM does not vectorise well); the rest one by one
+    against all pivots block-wise. A row with a NaN gets a NaN key and is dropped. A
+    survivor's index and monotone key go to ``surv[start + w]`` / ``keys[start + w]`` and it
+    replaces the pivot of largest key when its key is lower (or fills a free slot).
     Pivots live in ``P`` (n_blocks x k x _BLOCK, NaN-padded) with keys ``pkey``.
     Returns (number of survivors, number of pivots).
     """
@@ -82,7 +85,7 @@ def _scan(G, sgn, nrm, n_pivots, start, stop, surv, keys, P, pkey):  # pragma: n
     # _HOT rows tried first, _BLOCK rows at a time: the pivot of lowest key and the latest
     # dominators found by the full check (NaN: dominates nothing)
     hot = np.full((_HOT, k), np.nan)
-    rr = 1  # next slot of hot to replace
+    rr = 1  # next slot of hot to replace (1 .. _HOT - 1)
     best = -1  # pivot slot of lowest key
     p = np.empty(k)
     acc = np.empty(_BLOCK, dtype=np.int64)
@@ -93,26 +96,80 @@ def _scan(G, sgn, nrm, n_pivots, start, stop, surv, keys, P, pkey):  # pragma: n
     w = start
     for r0 in range(start, stop, _BLOCK):
         m = min(_BLOCK, stop - r0)
-        for t in range(m):
+        if k == 2:
+            s0 = sgn[0]
+            s1 = sgn[1]
+            for t in range(m):
+                T[0, t] = s0 * G[r0 + t, 0]
+                T[1, t] = s1 * G[r0 + t, 1]
+        elif k == 4:
+            s0 = sgn[0]
+            s1 = sgn[1]
+            s2 = sgn[2]
+            s3 = sgn[3]
+            for t in range(m):
+                T[0, t] = s0 * G[r0 + t, 0]
+                T[1, t] = s1 * G[r0 + t, 1]
+                T[2, t] = s2 * G[r0 + t, 2]
+                T[3, t] = s3 * G[r0 + t, 3]
+        else:
             for j in range(k):
-                T[j, t] = sgn[j] * G[r0 + t, j]
+                sj = sgn[j]
+                for t in range(m):
+                    T[j, t] = sj * G[r0 + t, j]
         for t in range(m, _BLOCK):
             for j in range(k):
                 T[j, t] = np.nan
-        for t in range(_BLOCK):
-            drop[t] = 0
-        for h in range(_HOT):
+        if k == 2:  # both hot rows in one pass
+            a0 = hot[0, 0]
+            a1 = hot[0, 1]
+            b0 = hot[1, 0]
+            b1 = hot[1, 1]
             for t in range(_BLOCK):
-                le[t] = 1
-                lt[t] = 0
-            for j in range(k):
-                hj = hot[h, j]
+                v0 = T[0, t]
+                v1 = T[1, t]
+                da = (a0 <= v0) & (a1 <= v1) & ((a0 < v0) | (a1 < v1))
+                db = (b0 <= v0) & (b1 <= v1) & ((b0 < v0) | (b1 < v1))
+                drop[t] = da | db
+        elif k == 4:
+            a0 = hot[0, 0]
+            a1 = hot[0, 1]
+            a2 = hot[0, 2]
+            a3 = hot[0, 3]
+            b0 = hot[1, 0]
+            b1 = hot[1, 1]
+            b2 = hot[1, 2]
+            b3 = hot[1, 3]
+            for t in range(_BLOCK):
+                v0 = T[0, t]
+                v1 = T[1, t]
+                v2 = T[2, t]
+                v3 = T[3, t]
+                da = (a0 <= v0) & (a1 <= v1) & (a2 <= v2) & (a3 <= v3)
+                da &= (a0 < v0) | (a1 < v1) | (a2 < v2) | (a3 < v3)
+                db = (b0 <= v0) & (b1 <= v1) & (b2 <= v2) & (b3 <= v3)
+                db &= (b0 < v0) | (b1 < v1) | (b2 < v2) | (b3 < v3)
+                drop[t] = da | db
+        else:
+            for t in range(_BLOCK):
+                drop[t] = 0
+            for h in range(_HOT):
                 for t in range(_BLOCK):
-                    v = T[j, t]
-                    le[t] &= hj <= v
-                    lt[t] |= hj < v
-            for t in range(_BLOCK):
-                drop[t] |= le[t] & lt[t]
+                    le[t] = 1
+                    lt[t] = 0
+                for j in range(k):
+                    hj = hot[h, j]
+                    for t in range(_BLOCK):
+                        v = T[j, t]
+                        le[t] &= hj <= v
+                        lt[t] |= hj < v
+                for t in range(_BLOCK):
+                    drop[t] |= le[t] & lt[t]
+        alldrop = 1
+        for t in range(_BLOCK):
+            alldrop &= drop[t]
+        if alldrop:
+            continue
         for t in range(m):
             if drop[t]:
                 continue
