@@ -63,8 +63,10 @@ _GRID_SAMPLE = 4096
 _N_PIVOTS = 64
 #: Rows sampled (strided) for the per-column offsets and scales of the key.
 _KEY_SAMPLE = 4096
-#: Matrices with fewer values are pre-filtered in one thread (see :func:`_choose_threads`).
-_PARALLEL_MIN_VALUES = 1_000_000
+#: Matrices with fewer values are pre-filtered in one thread (see :func:`_choose_threads`):
+#: below this the serial pass takes a few ms, and on a shared machine waking a second thread
+#: can take as long (an idle-looking 2-core VM: median 20 us, 90th percentile 4 ms).
+_PARALLEL_MIN_VALUES = 4_000_000
 #: The numpy engine is used for matrices of at most this many values when numba is not loaded
 #: yet: loading numba and the cached kernels (0.5-1 s) costs more than its passes there.
 _NUMPY_MAX_VALUES = 2_000_000
@@ -403,7 +405,7 @@ def pareto_mask(
         ``None`` (default) minimises every criterion.
     threads : int, optional
         Threads of the streaming pre-filter (compiled engine). ``None`` (default): chosen at call
-        time: one thread for fewer than 1e6 values or when the machine is busy, else as many as
+        time: one thread for fewer than 4e6 values or when the machine is busy, else as many as
         CPUs are free, at most ``numba.get_num_threads()`` (see :func:`_choose_threads`); an
         ``int`` forces that many (at most ``NUMBA_NUM_THREADS``). The mask does not depend on it.
 
