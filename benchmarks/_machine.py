@@ -37,15 +37,21 @@ _NPY_OFF: dict[str, str] = {
 
 
 def cpu_model() -> str:
-    """The CPU model as the OS reports it (``/proc/cpuinfo`` on Linux)."""
+    """The CPU model as the OS reports it, with family/model numbers where known (Linux)."""
+    info: dict[str, str] = {}
     try:
         with open("/proc/cpuinfo", encoding="utf-8") as fh:
             for line in fh:
-                if line.startswith("model name"):
-                    return line.split(":", 1)[1].strip()
+                if not line.strip():
+                    break  # the first CPU is enough
+                key, _, value = line.partition(":")
+                info[key.strip()] = value.strip()
     except OSError:
         pass
-    return platform.processor() or platform.machine() or "unknown CPU"
+    name = info.get("model name") or platform.processor() or platform.machine() or "unknown CPU"
+    if "cpu family" in info and "model" in info:
+        name += f" (family {info['cpu family']}, model {info['model']})"
+    return name
 
 
 def _host_features() -> dict[str, bool]:

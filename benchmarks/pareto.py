@@ -137,7 +137,8 @@ def first_call_times() -> tuple[float, float]:
 
 
 def fmt(t: float | None) -> str:
-    return f"{t:.4f}" if t is not None else "skipped"
+    """Seconds as milliseconds, 3 decimals."""
+    return f"{1e3 * t:.3f}" if t is not None else "skipped"
 
 
 _TARGET_ENV = "VECTORID_BENCH_TARGET"
@@ -271,11 +272,11 @@ def main(argv: list[str] | None = None) -> int:
         if busy:
             time.sleep(1.0)
             print(f"{len(busy)} busy-loop process(es) running")
-        cols = " ".join(f"{f'ours t={t}[s]':>13} {'thr':>3}" for t in args.threads)
+        cols = " ".join(f"{f'ours t={t}[ms]':>14} {'thr':>3}" for t in args.threads)
         rcols = " ".join(f"{f'ratio t={t}':>9}" for t in args.threads)
         header = (
-            f"{'N':>9} {'k':>2} {'data':>10} {'front':>7} {cols} {'moocore[s]':>10} "
-            f"{'paretoset[s]':>12} {rcols}"
+            f"{'N':>9} {'k':>2} {'data':>10} {'front':>7} {cols} {'moocore[ms]':>11} "
+            f"{'paretoset[ms]':>13} {rcols}"
         )
         print(header)
         print("-" * len(header))
@@ -311,11 +312,11 @@ def main(argv: list[str] | None = None) -> int:
                     for t in args.threads:
                         if measured:
                             worst[t] = min(worst[t], best_comp / t_ours[t])
-                    cells = " ".join(f"{t_ours[t]:>13.4f} {used[t]:>3}" for t in args.threads)
+                    cells = " ".join(f"{fmt(t_ours[t]):>14} {used[t]:>3}" for t in args.threads)
                     rcells = " ".join(f"{best_comp / t_ours[t]:>9.2f}" for t in args.threads)
                     print(
                         f"{n:>9} {k:>2} {kind:>10} {front:>7} {cells} "
-                        f"{fmt(times.get('moocore')):>10} {fmt(times.get('paretoset')):>12} "
+                        f"{fmt(times.get('moocore')):>11} {fmt(times.get('paretoset')):>13} "
                         f"{rcells}",
                         flush=True,
                     )
