@@ -21,8 +21,14 @@ _BIG = 1e300
 
 
 @nb.njit(cache=True)
-def _sample_bounds(G, sgn, step):  # pragma: no cover - compiled
-    """Min/max of the finite signed values per column over the rows 0, step, 2 * step, ..."""
+def _key_scales(G, sgn, step):  # pragma: no cover - compiled
+    """Offsets and scales of the key's per-column map, shape (2, k), from the rows 0, step, ...
+
+    The key term of column ``j`` is ``clamp((v - nrm[0, j]) * nrm[1, j], -_BIG, _BIG)``: with a
+    finite offset and a positive finite scale it is non-decreasing in ``v`` under rounding (and
+    NaN only for a NaN ``v``), whatever the sample; the sample's min and spread of the finite
+    values only make the columns weigh alike in the key (see :func:`_scales_of`).
+    """
     n, k = G.shape
     lo = np.full(k, np.inf)
     hi = np.full(k, -np.inf)
@@ -34,7 +40,26 @@ def _sample_bounds(G, sgn, step):  # pragma: no cover - compiled
                     lo[j] = v
                 if v > hi[j]:
                     hi[j] = v
-    return lo, hi
+    return _scales_of(lo, hi)
+
+
+@nb.njit(cache=True)
+def _scales_of(lo, hi):  # pragma: no cover - compiled
+    """(2, k): offset ``lo`` and scale ``1 / (hi - lo)`` per column where those are finite and
+    positive (the spread halved first, so it never overflows), else offset 0 and scale 1."""
+    k = lo.shape[0]
+    nrm = np.empty((2, k))
+    for j in range(k):
+        nrm[0, j] = 0.0
+        nrm[1, j] = 1.0
+        if lo[j] > -np.inf and hi[j] < np.inf and lo[j] <= hi[j]:
+            nrm[0, j] = lo[j]
+            half = 0.5 * hi[j] - 0.5 * lo[j]
+            if half > 0.0:
+                sc = 0.5 / half
+                if sc > 0.0 and sc < np.inf:
+                    nrm[1, j] = sc
+    return nrm
 
 
 @nb.njit(inline="always")
