@@ -115,25 +115,32 @@ def best_time(fn: Callable[[np.ndarray], np.ndarray], F: np.ndarray, repeats: in
     return best, out
 
 
-def first_call_times() -> tuple[float, float]:
-    """Seconds for import + first call in a fresh process: with the numba cache, and cold."""
+def first_call_times() -> tuple[float, float, float]:
+    """Seconds for import + first calls in a fresh process.
+
+    (numpy engine: the first calls of a process without numba loaded; compiled kernels with
+    the numba cache; compiled kernels with an empty cache, i.e. compilation included.)"""
     code = (
-        "import time; t=time.perf_counter(); import numpy as np;"
+        "import time; t=time.perf_counter(); import numpy as np{numba};"
         "from vectorid.analysis.pareto import pareto_mask;"
         "[pareto_mask(np.random.default_rng(0).random((50, k))) for k in (1, 2, 3, 5)];"
         "print(time.perf_counter()-t)"
     )
     times = []
     with tempfile.TemporaryDirectory(prefix="numba-cold-") as empty_cache:
-        for cold in (False, True):
+        for numba, cold in ((False, False), (True, False), (True, True)):
             env = dict(os.environ)
             if cold:
                 env["NUMBA_CACHE_DIR"] = empty_cache
             res = subprocess.run(
-                [sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True
+                [sys.executable, "-c", code.format(numba="; import numba" if numba else "")],
+                env=env,
+                capture_output=True,
+                text=True,
+                check=True,
             )
             times.append(float(res.stdout.strip().splitlines()[-1]))
-    return times[0], times[1]
+    return times[0], times[1], times[2]
 
 
 def fmt(t: float | None) -> str:
@@ -251,10 +258,11 @@ def main(argv: list[str] | None = None) -> int:
     emulated = os.environ.get(_TARGET_ENV)
     print(f"target measured: {emulated + ' (emulated)' if emulated else 'native'}")
     print(_machine.describe())
-    cached, cold = first_call_times()
+    npy, cached, cold = first_call_times()
     print(
-        f"time to first call (import + 4 small calls, fresh process): {cached:.2f} s with the "
-        f"numba cache, {cold:.2f} s with an empty cache (compilation)"
+        f"time to first calls (import + 4 small calls, fresh process): {npy:.2f} s by the numpy "
+        f"engine (numba not loaded); compiled kernels (numba loaded first): {cached:.2f} s with "
+        f"the numba cache, {cold:.2f} s with an empty cache (compilation)"
     )
     ours = {t: ours_fn(t, args.force_threads) for t in args.threads}
     # warm-up: compile/load every kernel (the parallel one too) and the competitors' numba code
