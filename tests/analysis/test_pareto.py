@@ -482,3 +482,20 @@ def test_pareto_mask_in_a_fresh_process_does_not_load_numba():
     rows = [line.split() for line in out.stdout.splitlines()]
     assert int(rows[0][0]) > 0
     assert [loaded for _, loaded in rows] == ["False"] * 4 + ["True"] * 2
+
+
+def test_concurrent_calls_agree_and_only_one_runs_in_parallel():
+    # Request threads (the UI) may filter at once: one parallel launch at a time, the others
+    # serial, every mask the same.
+    from concurrent.futures import ThreadPoolExecutor
+
+    F = _large("correlated", 20_000, 4, seed=5)
+    F[::97, 1] = np.nan
+    expected = pareto._mask_signed(F, np.ones(4), pareto._N_PIVOTS)
+    with ThreadPoolExecutor(4) as ex:
+        masks = list(
+            ex.map(lambda _: pareto._mask_signed(F, np.ones(4), pareto._N_PIVOTS, 1, 3), range(8))
+        )
+    for m in masks:
+        np.testing.assert_array_equal(m, expected)
+    assert not pareto._PARALLEL_LOCK.locked()

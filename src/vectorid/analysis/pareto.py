@@ -44,6 +44,7 @@ from __future__ import annotations
 import contextlib
 import os
 import sys
+import threading
 from collections.abc import Iterator, Sequence
 
 import numpy as np
@@ -67,6 +68,8 @@ _KEY_SAMPLE = 1024
 #: below this the serial pass takes a few ms, and on a shared machine waking a second thread
 #: can take as long (an idle-looking 2-core VM: median 20 us, 90th percentile 4 ms).
 _PARALLEL_MIN_VALUES = 4_000_000
+#: Held while a call runs the parallel pre-filter (see :func:`_mask_signed`).
+_PARALLEL_LOCK = threading.Lock()
 #: The numpy engine is used for matrices of at most this many values when numba is not loaded
 #: yet: loading numba and the cached kernels (0.5-1 s) costs more than its passes there.
 _NUMPY_MAX_VALUES = 2_000_000
@@ -255,7 +258,8 @@ def _choose_threads(
     tasks runnable right now (``/proc/loadavg``; None where unknown), and ``load1 - 1``, the
     1-minute load average less this process (which may itself have kept a CPU busy). A 2-core
     machine with one other CPU-bound process thus gets one thread: a two-thread kernel there
-    waits for its descheduled half (measured: +16 ms a call) and loses to the serial one.
+    waits for its descheduled half (measured: +25-30 ms a call) and loses to the serial one.
+    A call that finds another thread of this process in the parallel kernel runs serially.
     """
     if max_threads <= 1 or cpus <= 1 or n_values < _PARALLEL_MIN_VALUES:
         return 1
@@ -313,9 +317,15 @@ def _mask_signed(
     nrm = K._key_scales(G, sgn, max(1, n // _KEY_SAMPLE))
     nt = _threads_for(n * k, threads)
     parts = chunks or nt
-    if parts > 1:
-        with _numba_threads(nt):
-            rows, keys = K._prefilter_parallel(G, sgn, nrm, n_pivots, parts)
+    # one parallel launch at a time per process (numba's workqueue layer, the fallback where
+    # neither OpenMP nor TBB is installed, aborts on concurrent launches; and a second one
+    # would only compete for the same CPUs): a call that finds it taken runs serially
+    if parts > 1 and _PARALLEL_LOCK.acquire(blocking=False):
+        try:
+            with _numba_threads(nt):
+                rows, keys = K._prefilter_parallel(G, sgn, nrm, n_pivots, parts)
+        finally:
+            _PARALLEL_LOCK.release()
     else:
         rows, keys = K._prefilter(G, sgn, nrm, n_pivots)
     if rows.size:
