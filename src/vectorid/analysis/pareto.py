@@ -66,7 +66,7 @@ _N_PIVOTS = 64
 _KEY_SAMPLE = 1024
 #: Matrices with fewer values are pre-filtered in one thread (see :func:`_choose_threads`):
 #: below this the serial pass takes a few ms, and on a shared machine waking a second thread
-#: can take as long (an idle-looking 2-core VM: median 20 us, 90th percentile 4 ms).
+#: can take as long (a 2-core VM with other jobs: median 20 us, 90th percentile 4 ms).
 _PARALLEL_MIN_VALUES = 4_000_000
 #: Held while a call runs the parallel pre-filter (see :func:`_mask_signed`).
 _PARALLEL_LOCK = threading.Lock()
@@ -397,7 +397,8 @@ def pareto_mask(
         Threads of the streaming pre-filter (compiled engine). ``None`` (default): chosen at call
         time: one thread for fewer than 4e6 values or when the machine is busy, else as many as
         CPUs are free, at most ``numba.get_num_threads()`` (see :func:`_choose_threads`); an
-        ``int`` forces that many (at most ``NUMBA_NUM_THREADS``). The mask does not depend on it.
+        ``int`` forces that many (at most ``NUMBA_NUM_THREADS``). The numpy engine (below) is
+        single-threaded. The mask does not depend on it.
 
     Returns
     -------
@@ -429,9 +430,9 @@ def pareto_mask(
     ``k = 2`` and ``k = 3`` or to a sort–filter–skyline pass (``O(n * front)``) for ``k >= 4``.
     See the module docstring for details. Indicative speed (one thread, AVX-512 or AVX2): 1e6
     rows, k = 2, about 2.5 ms; k = 4, uniform data, about 0.012 s; k = 8 (front of about 31,000
-    rows) about 0.25 s. The cost grows with the front: when
-    nearly every row is non-dominated (strongly conflicting criteria) and ``k >= 4`` it is
-    quadratic, e.g. about 7 s for 1e6 mutually non-dominated rows with k = 4.
+    rows) about 0.25 s. The cost grows with the front: when nearly every row is non-dominated
+    (strongly conflicting criteria) and ``k >= 4`` it is quadratic, e.g. about 7-12 s for 1e6
+    mutually non-dominated rows with k = 4 (moocore is faster there).
 
     Examples
     --------
