@@ -472,30 +472,8 @@ def _sfs(X, thr, B):  # pragma: no cover - compiled
         while True:
             b = head[cell]
             while b >= 0:
-                # block check, inlined by hand (see _prefilter)
-                for t in range(_BLOCK):
-                    acc[t] = 1
-                s = 1
-                for j in range(k):
-                    pj = p[j]
-                    for t in range(_BLOCK):
-                        acc[t] &= Bk[b, j, t] <= pj
-                    if j == 1 or j == 3 or j + 1 == k:
-                        s = 0
-                        for t in range(_BLOCK):
-                            s |= acc[t]
-                        if s == 0:
-                            break
-                if s != 0:
-                    for t in range(_BLOCK):
-                        if acc[t]:
-                            for j in range(k):
-                                if Bk[b, j, t] < p[j]:
-                                    dom = True
-                                    break
-                            if dom:
-                                break
-                if dom:
+                if _block_dominator(Bk, b, p, k, acc) >= 0:
+                    dom = True
                     break
                 b = nxt[b]
             if dom:
