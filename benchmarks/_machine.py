@@ -45,15 +45,21 @@ _NPY_OFF: dict[str, str] = {
 
 
 def cpu_model() -> str:
-    """The CPU model as the OS reports it (``/proc/cpuinfo`` on Linux)."""
+    """The CPU model as the OS reports it, with family/model numbers where known (Linux)."""
+    info: dict[str, str] = {}
     try:
         with open("/proc/cpuinfo", encoding="utf-8") as fh:
             for line in fh:
-                if line.startswith("model name"):
-                    return line.split(":", 1)[1].strip()
+                if not line.strip():
+                    break  # the first CPU is enough
+                key, _, value = line.partition(":")
+                info[key.strip()] = value.strip()
     except OSError:
         pass
-    return platform.processor() or platform.machine() or "unknown CPU"
+    name = info.get("model name") or platform.processor() or platform.machine() or "unknown CPU"
+    if "cpu family" in info and "model" in info:
+        name += f" (family {info['cpu family']}, model {info['model']})"
+    return name
 
 
 def _host_features() -> dict[str, bool]:
@@ -162,13 +168,14 @@ def reexec_for_target(script: str, target: str, argv: list[str]) -> int | None:
 
 
 class Busy:
-    """``with Busy(n):`` runs ``n`` CPU-bound busy-loop processes (a loaded machine)."""
+    """``with Busy(n):`` runs ``n`` CPU-bound busy-loop processes (a loaded machine); or call
+    :meth:`start` and :meth:`stop`."""
 
     def __init__(self, n: int) -> None:
         self.n = n
         self.procs: list = []
 
-    def __enter__(self) -> Busy:
+    def start(self) -> Busy:
         import subprocess
         import sys
         import time
@@ -178,11 +185,18 @@ class Busy:
             for _ in range(self.n)
         ]
         if self.procs:
-            time.sleep(0.5)  # let them start spinning
+            time.sleep(1.0)  # let them start spinning
         return self
 
-    def __exit__(self, *exc: object) -> None:
+    def stop(self) -> None:
         for p in self.procs:
             p.kill()
         for p in self.procs:
             p.wait()
+        self.procs = []
+
+    def __enter__(self) -> Busy:
+        return self.start()
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()

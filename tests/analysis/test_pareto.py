@@ -384,6 +384,84 @@ def test_numpy_engine_matches_the_compiled_one_on_large_inputs(kind, k):
     np.testing.assert_array_equal(small, compiled)
 
 
+@settings(max_examples=200, deadline=None)
+@given(
+    problems(values=st.integers(0, 4).map(float), max_n=200),
+    st.sampled_from([0, 1, 3, 64]),
+    st.sampled_from([2, 3, 7]),
+)
+def test_parallel_prefilter_exact(problem, n_pivots, chunks):
+    # The parallel pre-filter (contiguous parts, each with its own pivots, then every survivor
+    # against all pivots) run in as many parts as asked, whatever the machine's threads.
+    F, senses = problem
+    got = pareto._mask_signed(np.ascontiguousarray(F), _sgn(F, senses), n_pivots, 1, chunks)
+    np.testing.assert_array_equal(got, brute_mask(F, senses))
+
+
+@pytest.mark.parametrize("kind", ["uniform", "correlated", "ties"])
+@pytest.mark.parametrize("k", [2, 4, 5])
+def test_parallel_prefilter_matches_serial_on_large_inputs(kind, k):
+    F = _large(kind, 20_000, k, seed=3 * k + len(kind))
+    F[::331, k - 1] = np.nan
+    sgn = np.where(np.arange(k) % 2, -1.0, 1.0)
+    serial = pareto._mask_signed(F, sgn, pareto._N_PIVOTS)
+    for chunks in (2, 5):
+        np.testing.assert_array_equal(
+            pareto._mask_signed(F, sgn, pareto._N_PIVOTS, 1, chunks), serial
+        )
+    np.testing.assert_array_equal(pareto_mask(F * sgn, threads=2), serial)
+
+
+def test_key_scales_are_positive_and_finite_for_any_sample():
+    big, tiny = 1.7e308, 5e-324
+    lo = np.array([0.0, -big, np.inf, 3.0, tiny, -np.inf])
+    hi = np.array([1.0, big, -np.inf, 3.0, 2 * tiny, np.inf])
+    from vectorid.analysis import _pareto_kernels as K
+
+    nrm = K._scales_of(lo, hi)
+    assert np.all(np.isfinite(nrm)) and np.all(nrm[1] > 0)
+    np.testing.assert_array_equal(nrm[:, 0], [0.0, 1.0])
+    assert nrm[1, 1] > 0 and nrm[0, 1] == -big  # spread overflows: halved, still positive
+
+
+@pytest.mark.parametrize(
+    ("n_values", "max_threads", "cpus", "load1", "others", "expected"),
+    [
+        (10**8, 2, 2, 0.0, 0, 2),  # idle 2-core machine, large input: both threads
+        (10**8, 2, 2, 1.0, 0, 2),  # load 1: this process's own work, nothing else runnable
+        (10**8, 2, 2, 0.1, 1, 1),  # one other runnable task now: serial
+        (10**8, 2, 2, 2.0, 0, 1),  # none runnable this instant, but load 2 (a sleeping job)
+        (10**8, 2, 2, 0.0, 2, 1),  # two others: serial
+        (10**8, 2, 2, 1.4, None, 2),  # no /proc/loadavg: the load average decides
+        (10**8, 2, 2, 1.6, None, 1),  # ... rounded: 1.4 CPUs free -> one thread
+        (10**8, 8, 8, 0.0, 3, 5),  # 8 CPUs, 3 others: 5 threads
+        (10**8, 4, 8, 0.0, 0, 4),  # never more than numba's thread count
+        (10**8, 8, 4, 0.0, 0, 4),  # nor than the usable CPUs
+        (10**5, 2, 2, 0.0, 0, 1),  # small input: one thread
+        (10**8, 1, 2, 0.0, 0, 1),  # NUMBA_NUM_THREADS=1
+        (10**8, 2, 1, 0.0, 0, 1),  # one usable CPU
+    ],
+)
+def test_thread_choice_rule(n_values, max_threads, cpus, load1, others, expected):
+    assert pareto._choose_threads(n_values, max_threads, cpus, load1, others) == expected
+
+
+def test_thread_choice_threshold_and_context_restore():
+    import numba
+
+    t = pareto._PARALLEL_MIN_VALUES
+    assert pareto._choose_threads(t - 1, 2, 2, 0.0, 0) == 1
+    assert pareto._choose_threads(t, 2, 2, 0.0, 0) == 2
+    assert pareto._threads_for(10, None) == 1
+    assert pareto._threads_for(10, 1) == 1
+    before = numba.get_num_threads()
+    with pareto._numba_threads(1):
+        assert numba.get_num_threads() == 1
+    assert numba.get_num_threads() == before
+    others = pareto._runnable_others()
+    assert others is None or others >= 0
+
+
 def test_pareto_mask_in_a_fresh_process_does_not_load_numba():
     # The analysis verbs of the CLI start without numba (0.5-1 s to load); see pareto_mask.
     import subprocess
@@ -404,3 +482,20 @@ def test_pareto_mask_in_a_fresh_process_does_not_load_numba():
     rows = [line.split() for line in out.stdout.splitlines()]
     assert int(rows[0][0]) > 0
     assert [loaded for _, loaded in rows] == ["False"] * 4 + ["True"] * 2
+
+
+def test_concurrent_calls_agree_and_only_one_runs_in_parallel():
+    # Request threads (the UI) may filter at once: one parallel launch at a time, the others
+    # serial, every mask the same.
+    from concurrent.futures import ThreadPoolExecutor
+
+    F = _large("correlated", 20_000, 4, seed=5)
+    F[::97, 1] = np.nan
+    expected = pareto._mask_signed(F, np.ones(4), pareto._N_PIVOTS)
+    with ThreadPoolExecutor(4) as ex:
+        masks = list(
+            ex.map(lambda _: pareto._mask_signed(F, np.ones(4), pareto._N_PIVOTS, 1, 3), range(8))
+        )
+    for m in masks:
+        np.testing.assert_array_equal(m, expected)
+    assert not pareto._PARALLEL_LOCK.locked()

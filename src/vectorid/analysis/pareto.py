@@ -7,13 +7,20 @@ Algorithm
 All work is done in float64 on "signed" values ``v = s_j * F[i, j]`` with ``s_j = +1`` for a
 minimised and ``-1`` for a maximised criterion, so that every column is minimised.
 
-1. One pass finds the feasible rows (no NaN) and the range of the finite values per column.
-2. A streaming pass discards every row strictly dominated by one of up to 64 *pivots* (the
-   lowest-key rows seen so far; the pivot that dropped the previous row is tried first) and gives
-   each surviving row a monotone key: the sum of its min–max normalised columns, with ``-1`` for
-   ``-inf`` and ``2`` for ``+inf``, so that a dominating row never has a larger key. Any row may
-   serve as a pivot (dominance is transitive), so this only removes dominated rows. The survivors
-   are checked once more against the final pivots.
+1. A strided sample of about 1024 rows gives per-column offsets and scales (the min and
+   spread of its finite values) for the key below; any positive scales are correct.
+2. One streaming pass drops the rows with a NaN and every row strictly dominated by one of up
+   to 64 *pivots* (the lowest-key rows seen so far). Rows are read 64 at a time and first tried
+   against two of them at once, column by column (the pivot of lowest key and the latest
+   dominator; vectorised, no branch, comparison flags kept 64-bit wide, which AVX2 handles
+   without packing); the rows left are checked against all pivots. Each surviving row gets a
+   monotone key, the sum over columns of ``clamp((v - offset) * scale, -1e300, 1e300)``
+   (non-decreasing in every ``v`` under rounding, NaN only for a NaN row), so that a dominating
+   row never has a larger key. Any row may serve as a pivot (dominance is transitive), so this
+   only removes dominated rows. The survivors are checked once more against the final pivots.
+   Large matrices on an idle machine are scanned in contiguous parts by several threads, each
+   with its own pivots, then every survivor is checked against all of them (see
+   :func:`_choose_threads` for when).
 3. The survivors (usually a small fraction of the rows) go to an exact kernel chosen by ``k``:
 
    * ``k = 1``: the rows equal to the column minimum (no pass 2).
@@ -34,8 +41,11 @@ NaN are "failed trials": never in the mask, never dominating; ``±inf`` are ordi
 
 from __future__ import annotations
 
+import contextlib
+import os
 import sys
-from collections.abc import Sequence
+import threading
+from collections.abc import Iterator, Sequence
 
 import numpy as np
 import numpy.typing as npt
@@ -52,6 +62,14 @@ _ROWS_PER_CELL = 64
 _GRID_SAMPLE = 4096
 #: Number of pivots used by the streaming pre-filter (one block: checking fewer costs the same).
 _N_PIVOTS = 64
+#: Rows sampled (strided) for the per-column offsets and scales of the key.
+_KEY_SAMPLE = 1024
+#: Matrices with fewer values are pre-filtered in one thread (see :func:`_choose_threads`):
+#: below this the serial pass takes a few ms, and on a shared machine waking a second thread
+#: can take as long (a 2-core VM with other jobs: median 20 us, 90th percentile 4 ms).
+_PARALLEL_MIN_VALUES = 4_000_000
+#: Held while a call runs the parallel pre-filter (see :func:`_mask_signed`).
+_PARALLEL_LOCK = threading.Lock()
 #: The numpy engine is used for matrices of at most this many values when numba is not loaded
 #: yet: loading numba and the cached kernels (0.5-1 s) costs more than its passes there.
 _NUMPY_MAX_VALUES = 2_000_000
@@ -182,9 +200,9 @@ def _grid(X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     B = np.array(buckets[:d], dtype=np.int64)
     thr = np.full((d, max(int(B.max()) - 1, 1) if d else 1), np.inf)
     sample = X[:: max(1, m // _GRID_SAMPLE)]
-    for j in range(d):
-        q = np.arange(1, B[j]) / B[j]
-        thr[j, : B[j] - 1] = np.quantile(sample[:, j], q, method="inverted_cdf")
+    for j in range(d):  # order statistics of the sample (np.quantile costs ~20 us a call)
+        col = np.sort(sample[:, j])
+        thr[j, : B[j] - 1] = col[(np.arange(1, B[j]) * col.size) // B[j]]
     return thr, B
 
 
@@ -211,24 +229,105 @@ def _exact(G: np.ndarray, sgn: np.ndarray, rows: np.ndarray, keys: np.ndarray) -
     return order[K._sfs(X, *_grid(X))]
 
 
-def _mask_signed(G: np.ndarray, sgn: np.ndarray, n_pivots: int) -> np.ndarray:
+def _runnable_others() -> float | None:
+    """Other runnable tasks right now (Linux: ``/proc/loadavg``, minus this thread), or None."""
+    try:
+        with open("/proc/loadavg", encoding="ascii") as fh:
+            running = fh.read().split()[3].split("/")[0]
+        return max(int(running) - 1, 0)
+    except (OSError, IndexError, ValueError):
+        return None
+
+
+def _usable_cpus() -> int:
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):  # not on Linux
+        return os.cpu_count() or 1
+
+
+def _choose_threads(
+    n_values: int, max_threads: int, cpus: int, load1: float, others: float | None
+) -> int:
+    """Threads for the pre-filter of an ``n_values``-value matrix (pure: testable).
+
+    The rule: one thread when ``n_values < _PARALLEL_MIN_VALUES`` (starting the threads costs
+    more than they save) or when ``max_threads`` (numba's thread count) or ``cpus`` (CPUs this
+    process may use) is 1. Otherwise as many threads as CPUs are free, at most ``max_threads``:
+    ``round(cpus - busy)``, where ``busy`` is the larger of ``others``, the number of *other*
+    tasks runnable right now (``/proc/loadavg``; None where unknown), and ``load1 - 1``, the
+    1-minute load average less this process (which may itself have kept a CPU busy). A 2-core
+    machine with one other CPU-bound process thus gets one thread: a two-thread kernel there
+    waits for its descheduled half (measured: +25-30 ms a call) and loses to the serial one.
+    A call that finds another thread of this process in the parallel kernel runs serially.
+    """
+    if max_threads <= 1 or cpus <= 1 or n_values < _PARALLEL_MIN_VALUES:
+        return 1
+    busy = max(float(others) if others is not None else 0.0, float(load1) - 1.0)
+    free = int(np.floor(cpus - busy + 0.5))
+    return max(1, min(max_threads, cpus, free))
+
+
+@contextlib.contextmanager
+def _numba_threads(n: int) -> Iterator[None]:
+    """Run numba's parallel kernels with ``n`` threads, restoring the previous count after."""
+    import numba
+
+    old = numba.get_num_threads()
+    numba.set_num_threads(max(1, min(n, numba.config.NUMBA_NUM_THREADS)))
+    try:
+        yield
+    finally:
+        numba.set_num_threads(old)
+
+
+def _threads_for(n_values: int, threads: int | None) -> int:
+    """The thread count of a call: ``threads`` if given, else :func:`_choose_threads`."""
+    import numba
+
+    if threads is not None:
+        return max(1, min(int(threads), numba.config.NUMBA_NUM_THREADS))
+    if n_values < _PARALLEL_MIN_VALUES:
+        return 1
+    return _choose_threads(
+        n_values, numba.get_num_threads(), _usable_cpus(), os.getloadavg()[0], _runnable_others()
+    )
+
+
+def _mask_signed(
+    G: np.ndarray, sgn: np.ndarray, n_pivots: int, threads: int | None = 1, chunks: int = 0
+) -> np.ndarray:
     """Pareto mask of a validated float64 C-contiguous matrix; ``sgn`` = ±1 per column.
 
-    The compiled engine: every pass in numba kernels."""
+    The compiled engine: every pass in numba kernels; ``threads`` as in :func:`pareto_mask`.
+    ``chunks``: parts of the parallel pre-filter, 0 (default) for one per thread (one thread:
+    the serial kernel); the tests set it to run the parallel kernel on any machine."""
     from . import _pareto_kernels as K
 
     n, k = G.shape
     mask = np.zeros(n, dtype=bool)
     if n == 0:
         return mask
-    feas, lo, hi = K._feasible_bounds(G, sgn)
     if k == 1:
         v = sgn[0] * G[:, 0]
+        feas = ~np.isnan(v)
         if feas.any():
             mask[feas] = v[feas] == v[feas].min()
         return mask
-    nrm = _normalisation(lo, hi)
-    rows, keys = K._prefilter(G, sgn, feas, nrm, n_pivots)
+    nrm = K._key_scales(G, sgn, max(1, n // _KEY_SAMPLE))
+    nt = _threads_for(n * k, threads)
+    parts = chunks or nt
+    # one parallel launch at a time per process (numba's workqueue layer, the fallback where
+    # neither OpenMP nor TBB is installed, aborts on concurrent launches; and a second one
+    # would only compete for the same CPUs): a call that finds it taken runs serially
+    if parts > 1 and _PARALLEL_LOCK.acquire(blocking=False):
+        try:
+            with _numba_threads(nt):
+                rows, keys = K._prefilter_parallel(G, sgn, nrm, n_pivots, parts)
+        finally:
+            _PARALLEL_LOCK.release()
+    else:
+        rows, keys = K._prefilter(G, sgn, nrm, n_pivots)
     if rows.size:
         mask[rows[_exact(G, sgn, rows, keys)]] = True
     return mask
@@ -278,7 +377,9 @@ def _mask_numpy(
     return mask
 
 
-def pareto_mask(F: npt.ArrayLike, senses: Sequence[str] | None = None) -> np.ndarray:
+def pareto_mask(
+    F: npt.ArrayLike, senses: Sequence[str] | None = None, *, threads: int | None = None
+) -> np.ndarray:
     """Boolean mask of the non-dominated (Edgeworth–Pareto optimal) rows of a criteria matrix.
 
     Parameters
@@ -292,6 +393,12 @@ def pareto_mask(F: npt.ArrayLike, senses: Sequence[str] | None = None) -> np.nda
     senses : sequence of str, optional
         ``k`` strings, ``"min"`` or ``"max"``: whether each criterion is minimised or maximised.
         ``None`` (default) minimises every criterion.
+    threads : int, optional
+        Threads of the streaming pre-filter (compiled engine). ``None`` (default): chosen at call
+        time: one thread for fewer than 4e6 values or when the machine is busy, else as many as
+        CPUs are free, at most ``numba.get_num_threads()`` (see :func:`_choose_threads`); an
+        ``int`` forces that many (at most ``NUMBA_NUM_THREADS``). The numpy engine (below) is
+        single-threaded. The mask does not depend on it.
 
     Returns
     -------
@@ -317,13 +424,15 @@ def pareto_mask(F: npt.ArrayLike, senses: Sequence[str] | None = None) -> np.nda
     filters once starts fast, a process that keeps filtering (the UI) moves to the compiled
     kernels, ~10x faster per call. Otherwise the kernels are compiled with numba
     (cached on disk; the first call in a fresh environment compiles them, which takes a few
-    seconds). Rows are first screened against a few low-key pivot rows
-    in one streaming pass, then the survivors go to an ``O(n log n)`` sweep for ``k = 2`` and
-    ``k = 3`` or to a sort–filter–skyline pass (``O(n * front)``) for ``k >= 4``. See the module
-    docstring for details. Indicative speed (one core): 1e6 rows, k = 4, uniform data, about
-    0.03 s; k = 8 (front of about 31,000 rows) about 0.3 s. The cost grows with the front: when
-    nearly every row is non-dominated (strongly conflicting criteria) and ``k >= 4`` it is
-    quadratic, e.g. about 7 s for 1e6 mutually non-dominated rows with k = 4.
+    seconds, the parallel pre-filter a few more on its first use). Rows are first screened
+    against a few low-key pivot rows in one streaming pass (in parallel for large inputs on an
+    idle machine, see ``threads``), then the survivors go to an ``O(n log n)`` sweep for
+    ``k = 2`` and ``k = 3`` or to a sort–filter–skyline pass (``O(n * front)``) for ``k >= 4``.
+    See the module docstring for details. Indicative speed (one thread, AVX-512 or AVX2): 1e6
+    rows, k = 2, about 2.5 ms; k = 4, uniform data, about 0.012 s; k = 8 (front of about 31,000
+    rows) about 0.25 s. The cost grows with the front: when nearly every row is non-dominated
+    (strongly conflicting criteria) and ``k >= 4`` it is quadratic, e.g. about 7-12 s for 1e6
+    mutually non-dominated rows with k = 4 (moocore is faster there).
 
     Examples
     --------
@@ -338,7 +447,7 @@ def pareto_mask(F: npt.ArrayLike, senses: Sequence[str] | None = None) -> np.nda
     sgn = _signs(senses, G.shape[1])
     global _numpy_calls
     if "numba" in sys.modules or G.size > _NUMPY_MAX_VALUES or _numpy_calls >= _NUMPY_CALLS:
-        return _mask_signed(G, sgn, _N_PIVOTS)
+        return _mask_signed(G, sgn, _N_PIVOTS, threads)
     _numpy_calls += 1
     return _mask_numpy(G, sgn, _N_PIVOTS)
 
