@@ -9,12 +9,10 @@ from vectorid.models.integrate import (
     LANES,
     STATUS_NONFINITE,
     STATUS_RUNAWAY,
-    WORKERS,
     Environment,
     allocate_outputs,
     env_at,
     env_gather,
-    next_item,
     rk4_lanes,
     rk4_trial,
     table_position,
@@ -213,21 +211,3 @@ def test_env_gather_equals_env_at_bit_for_bit(windy):
             want = env_at(env.atm, env.gust, t, hk if np.isfinite(hk) else -1e9)
             np.testing.assert_array_equal(got[:, k], want)
 
-
-@njit(parallel=True)
-def _take_all(n, taken):
-    counter = np.zeros(1, np.int64)
-    for _ in prange(WORKERS):
-        while True:
-            i = next_item(counter)
-            if i >= n:
-                break
-            taken[i] += 1
-
-
-def test_work_queue_hands_out_every_item_exactly_once():
-    """The kernels' work queue: threads racing on one counter take each item once."""
-    for n in (0, 1, 7, 100_003):
-        taken = np.zeros(n, np.int64)
-        _take_all(n, taken)
-        assert np.all(taken == 1)

@@ -405,7 +405,9 @@ class Model(abc.ABC):
         t_fail = np.full(n, np.nan)
         # Trials that diverge stop early, so equal static shares of the batch leave threads
         # idle; small chunks handed out on demand keep every core busy (measured: 6 % faster
-        # on the parafoil box, where half the trials stop early).
+        # on the parafoil box, where half the trials stop early), and on a shared machine a
+        # thread that gets less of its core takes fewer chunks (benchmarks/models.py --busy 1:
+        # 63-69 % of the quiet throughput with one CPU-bound process beside it on 2 cores).
         self._announce_compile()
         with numba.parallel_chunksize(PARALLEL_CHUNK):
             y = self._simulate(

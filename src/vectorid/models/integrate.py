@@ -34,26 +34,12 @@ compiled into the kernel's cached library). So every model module defines three 
        @njit(parallel=True, cache=True)
        def _kernel(x0, p, ctrl_t, ctrl_v, ctrl_mode, atm, gust, dt, n_steps, stride,
                    x_max, y, status, t_fail):
-           counter = np.zeros(1, np.int64)
-           for _ in prange(WORKERS):                   # a work queue (below)
-               while True:
-                   i = next_item(counter)              # the next trial nobody has taken
-                   if i >= x0.shape[0]:
-                       break
-                   if status[i] != 0:      # rejected before integration: leave NaN outputs
-                       continue
-                   status[i], t_fail[i] = rk4_trial(
-                       _rhs, _observe, x0[i], p[i], ctrl_t, ctrl_v, ctrl_mode, atm, gust,
-                       dt, n_steps, stride, x_max, y[i])
-
-   Each thread takes the next trial from a shared atomic counter (:func:`next_item`) rather
-   than a fixed share of the batch (``prange(n)`` gives each thread ``n / threads`` trials up
-   front): on a shared machine a thread that gets less of its core then does fewer trials, so
-   the batch ends when the machine's capacity is used up, not when the slowest thread is done.
-   ``prange(WORKERS)`` splits :data:`WORKERS` (more than any thread count) passes among the
-   threads; each thread's first pass drains the queue together with the others, and the rest
-   find it empty. (Asking ``numba.get_num_threads()`` inside the kernel would stop numba from
-   caching it: "uses dynamic globals".)
+           for i in prange(x0.shape[0]):
+               if status[i] != 0:          # rejected before integration: leave NaN outputs
+                   continue
+               status[i], t_fail[i] = rk4_trial(
+                   _rhs, _observe, x0[i], p[i], ctrl_t, ctrl_v, ctrl_mode, atm, gust,
+                   dt, n_steps, stride, x_max, y[i])
 
    and the model's ``_simulate`` hook (see ``base.Model``) allocates ``y`` with
    :func:`allocate_outputs`, sets ``status`` for trials it rejects up front, and calls
@@ -90,14 +76,14 @@ and loop over the columns; for LLVM to vectorise that loop:
 - work a whole group may skip (e.g. control terms while every actuator rests) goes in its own
   loop behind a group-level test, so that calm groups do not pay for it.
 
-The kernel is the work queue of item 3 over groups of :data:`LANES` rows of
-``np.flatnonzero(status == 0)`` (see ``parachute6dof._kernel``), compiled with
-``error_model="numpy"`` (no division checks) and ``fastmath={"contract"}`` (fused
-multiply-add; NaN and inf semantics kept).
+The kernel is the parallel loop over groups of :data:`LANES` rows of ``np.flatnonzero(status
+== 0)`` (see ``parachute6dof._kernel``), compiled with ``error_model="numpy"`` (no division
+checks) and ``fastmath={"contract"}`` (fused multiply-add; NaN and inf semantics kept).
 
 Caveat of numba's cache: it is invalidated only when the file that defines the cached kernel
-changes. After editing this file (or ``controls.py``), touch the model modules or delete their
-``__pycache__/*.nbi`` files, or the old compiled helpers keep running.
+changes (numba 0.68 compares a hash of its content; touching it is not enough). After editing
+this file, ``vecmath.py`` or ``controls.py``, delete the model modules' ``__pycache__/*.nbi``
+files, or the old compiled helpers keep running.
 
 Status codes (``STATUS_*``): 0 ok; 1 a state became NaN/inf; 2 a state left its bound ``x_max``
 (runaway); 3 a parameter is NaN/inf; 4 the model rejected the parameters (e.g. a mass matrix that
@@ -111,9 +97,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from llvmlite import ir
-from numba import njit, types
-from numba.extending import intrinsic
+from numba import njit
 from numpy.typing import NDArray
 
 from vectorid.models.atmosphere import ISA, UniformAtmosphere
@@ -130,13 +114,11 @@ __all__ = [
     "STATUS_OK",
     "STATUS_REJECTED",
     "STATUS_RUNAWAY",
-    "WORKERS",
     "Environment",
     "allocate_outputs",
     "env_at",
     "env_gather",
     "gust_at",
-    "next_item",
     "rk4_lanes",
     "rk4_trial",
     "table_position",
@@ -327,32 +309,6 @@ def env_gather(atm, gust, t, W):  # pragma: no cover - compiled
             W[2, k] = gn
             W[3, k] = ge
             W[4, k] = gd
-
-
-#: Passes of a work-queue kernel's ``prange`` (item 3 of the module docstring): more than any
-#: thread count, so every thread gets at least one.
-WORKERS = 4096
-
-
-@intrinsic
-def next_item(typingctx, counter):
-    """Take the next item of a work queue: atomically add 1 to ``counter[0]``, return its old value.
-
-    ``counter`` is a one-element int64 array shared by the threads of a parallel loop; each
-    call returns a different value (0, 1, 2, ... in the order the calls come), so threads that
-    loop ``while (i := next_item(counter)) < n`` share ``n`` items dynamically.
-    """
-    if not (
-        isinstance(counter, types.Array) and counter.dtype == types.int64 and counter.ndim == 1
-    ):
-        return None
-
-    def codegen(context, builder, signature, args):
-        array = context.make_array(signature.args[0])(context, builder, args[0])
-        one = ir.Constant(ir.IntType(64), 1)
-        return builder.atomic_rmw("add", array.data, one, "monotonic")
-
-    return types.int64(counter), codegen
 
 
 @njit(inline="always")

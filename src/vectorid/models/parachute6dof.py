@@ -34,11 +34,9 @@ from vectorid.models.integrate import (
     ENV_ROWS,
     LANES,
     STATUS_REJECTED,
-    WORKERS,
     Environment,
     allocate_outputs,
     env_gather,
-    next_item,
     rk4_lanes,
     table_position,
 )
@@ -513,33 +511,28 @@ def _kernel(
     t_fail,
 ):  # pragma: no cover - compiled
     n_groups = (rows.shape[0] + LANES - 1) // LANES
-    counter = np.zeros(1, np.int64)
-    for _ in prange(WORKERS):  # a work queue: see integrate.next_item
-        while True:
-            g = next_item(counter)
-            if g >= n_groups:
-                break
-            lo = g * LANES
-            hi = min(lo + LANES, rows.shape[0])
-            rk4_lanes(
-                _rhs,
-                _observe,
-                x0,
-                p,
-                rows[lo:hi],
-                ctrl_t,
-                ctrl_v,
-                ctrl_mode,
-                atm,
-                gust,
-                dt,
-                n_steps,
-                stride,
-                x_max,
-                y,
-                status,
-                t_fail,
-            )
+    for g in prange(n_groups):
+        lo = g * LANES
+        hi = min(lo + LANES, rows.shape[0])
+        rk4_lanes(
+            _rhs,
+            _observe,
+            x0,
+            p,
+            rows[lo:hi],
+            ctrl_t,
+            ctrl_v,
+            ctrl_mode,
+            atm,
+            gust,
+            dt,
+            n_steps,
+            stride,
+            x_max,
+            y,
+            status,
+            t_fail,
+        )
 
 
 class Parachute6DoF(Model):

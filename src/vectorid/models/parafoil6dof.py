@@ -17,12 +17,11 @@ from __future__ import annotations
 
 from typing import Any, ClassVar
 
-import numpy as np
 from numba import njit, prange
 
 from vectorid.models._parafoil_core import parafoil_observe, parafoil_rhs
 from vectorid.models.base import BASE_CHANNELS, Channel
-from vectorid.models.integrate import WORKERS, env_at, next_item, rk4_trial
+from vectorid.models.integrate import env_at, rk4_trial
 from vectorid.models.parafoil8dof import ParafoilModelBase
 from vectorid.models.parafoil_aero import I_WE, I_WN, NPROP
 
@@ -45,18 +44,13 @@ def _observe(t, x, p, u, atm, gust, y):  # pragma: no cover - compiled
 def _kernel(
     x0, p, ctrl_t, ctrl_v, ctrl_mode, atm, gust, dt, n_steps, stride, x_max, y, status, t_fail
 ):  # pragma: no cover - compiled
-    counter = np.zeros(1, np.int64)
-    for _ in prange(WORKERS):  # a work queue: see integrate.next_item
-        while True:
-            i = next_item(counter)
-            if i >= x0.shape[0]:
-                break
-            if status[i] != 0:  # rejected before integration: leave NaN outputs
-                continue
-            status[i], t_fail[i] = rk4_trial(
-                _rhs, _observe, x0[i], p[i], ctrl_t, ctrl_v, ctrl_mode, atm, gust,
-                dt, n_steps, stride, x_max, y[i],
-            )  # fmt: skip
+    for i in prange(x0.shape[0]):
+        if status[i] != 0:  # rejected before integration: leave NaN outputs
+            continue
+        status[i], t_fail[i] = rk4_trial(
+            _rhs, _observe, x0[i], p[i], ctrl_t, ctrl_v, ctrl_mode, atm, gust,
+            dt, n_steps, stride, x_max, y[i],
+        )  # fmt: skip
 
 
 class Parafoil6DoF(ParafoilModelBase):

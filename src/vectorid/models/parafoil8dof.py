@@ -50,11 +50,9 @@ from vectorid.models.base import BASE_CHANNELS, Channel, InitialState, Model, Pa
 from vectorid.models.controls import ControlSchedule
 from vectorid.models.integrate import (
     STATUS_REJECTED,
-    WORKERS,
     Environment,
     allocate_outputs,
     env_at,
-    next_item,
     rk4_trial,
 )
 from vectorid.models.parafoil_aero import (
@@ -221,18 +219,13 @@ def _observe(t, x, p, u, atm, gust, y):  # pragma: no cover - compiled
 def _kernel(
     x0, p, ctrl_t, ctrl_v, ctrl_mode, atm, gust, dt, n_steps, stride, x_max, y, status, t_fail
 ):  # pragma: no cover - compiled
-    counter = np.zeros(1, np.int64)
-    for _ in prange(WORKERS):  # a work queue: see integrate.next_item
-        while True:
-            i = next_item(counter)
-            if i >= x0.shape[0]:
-                break
-            if status[i] != 0:  # rejected before integration: leave NaN outputs
-                continue
-            status[i], t_fail[i] = rk4_trial(
-                _rhs, _observe, x0[i], p[i], ctrl_t, ctrl_v, ctrl_mode, atm, gust,
-                dt, n_steps, stride, x_max, y[i],
-            )  # fmt: skip
+    for i in prange(x0.shape[0]):
+        if status[i] != 0:  # rejected before integration: leave NaN outputs
+            continue
+        status[i], t_fail[i] = rk4_trial(
+            _rhs, _observe, x0[i], p[i], ctrl_t, ctrl_v, ctrl_mode, atm, gust,
+            dt, n_steps, stride, x_max, y[i],
+        )  # fmt: skip
 
 
 _CANOPY_CHANNELS = (
