@@ -96,6 +96,10 @@ def describe() -> str:
     if os.environ.get("NUMBA_CPU_FEATURES"):
         source += " + NUMBA_CPU_FEATURES"
     isa = ", ".join(f"{f} {'on' if feats.get(f, False) else 'off'}" for f in ("avx512f", "avx2"))
+    if feats.get("avx512f", False):
+        # vectorid._simd switches LLVM's 256-bit preference off (VECTORID_VECTOR_WIDTH=256 keeps it)
+        pref = feats.get("prefer-256-bit")
+        isa += ", vectors: " + ("512-bit" if pref is False else "LLVM's default width")
     try:
         cpus = len(os.sched_getaffinity(0))
     except AttributeError:  # not on Linux

@@ -7,10 +7,14 @@ by the numpy engine of :mod:`~vectorid.analysis.pareto`. The algorithm is descri
 
 from __future__ import annotations
 
-import numba as nb
-import numpy as np
+from vectorid._simd import configure as _configure_simd
 
-from .pareto import _BLOCK
+_configure_simd()  # before numba compiles: full-width vectors on AVX-512 CPUs (see _simd)
+
+import numba as nb  # noqa: E402
+import numpy as np  # noqa: E402
+
+from .pareto import _BLOCK  # noqa: E402
 
 #: Rows the streaming pre-filter tries first for every row (vectorised over rows).
 #: Slot 0: the pivot of lowest key; slot 1: the latest dominator. The unrolled k = 2 and

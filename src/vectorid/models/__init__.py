@@ -10,10 +10,15 @@ Models are registered by name and imported on first use, so importing this packa
 a missing optional model only fails when it is asked for.
 """
 
+# ruff: noqa: E402  (the imports below come after _simd.configure(), on purpose)
 from __future__ import annotations
 
 import importlib
 from typing import Any
+
+from vectorid._simd import configure as _configure_simd
+
+_configure_simd()  # before numba compiles: full-width vectors on AVX-512 CPUs (see _simd)
 
 from vectorid.models.base import (
     BASE_CHANNELS,
