@@ -89,6 +89,12 @@ def isa_flags() -> tuple[str, dict[str, bool]]:
 
 def describe() -> str:
     """Two lines: CPU model and the ISA numba targets; threads, usable CPUs and load average."""
+    try:  # what vectorid does before numba compiles (full-width vectors on AVX-512)
+        from vectorid._simd import configure
+
+        configure()
+    except ImportError:
+        pass
     import numba
 
     name, feats = isa_flags()

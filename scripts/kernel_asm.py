@@ -10,23 +10,22 @@ counts the instructions of the generated machine code by kind: double-precision 
 arithmetic by register width (xmm 2, ymm 4, zmm 8 doubles), scalar double arithmetic, stack
 loads and stores (register spills), and float/integer conversions. The counts are static (each
 instruction once, as written in the code), not executed instructions: a machine without
-hardware counters (a VM) cannot count those, and valgrind does not decode AVX-512. Vector
-arithmetic per trial = sum over widths of count / lanes per register: the lower it is, the less
-work each trial costs per right-hand-side evaluation.
+hardware counters (a VM) cannot count those, and valgrind does not decode AVX-512. Read them
+beside the measured time per right-hand-side evaluation (``benchmarks/models.py``: batch wall
+x threads / (trials x steps x 4)).
 """
 
 from __future__ import annotations
 
 import argparse
 import os
-import re
 import subprocess
 import sys
 import tempfile
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-import _machine  # noqa: E402
+import _machine
 
 PROBE = """
 import re, sys
@@ -70,20 +69,16 @@ def main() -> int:
     args = ap.parse_args()
     print(_machine.describe())
     print(
-        f"{'target':<8} {'zmm':>6} {'ymm':>6} {'xmm':>6} {'scalar':>7} {'per trial':>10} "
-        f"{'spills':>7} {'cvt':>5} {'all instr':>10}"
+        f"{'target':<8} {'zmm':>6} {'ymm':>6} {'xmm':>6} {'scalar':>7} {'spills':>7} {'cvt':>5} "
+        f"{'all instr':>10}"
     )
     for target in args.targets:
         c = measure(args.model, target)
-        per_trial = c["zmm"] / 8 + c["ymm"] / 4 + c["xmm"] / 2 + c["scalar"]
         print(
             f"{target:<8} {c['zmm']:>6} {c['ymm']:>6} {c['xmm']:>6} {c['scalar']:>7} "
-            f"{per_trial:>10.0f} {c['spill']:>7} {c['convert']:>5} {c['all']:>10}"
+            f"{c['spill']:>7} {c['convert']:>5} {c['all']:>10}"
         )
-    print(
-        "(static counts in the compiled kernel; 'per trial' = double-precision arithmetic "
-        "instructions divided by the doubles each holds)"
-    )
+    print("(static counts of double-precision arithmetic instructions in the compiled kernel)")
     return 0
 
 
