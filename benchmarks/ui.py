@@ -234,8 +234,13 @@ def _driver():
     return drv, profile
 
 
-def browser_latency(path: Path, changes: list[str], loads: int = 3) -> dict[str, list[float]]:
-    """Latencies (s) in headless Chromium: page loads, typed limits, a parallel brush."""
+def browser_latency(
+    path: Path, changes: list[str], loads: int = 3, shots: Path | None = None
+) -> dict[str, list[float]]:
+    """Latencies (s) in headless Chromium: page loads, typed limits, a parallel brush.
+
+    With ``shots``, a screenshot of every tab is saved there afterwards
+    (``ui-<trials>-<tab>.png``)."""
     import shutil
     import signal
     import socket
@@ -321,6 +326,19 @@ def browser_latency(path: Path, changes: list[str], loads: int = 3) -> dict[str,
             ms = drv.execute_async_script(_WAIT, prev, "counts")
             out["brush -> counts"].append(ms / 1e3 if ms >= 0 else float("nan"))
             drv.execute_async_script(_QUIET)
+        if shots is not None:
+            shots.mkdir(parents=True, exist_ok=True)
+            n = drv.find_element(By.ID, "count-n").text.replace(",", "")
+            labels = [el.text.strip() for el in drv.find_elements(By.CSS_SELECTOR, ".tab")]
+            for label in labels:
+                for el in drv.find_elements(By.CSS_SELECTOR, ".tab"):
+                    if el.text.strip() == label:
+                        el.click()
+                        break
+                time.sleep(1.0)
+                drv.execute_async_script(_QUIET)
+                slug = "".join(c if c.isalnum() else "-" for c in label.lower()).strip("-")
+                drv.save_screenshot(str(shots / f"ui-{n}-{slug}.png"))
         return out
     finally:
         if drv is not None:
@@ -436,6 +454,11 @@ def main() -> None:
         default=[100_000, 1_000_000],
         help="store sizes driven in the browser (default 1e5 and 1e6)",
     )
+    ap.add_argument(
+        "--screenshots",
+        type=Path,
+        help="save a screenshot of every tab at each browser-driven size into this folder",
+    )
     args = ap.parse_args()
     print(f"machine: {_machine.describe()}")
     tmp = tempfile.TemporaryDirectory()
@@ -458,7 +481,7 @@ def main() -> None:
         p = Path(tmp.name) / f"browser-{n}.db"
         make_store(p, n, args.criteria, args.params)
         F = StoreCache(p).trials().F
-        lat = browser_latency(p, _changes(F, args.changes, seed=1))
+        lat = browser_latency(p, _changes(F, args.changes, seed=1), shots=args.screenshots)
         for key, vals in lat.items():
             vals = [v for v in vals if np.isfinite(v)]
             goal = GOALS.get(n, {}).get(key)
