@@ -210,4 +210,3 @@ def test_env_gather_equals_env_at_bit_for_bit(windy):
         for k, hk in enumerate(h):
             want = env_at(env.atm, env.gust, t, hk if np.isfinite(hk) else -1e9)
             np.testing.assert_array_equal(got[:, k], want)
-

@@ -51,6 +51,8 @@ __all__ = [
     "ActionChains",
     "By",
     "Keys",
+    "NoSuchElementException",
+    "StaleElementReferenceException",
     "TimeoutException",
     "WebDriverWait",
     "by_id",
@@ -159,8 +161,17 @@ def chrome(url: str, size: str = "1500,1400") -> Iterator[webdriver.Chrome]:
 
 
 def text_of(drv, css: str) -> str:
-    els = drv.find_elements(By.CSS_SELECTOR, css)
-    return els[0].text if els else ""
+    """The text of the first element matching ``css`` ("" if none), re-found if Dash
+    re-renders it while it is read."""
+    for attempt in range(5):
+        try:
+            els = drv.find_elements(By.CSS_SELECTOR, css)
+            return els[0].text if els else ""
+        except StaleElementReferenceException:
+            if attempt == 4:
+                raise
+            time.sleep(0.1)
+    return ""  # pragma: no cover - the loop returns or raises
 
 
 def until(drv, fn, what: str, wait: float = WAIT):

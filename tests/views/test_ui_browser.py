@@ -22,6 +22,8 @@ from tests.views.browser import (  # skips this module without dash, selenium or
     ActionChains,
     By,
     Keys,
+    NoSuchElementException,
+    StaleElementReferenceException,
     TimeoutException,
     WebDriverWait,
     by_id,
@@ -228,9 +230,12 @@ def test_saved_constraints_are_in_force_after_reload(browser, server):
     for attempt in range(3):
         _type(drv, lambda d: _bound_input(d, "g1", "high"), "20")
         try:
-            WebDriverWait(drv, WAIT / 3, poll_frequency=0.2).until(
-                lambda d: _text(d, "#count-nd") == str(a1.n_feasible)
-            )
+            WebDriverWait(
+                drv,
+                WAIT / 3,
+                poll_frequency=0.2,
+                ignored_exceptions=(StaleElementReferenceException, NoSuchElementException),
+            ).until(lambda d: _text(d, "#count-nd") == str(a1.n_feasible))
             break
         except TimeoutException:
             if attempt == 2:
@@ -275,8 +280,9 @@ def test_trial_table_sorts_filters_and_downloads_all_rows(browser, server):
     drv = browser
     a = _analysis(store)
     _tab(drv, "Trial table")
-    _until(drv, lambda d: "trials in the pareto set" in _text(d, "#tab-note"), "the table")
-    assert f"{a.n_pareto:,} trials in the pareto set" in _text(drv, "#tab-note")
+    # the note is first drawn before the saved constraints are applied: wait for its count
+    want = f"{a.n_pareto:,} trials in the pareto set"
+    _until(drv, lambda d: want in _text(d, "#tab-note"), f"the table's note: {want}")
     # all trials, sorted by f1 ascending on the server: the first row is the true minimum
     drv.find_element(By.CSS_SELECTOR, "#tab-set input[value='all']").click()
     _until(drv, lambda d: f"{a.n:,} trials in the all set" in _text(d, "#tab-note"), "all set")
