@@ -71,10 +71,6 @@ class StepChoice:
     failed_in_reference: int
     t_final: float
 
-    def evaluations_saved(self, current_dt: float) -> float | None:
-        """How many times fewer right-hand-side evaluations ``dt`` needs than ``current_dt``."""
-        return None if self.dt is None else self.dt / current_dt
-
     def summary(self) -> str:
         """A few lines for a person: the table and the choice."""
         lines = [
