@@ -20,7 +20,8 @@ Methods
 -------
 - ``sincos``: ``x = n π/2 + r`` with π/2 split in three parts (Cody-Waite; ``|r| <= π/4``),
   polynomials of degree 13 (sin) and 14 (cos) in ``r`` (near-minimax, fitted by
-  ``scripts/fit_vecmath.py``), then the quadrant ``n mod 4`` swaps and negates by selects.
+  ``scripts/fit_vecmath.py``), then the quadrant ``n mod 4`` swaps them (a select) and flips
+  their signs (an XOR of the sign bit).
 - ``atan2``: ``a = min(|x|,|y|)/max(|x|,|y|)``, for ``a > tan(π/8)`` use
   ``atan a = π/4 + atan((a-1)/(a+1))`` (one division: ``(min-max)/(min+max)``), then
   ``atan t = t + t³ A(t²)`` with the degree-9 polynomial A of ``scripts/fit_vecmath.py``
@@ -34,8 +35,10 @@ Methods
 No float -> integer conversion anywhere: AVX2 (and NEON's 64-bit lanes before SVE) has no
 vector double -> int64 conversion, and a single one makes LLVM convert lane by lane inside the
 caller's loop (measured: ten scalar ``cvttsd2si`` in the lockstep loop compiled for Haswell).
-The quadrant is ``n - 4 floor(n/4)`` in floating point; the exponent bits of ``2**j`` are the
-low bits of ``j + 1.5 * 2**52`` shifted into place (``tests/models/test_vecmath.py`` compiles the
+The quadrant is read from the low bits of ``n + 1.5 * 2**52`` (integer lanes: fewer
+instructions than comparing ``n - 4 floor(n/4)`` with 1, 2, 3, measured 2–3 % faster for the
+parachute's AVX2 kernel); the exponent bits of ``2**j`` are the low bits of ``j + 1.5 * 2**52``
+shifted into place (``tests/models/test_vecmath.py`` compiles the
 loop for Haswell and checks).
 """
 
@@ -63,6 +66,7 @@ _PIO2_1 = float.fromhex("0x1.921fb54400000p+0")
 _PIO2_2 = float.fromhex("0x1.0b4611a600000p-34")
 _PIO2_3 = float.fromhex("0x1.3198a2e037073p-69")
 _TWO_OVER_PI = 0.63661977236758134308
+_QUADRANT_MAGIC = 1.5 * 2.0**52
 _PI = math.pi
 _PI_2 = math.pi / 2.0
 _PI_4 = math.pi / 4.0
@@ -144,16 +148,16 @@ def sincos(x):  # pragma: no cover - compiled
     z = r * r
     s = r + r * z * (_S0 + z * (_S1 + z * (_S2 + z * (_S3 + z * (_S4 + z * _S5)))))
     c = 1.0 - 0.5 * z + z * z * (_C0 + z * (_C1 + z * (_C2 + z * (_C3 + z * (_C4 + z * _C5)))))
-    # The quadrant n mod 4 in floating point (m in {0, 1, 2, 3}): a float -> int64 conversion
-    # has no vector instruction before AVX-512, and LLVM would do it one lane at a time.
-    m = n - 4.0 * np.floor(n * 0.25)
-    swap = (m == 1.0) | (m == 3.0)
+    # The quadrant n mod 4 from the low bits of n + 1.5 * 2**52 (two's complement for n < 0;
+    # |n| < 2**51): bit 0 swaps sine and cosine, bit 1 of q negates the sine, bit 1 of q + 1
+    # the cosine. Integer lanes and a sign-bit blend: no float -> int conversion, which has no
+    # vector instruction before AVX-512.
+    q = _float_as_bits(n + _QUADRANT_MAGIC)
+    swap = (q << 63) < 0
     sn = c if swap else s
     cs = s if swap else c
-    neg_sn = -sn
-    neg_cs = -cs
-    sn = neg_sn if m >= 2.0 else sn
-    cs = neg_cs if (m == 1.0) | (m == 2.0) else cs
+    sn = _bits_as_float(_float_as_bits(sn) ^ ((q & 2) << 62))
+    cs = _bits_as_float(_float_as_bits(cs) ^ (((q + 1) & 2) << 62))
     return sn, cs
 
 
