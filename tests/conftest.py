@@ -2,10 +2,19 @@
 
 from __future__ import annotations
 
+import signal
 import textwrap
 from pathlib import Path
 
 import pytest
+
+# A test run started in the background by a non-interactive shell (``cmd &``) inherits SIGINT
+# ignored, and so would every process the tests start: the Ctrl-C tests (exit 130, resume) would
+# see their SIGINT ignored and the run go on. An ignored signal stays ignored across exec, a
+# handled one is reset to the default, so handling it here gives each child Python's own
+# Ctrl-C behaviour, as in a terminal.
+if signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
+    signal.signal(signal.SIGINT, signal.default_int_handler)
 
 # A user model in the contract's form: batch X (n, 3) -> (criteria (n, 2), functionals (n, 1)).
 # Trials with x1 > 0.9 raise (the batch is bisected), trials with x2 < 0.05 return NaN,
