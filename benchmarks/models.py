@@ -57,6 +57,28 @@ def sobol_batch(model: models.Model, n: int, seed: int = 0) -> np.ndarray:
     return qmc.scale(u, lo, hi + (hi == lo) * 1e-12)
 
 
+def flight_equivalents(res: models.SimulationResult, t_final: float) -> float:
+    """The batch in full-flight equivalents: trials that diverge stop early (``t_fail``)."""
+    flown = np.where(np.isnan(res.t_fail), t_final, np.minimum(res.t_fail, t_final))
+    return float(flown.sum() / t_final)
+
+
+def time_baseline(
+    model: models.Model, x: np.ndarray, t_final: float, repeat: int, env: dict
+) -> tuple[float, object]:
+    """Best wall time (s) of ``repeat`` ``solve_ivp`` runs (defaults: RK45, rtol 1e-3) of the
+    model's numpy reference right-hand side for the vector ``x``, and the last solution.
+
+    Raises NotImplementedError where the model has no reference right-hand side."""
+    f, x0 = model.reference_rhs(x, t_final=t_final, **env)
+    best = np.inf
+    for _ in range(repeat):  # the same best-of rule as the batch
+        t0 = time.perf_counter()
+        sol = solve_ivp(f, (0.0, t_final), x0)
+        best = min(best, time.perf_counter() - t0)
+    return best, sol
+
+
 def _subprocess_seconds(code: str) -> float:
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     return float(out.stdout.strip().splitlines()[-1])
@@ -151,8 +173,7 @@ def bench_model(name: str, args: argparse.Namespace, gflops_peak: float) -> dict
                 busy_wall = min(busy_wall, time.perf_counter() - t0)
     # Trials that diverge stop early: count the batch in full-flight equivalents, and time the
     # baseline on full-length (status 0) trials only, so early stops flatter neither side.
-    flown = np.where(np.isnan(res.t_fail), args.t_final, np.minimum(res.t_fail, args.t_final))
-    equivalent = float(flown.sum() / args.t_final)
+    equivalent = flight_equivalents(res, args.t_final)
     per_trial = wall / equivalent
     row = {
         "model": name,
@@ -175,15 +196,10 @@ def bench_model(name: str, args: argparse.Namespace, gflops_peak: float) -> dict
     full = np.flatnonzero(res.status == 0)
     for i in full[: args.baseline_trials]:
         try:
-            f, x0 = model.reference_rhs(X[i], t_final=args.t_final, **env)
+            best, sol = time_baseline(model, X[i], args.t_final, args.repeat, env)
         except NotImplementedError as exc:
             print(f"[note] {name}: no baseline ({exc})")
             break
-        best = np.inf
-        for _ in range(args.repeat):  # the same best-of rule as the batch
-            t0 = time.perf_counter()
-            sol = solve_ivp(f, (0.0, args.t_final), x0)
-            best = min(best, time.perf_counter() - t0)
         base.append(best)
         nfev.append(sol.nfev)
         if i == full[0]:  # the baseline solves the same problem: compare the end states

@@ -29,7 +29,8 @@ import tempfile
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "benchmarks"))
+BENCH = str(ROOT / "benchmarks")
+sys.path.insert(0, BENCH)
 import _machine  # noqa: E402
 
 SOURCE = ROOT / "src" / "vectorid" / "models" / "parachute6dof.py"
@@ -58,33 +59,26 @@ PROBE = """
 import importlib.util, sys, time
 import numba
 import numpy as np
-from scipy.stats import qmc
-from scipy.integrate import solve_ivp
-path, n, repeat, n_base = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), int(sys.argv[4])
+path, n, repeat, n_base, bench_dir = sys.argv[1:6]
+n, repeat, n_base = int(n), int(repeat), int(n_base)
+sys.path.insert(0, bench_dir)
+import models as bench  # benchmarks/models.py: the same batch, baseline and counting
 spec = importlib.util.spec_from_file_location("vectorid.models._breakdown", path)
 mod = importlib.util.module_from_spec(spec)
 sys.modules[spec.name] = mod
 spec.loader.exec_module(mod)
 m = mod.Parachute6DoF()
-lo, hi = m.bounds.T
-X = qmc.scale(qmc.Sobol(len(lo), seed=0).random(n), lo, hi + (hi == lo) * 1e-12)
+X = bench.sobol_batch(m, n)
 m.simulate(X[:2], t_final=1.0, dt=0.02)
 best = float("inf")
 for _ in range(repeat):
     t0 = time.perf_counter()
     res = m.simulate(X, t_final=200.0, dt=0.02, output_dt=1.0)
     best = min(best, time.perf_counter() - t0)
-flown = np.where(np.isnan(res.t_fail), 200.0, np.minimum(res.t_fail, 200.0))
-base = []  # as benchmarks/models.py: solve_ivp on the numpy reference, full-length trials
-for i in np.flatnonzero(res.status == 0)[:n_base]:
-    f, x0 = m.reference_rhs(X[i], t_final=200.0)
-    b = float("inf")
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        solve_ivp(f, (0.0, 200.0), x0)
-        b = min(b, time.perf_counter() - t0)
-    base.append(b)
-print(best, numba.get_num_threads(), flown.sum() / 200.0, np.mean(base) if base else "nan")
+full = np.flatnonzero(res.status == 0)[:n_base]
+base = [bench.time_baseline(m, X[i], 200.0, repeat, {})[0] for i in full]
+print(best, numba.get_num_threads(), bench.flight_equivalents(res, 200.0),
+      np.mean(base) if base else "nan")
 """
 
 
@@ -115,7 +109,7 @@ def measure(
     env.update(_machine.emulation_env(target))
     env["NUMBA_CACHE_DIR"] = str(workdir / f"cache-{target}")
     out = subprocess.run(
-        [sys.executable, "-c", PROBE, str(path), str(n), str(repeat), str(n_base)],
+        [sys.executable, "-c", PROBE, str(path), str(n), str(repeat), str(n_base), BENCH],
         env=env,
         capture_output=True,
         text=True,
