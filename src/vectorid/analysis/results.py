@@ -238,6 +238,69 @@ class Analysis:
             self.bounds[b.name][0 if b.side == "low" else 1] = b.value
         self._compute()
 
+    def narrowed(
+        self,
+        limits: Iterable[Bound] | Mapping[str, Any] | None = None,
+        roles: Mapping[str, str] | None = None,
+    ) -> Analysis | None:
+        """The analysis of the same trials under ``limits``/``roles`` (as the constructor
+        takes them), computed from this one when every bound is the same or tighter and the
+        roles are the same; None otherwise (build a new :class:`Analysis` then).
+
+        Tightening only removes trials from D, so only the rows of this D are checked
+        against the new bounds. The Pareto set is updated from this one: when every trial of
+        this Pareto set stays in D, it *is* the new Pareto set (every other trial of the new
+        D was dominated, hence dominated by a member of it; dominance is transitive), and no
+        scan is needed; otherwise only the new D is scanned.
+        """
+        b = Analysis(
+            self.spec, self.trials.subset(np.zeros(len(self.trials), dtype=bool)), limits, roles
+        )
+        if b.roles != self.roles:
+            return None
+        for name, (lo, hi) in b.bounds.items():
+            olo, ohi = self.bounds[name]
+            if lo < olo or hi > ohi:
+                return None
+        b.trials = self.trials
+        b.ok = self.ok
+        b.pure = self.pure
+        rows = np.flatnonzero(self.functional_ok)
+        same_functional = all(b.bounds[n] == self.bounds[n] for n in self.con_names)
+        if same_functional:
+            b.functional_ok = self.functional_ok
+        else:
+            keep = np.ones(len(rows), dtype=bool)
+            for name in self.con_names:
+                lo, hi = b.bounds[name]
+                col = self._column(name)[rows]
+                with np.errstate(invalid="ignore"):
+                    keep &= (col >= lo) & (col <= hi)
+            b.functional_ok = np.zeros(len(self.ok), dtype=bool)
+            b.functional_ok[rows[keep]] = True
+        idx = np.flatnonzero(self.feasible)
+        keep = b.functional_ok[idx]
+        for name in self.crit_names:
+            lo, hi = b.bounds[name]
+            if (lo, hi) == tuple(self.bounds[name]) and same_functional:
+                continue
+            col = self._column(name)[idx]
+            with np.errstate(invalid="ignore"):
+                keep &= (col >= lo) & (col <= hi)
+        b.feasible = np.zeros(len(self.ok), dtype=bool)
+        b.feasible[idx[keep]] = True
+        if np.array_equal(b.feasible, self.feasible):
+            b.pareto = self.pareto
+        elif not (self.pareto & ~b.feasible).any():
+            b.pareto = self.pareto  # every Pareto trial stays in D: still the Pareto set
+        else:
+            b.pareto = np.zeros(len(self.ok), dtype=bool)
+            d = idx[keep]
+            if self.pure and len(d):
+                sub = self.trials.F[np.ix_(d, self.pure)]
+                b.pareto[d[pareto_mask(sub, [self.senses[i] for i in self.pure])]] = True
+        return b
+
     def _normalise_limits(self, limits: Any) -> list[Bound]:
         if limits is None:
             return []

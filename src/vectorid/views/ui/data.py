@@ -294,6 +294,7 @@ class StoreCache:
         self._stages: list[Stage] = []
         self._tables: OrderedDict[tuple, list[TestTable]] = OrderedDict()
         self.loads = 0  # how many times the trials were read from disk
+        self.narrowed = 0  # analyses computed from a memoised one (a constraint tightened)
         with self.open() as st:
             self._spec = st.spec
 
@@ -364,7 +365,16 @@ class StoreCache:
             if hit is not None:
                 self._memo.move_to_end(full)
                 return hit
-            a = Analysis(self.spec, trials, c.overrides, c.roles)
+            a = None
+            # a tightened constraint set: computed from the smallest memoised D holding it
+            for (k, _), prev in sorted(self._memo.items(), key=lambda kv: kv[1].n_feasible):
+                if k == key:
+                    a = prev.narrowed(c.overrides, c.roles)
+                    if a is not None:
+                        self.narrowed += 1
+                        break
+            if a is None:
+                a = Analysis(self.spec, trials, c.overrides, c.roles)
             self._memo[full] = a
             while len(self._memo) > self._memo_size:
                 self._memo.popitem(last=False)

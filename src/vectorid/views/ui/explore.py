@@ -23,6 +23,7 @@ __all__ = [
     "counts_view",
     "panel_view",
     "scatter_view",
+    "selection_counts_view",
     "selection_from_event",
     "selection_mask",
     "summary_view",
@@ -159,11 +160,13 @@ def selection_mask(ctx: UIContext, a: Analysis, spec: Mapping[str, Any] | None) 
             return (xv >= x0) & (xv <= x1) & (yv >= y0) & (yv <= y1)
     if kind == "ranges":
         m = np.ones(a.n, bool)
-        for name, rng in dict(spec.get("ranges") or {}).items():
+        for name, rngs in dict(spec.get("ranges") or {}).items():
             v = clouds.column(a, ctx.cache.check_name(name, "any"))[0]
-            lo, hi = sorted(map(float, rng))
-            with np.errstate(invalid="ignore"):
-                m &= (v >= lo) & (v <= hi)
+            hit = np.zeros(a.n, bool)
+            for lo, hi in range_list(rngs):
+                with np.errstate(invalid="ignore"):
+                    hit |= (v >= lo) & (v <= hi)
+            m &= hit
         return m
     if kind == "bin":
         xv = clouds.column(a, ctx.cache.check_name(spec["param"], "parameter"))[0]
@@ -173,6 +176,59 @@ def selection_mask(ctx: UIContext, a: Analysis, spec: Mapping[str, Any] | None) 
         )
         return cls & (xv >= lo) & ((xv < hi) if not spec.get("last") else (xv <= hi))
     raise StudyDefinitionError("selection", f"unknown selection kind {kind!r}", "clear it")
+
+
+def range_list(value: Any) -> list[tuple[float, float]]:
+    """The ranges of one brushed axis, ``[lo, hi]`` or ``[[lo, hi], ...]`` (as the browser
+    sends them), as sorted ``(low, high)`` pairs.
+
+    Raises
+    ------
+    StudyDefinitionError
+        When a range is not two finite numbers.
+    """
+    items = value if value and isinstance(value[0], list | tuple) else [value]
+    out = []
+    for r in items[:64]:
+        try:
+            lo, hi = sorted(float(v) for v in r)
+        except (TypeError, ValueError):
+            raise StudyDefinitionError(
+                "brush", f"expected a range [low, high], got {r!r}", "clear the brush"
+            ) from None
+        if not (np.isfinite(lo) and np.isfinite(hi)):
+            raise StudyDefinitionError("brush", f"expected finite ends, got {r!r}", "clear it")
+        out.append((lo, hi))
+    return sorted(out)
+
+
+def selection_counts_view(
+    ctx: UIContext,
+    limit_texts: Any,
+    roles: Any,
+    functional: Any,
+    selection: Mapping[str, Any] | None,
+) -> dict[str, Any] | None:
+    """How many trials the selection holds, and how many of them are in D and in the
+    Pareto set (None without a selection).
+
+    Returns
+    -------
+    dict or None
+        ``n``, ``nd``, ``np`` and ``text`` ("selected 1,234 trials: 120 in D, of which 4
+        Pareto").
+    """
+    if not selection:
+        return None
+    a, _ = analysis_of(ctx, limit_texts, roles, functional)
+    m = selection_mask(ctx, a, selection)
+    n, nd, np_ = int(m.sum()), int((m & a.feasible).sum()), int((m & a.pareto).sum())
+    return {
+        "n": n,
+        "nd": nd,
+        "np": np_,
+        "text": f"selected {n:,} trials: {nd:,} in D, of which {np_:,} Pareto",
+    }
 
 
 def describe_selection(spec: Mapping[str, Any] | None, count: int) -> str:
@@ -191,8 +247,9 @@ def describe_selection(spec: Mapping[str, Any] | None, count: int) -> str:
             f"[{fmt(spec['lo'])}, {fmt(spec['hi'])}]"
         )
     elif kind == "ranges":
-        what = "sub-box " + ", ".join(
-            f"{n} in [{fmt(r[0])}, {fmt(r[1])}]" for n, r in dict(spec["ranges"]).items()
+        what = "brushes: " + "; ".join(
+            f"{n} in " + " or ".join(f"[{fmt(lo)}, {fmt(hi)}]" for lo, hi in range_list(r))
+            for n, r in dict(spec["ranges"]).items()
         )
     else:
         what = "picked points"
