@@ -155,7 +155,7 @@ def parallel_figure(
         + ", ".join(
             [
                 part("pareto", "Pareto (green)"),
-                part("feasible", "feasible (blue)"),
+                part("feasible", "in D, not Pareto (blue)"),
                 part("infeasible", "infeasible (red, grey outside a brush)"),
             ]
         )

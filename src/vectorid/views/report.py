@@ -169,7 +169,7 @@ class _Page:
         thinned = [
             tr.name
             for tr in figure.data
-            if tr.name and (" drawn, " in tr.name or "as density" in tr.name)
+            if tr.name and (" drawn, " in tr.name or "as a density" in tr.name)
         ]
         if thinned:
             self.notes.append(f"{title}: thinned for display: " + "; ".join(dict.fromkeys(thinned)))

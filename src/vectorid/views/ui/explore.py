@@ -461,10 +461,10 @@ def scatter_view(
     fig["layout"].update(
         dragmode="select",
         uirevision=f"{x}|{y}",
-        height=480,
+        height=520,
         clickmode="event+select",
-        margin={"t": 30, "b": 50, "l": 60, "r": 10},
-        title={"text": f"N={a.n:,}, ND={a.n_feasible:,}, NP={a.n_pareto:,}", "font": {"size": 12}},
+        margin={"t": 30, "b": 110, "l": 60, "r": 10},
+        title={"text": clouds.counts_title(a), "font": {"size": 12}, "x": 0.01, "xanchor": "left"},
     )
     return fig, describe_selection(selection, int(sel.sum()))
 

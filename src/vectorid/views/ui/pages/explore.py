@@ -289,7 +289,7 @@ def layout(ctx: UIContext) -> Any:
                             dcc.Graph(
                                 id="scatter",
                                 config={"displaylogo": False},
-                                style={"height": "480px"},
+                                style={"height": "520px"},
                             ),
                             html.Div(id="sel-text", className="muted"),
                         ],
