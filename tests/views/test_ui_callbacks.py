@@ -886,3 +886,15 @@ def test_flight_view_flies_the_chosen_drop(tmp_path):
     drop = find(page, "trial-drop")
     assert [o["value"] for o in drop.options] == ["drogue", "main"] and drop.value == "drogue"
     assert find(page, "trial-drop-label").style == {}
+
+
+def test_the_first_rows_of_a_test_table_are_those_of_the_full_sort(bk):
+    """``top`` rows found by partial selection equal the stable full sort's first rows,
+    ties and all; min and max stay the whole table's."""
+    a = _direct(bk)
+    a.trials.F[::7, 0] = np.round(a.trials.F[::7, 0])  # many ties
+    for name in a.crit_names:
+        full = a.test_table(name)
+        for top in (0, 1, 5, 50, len(full.ids) + 3):
+            t = a.test_table(name, top=top)
+            assert np.array_equal(t.ids, full.ids[:top]) and (t.min, t.max) == (full.min, full.max)

@@ -407,9 +407,13 @@ class Analysis:
         """NP: trials in the Edgeworth–Pareto set."""
         return int(self.pareto.sum())
 
-    def test_table(self, name: str, feasible_only: bool = False) -> TestTable:
+    def test_table(
+        self, name: str, feasible_only: bool = False, top: int | None = None
+    ) -> TestTable:
         """The test table of one criterion: trials meeting the functional constraints (or,
-        with ``feasible_only``, the feasible ones) sorted best first."""
+        with ``feasible_only``, the feasible ones) sorted best first; with ``top``, only its
+        first ``top`` rows (found without sorting the rest; ``min``/``max`` stay those of
+        the whole table)."""
         if name not in self.crit_names:
             raise StudyDefinitionError(
                 "criterion", f"unknown criterion {name!r}", suggest(name, self.crit_names)
@@ -417,23 +421,36 @@ class Analysis:
         j = self.crit_names.index(name)
         rows = np.flatnonzero(self.feasible if feasible_only else self.functional_ok)
         values = self.trials.F[rows, j]
-        order = np.argsort(-values if self.senses[j] == "max" else values, kind="stable")
+        vmin = float(values.min()) if len(values) else math.nan
+        vmax = float(values.max()) if len(values) else math.nan
+        key = -values if self.senses[j] == "max" else values
+        if top is not None and 0 <= top < len(key):
+            # the rows a stable sort puts first: every key below the top-th smallest, and
+            # the earliest rows among those equal to it (NaN last, as argsort puts them)
+            k = np.where(np.isnan(key), np.inf, key)
+            thr = k[np.argpartition(k, top - 1)[:top]].max() if top else -np.inf
+            cand = np.flatnonzero(k <= thr)
+            order = cand[np.lexsort((cand, k[cand]))][:top]
+            if np.isnan(key[order]).any():  # NaN among the first: the plain sort's order
+                order = np.argsort(key, kind="stable")[:top]
+        else:
+            order = np.argsort(key, kind="stable")
         rows, values = rows[order], values[order]
         lo, hi = self.bounds[name]
         limit = hi if self.senses[j] == "min" else lo
         return TestTable(
             name=name,
             sense=self.senses[j],
-            min=float(values.min()) if len(values) else math.nan,
-            max=float(values.max()) if len(values) else math.nan,
+            min=vmin,
+            max=vmax,
             ids=self.trials.id[rows],
             values=values,
             feasible=self.feasible[rows],
             limit=None if math.isinf(limit) else float(limit),
         )
 
-    def test_tables(self, feasible_only: bool = False) -> list[TestTable]:
-        return [self.test_table(n, feasible_only) for n in self.crit_names]
+    def test_tables(self, feasible_only: bool = False, top: int | None = None) -> list[TestTable]:
+        return [self.test_table(n, feasible_only, top) for n in self.crit_names]
 
     def rows(self, mask: np.ndarray) -> list[dict[str, Any]]:
         """Trials of ``mask`` as dicts with id, seq, stage, params and criteria."""

@@ -82,7 +82,7 @@ def summary_view(
         messages.append(a.diagnose_empty().describe())
     # test tables (seed 000 Fig. 6): ids and values best first, red outside D, blue inside.
     # The order is cached per store version (it does not depend on criteria constraints).
-    tables = ctx.cache.test_tables(c)
+    tables = ctx.cache.test_tables(c, top=ctx.table_rows)
     lab = ctx.labels
     columns: list[dict[str, Any]] = []
     styles: list[dict[str, Any]] = []
