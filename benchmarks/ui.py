@@ -2,8 +2,9 @@
 
 Usage::
 
-    .venv/bin/python benchmarks/ui.py [--trials 100000] [--criteria 6] [--params 12]
+    nice -n 5 .venv/bin/python benchmarks/ui.py [--trials 100000] [--criteria 6] [--params 12]
                                       [--changes 8] [--browser] [--browser-trials 100000 1000000]
+                                      [--repeats 5] [--no-server] [--job-trials 0]
 
 A synthetic store is written (as in ``benchmarks/report.py``: criteria from a cheap closed
 form, 0.5 % failed trials, four criteria constraints saved with the study). Then:
@@ -21,17 +22,30 @@ analysed again on every change) and ``no thinning`` (every trial drawn as a poin
 ``ratio`` = baseline / ours (> 1: ours is faster).
 
 **In the browser** (``--browser``): ``vectorid ui`` serves the store and headless Chromium
-drives it (software WebGL, so pessimistic). Measured in the page, from the action to the
-redrawn DOM (two animation frames after the last change):
+drives it (software WebGL, so pessimistic), each action ``--repeats`` times (default 5; median
+and max printed, the verdict against the issue's goal on the max). Measured in the page, from
+the action to the redrawn DOM (two animation frames after the last change):
 
-* ``page load``: navigation start to the counts, the criterion plot and the histograms drawn;
+* ``page load``: navigation start to the counts, the criterion plot and the histograms drawn
+  (the first load, which fills the browser's cache, not counted);
 * ``limit -> counts``: Enter in the first criterion's limit field (``#vid-limit-f1``) to
   N/ND/NP redrawn (``#vid-counts``);
-* ``limit -> counts+scatter+histograms``: the same change to the criterion plot's title and the
-  histograms' legend showing the new ND;
-* ``brush -> counts``: releasing the mouse after a brush on a criterion axis of the parallel
-  coordinates (the first four, one each) to ND redrawn (a brush that does not change ND is not
-  counted). plotly.js emits the brush only after redrawing its WebGL lines, which is part of it.
+* ``limit -> everything``: the same change to the criterion plot's title and the histograms'
+  legend showing the new ND, and nothing loading any more;
+* ``brush -> counts``: releasing the mouse after a brush on an axis of the parallel
+  coordinates (a band from a quarter of the axis to below its middle, one axis after the
+  other, each on its own) to the selection's counts in the header (``#vid-sel``). plotly.js
+  emits the brush only after redrawing its WebGL lines, which is part of it; the parallel
+  coordinates are not redrawn by the server on a brush any more;
+* ``parallel tab -> drawn``: clicking the tab to its axes drawn and the page quiet;
+* ``longest task``: the longest main-thread task (``PerformanceObserver`` ``longtask``,
+  recorded by the page itself) during page loads, typed limits and brushes;
+* ``MB per page load``: bytes transferred (document, scripts, callback answers; compressed
+  sizes) for the first load and for later ones (scripts from the browser's cache);
+* ``server MB``: the server's resident memory at the end, and its ratio to the store's columns
+  (ids, sequence, stage, status, parameters, criteria, functionals, wall times as loaded).
+  The process's own imports (Python, numpy, numba, Dash, plotly) hold ~250 MB of it, which
+  dominates at 1e5.
 
 Each action starts when the page is quiet (no callback loading for 0.8 s), so one change's
 requests do not overlap the next one's.

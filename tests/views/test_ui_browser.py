@@ -409,28 +409,28 @@ def test_the_url_holds_the_view_and_opens_it_again(browser, server):
     drv = browser
     _tab(drv, "Test tables & plots")
     prev = _limit_input(drv, "f1").get_attribute("value")
-    _type(drv, _limit("f1"), "30")
-    want = _analysis(store, {"f1": 30.0}, {"f2": "pseudo"})
+    _type(drv, _limit("f1"), "35")
+    want = _analysis(store, {"f1": 35.0}, {"f2": "pseudo"})
     drv.find_element(By.CSS_SELECTOR, "#vid-role-f2 input[value='pseudo']").click()
     _until(drv, lambda d: _text(d, "#count-np") == str(want.n_pareto), "NP with f2 pseudo")
     _type(drv, by_id("trial-id"), "17")
     _tab(drv, "Trial table")
     _until(drv, lambda d: "tab=table" in d.current_url, "the tab in the URL")
     shared = drv.current_url
-    assert "lim.f1=30" in shared and "role.f2=pseudo" in shared and "trial=17" in shared
+    assert "lim.f1=35" in shared and "role.f2=pseudo" in shared and "trial=17" in shared
     with chrome(shared) as other:
         _until(other, lambda d: _text(d, "#count-nd") == str(want.n_feasible), "ND")
         assert _text(other, "#count-np") == str(want.n_pareto)
         assert other.find_element(By.ID, "trial-id").get_attribute("value") == "17"
         assert other.find_element(By.CSS_SELECTOR, ".tab--selected").text.strip() == "Trial table"
         _tab(other, "Test tables & plots")
-        _until(other, lambda d: _limit_input(d, "f1").get_attribute("value") == "30", "f1")
+        _until(other, lambda d: _limit_input(d, "f1").get_attribute("value") == "35", "f1")
         assert other.find_element(
             By.CSS_SELECTOR, "#vid-role-f2 input[value='pseudo']"
         ).is_selected()
         # a selection and the parallel axes' view travel too
         sel = {"kind": "ranges", "ranges": {"x1": [[1.0, 2.0]]}}
-        a = _analysis(store, {"f1": 30.0}, {"f2": "pseudo"})
+        a = _analysis(store, {"f1": 35.0}, {"f2": "pseudo"})
         x1 = a.trials.X[:, 0]
         n = int(((x1 >= 1) & (x1 <= 2)).sum())
         q = urllib.parse.quote(json.dumps(sel))

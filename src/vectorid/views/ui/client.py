@@ -133,6 +133,18 @@ function writeState(state, defaults) {
   }
   return h;
 }
+// what a tab's views are sent: its fields while it is shown, and only when they differ from
+// what its views were last sent (``current``, the gate's own data): coming back to a tab
+// redraws nothing that did not change
+window.vidGate = function(name, tab, fields, sel, version, current) {
+  if (tab !== name) return dash_clientside.no_update;
+  const out = [fields, version];
+  if (sel !== undefined) out.push(sel);
+  if (current && JSON.stringify(current) === JSON.stringify(out)) {
+    return dash_clientside.no_update;
+  }
+  return out;
+};
 window.vid = {brush: brush, ranges: ranges, readState: readState, writeState: writeState};
 })();
 """

@@ -5,6 +5,7 @@ rule. Plain functions: browser values in, plain data and Plotly figures out.
 
 from __future__ import annotations
 
+import weakref
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -33,6 +34,17 @@ CHOSEN = {"color": clouds.CHOSEN_COLOUR, "symbol": "star", "size": 16, "line": {
 _MAX_IDS = 5000  # ids a selection may list (lasso); boxes, bins and ranges are kept as ranges
 #: Colour of a test-table cell outside D (the method's red) and inside (blue).
 OUTSIDE, INSIDE = "#d62728", "#1f77b4"
+
+
+def histograms_of(ctx: UIContext, a: Analysis) -> list[Any]:
+    """The per-parameter histograms of ``a`` (memoised per analysis: a selection or a
+    chosen trial redraws the panel without recounting a million trials)."""
+    memo = ctx.extra.setdefault("hists", weakref.WeakKeyDictionary())
+    hit = memo.get(a)
+    if hit is None:  # two requests at once may both count: the same answer, no lock held
+        hit = histograms(a)
+        memo[a] = hit
+    return hit
 
 
 def counts_view(ctx: UIContext, limit_texts: Any, roles: Any, functional: Any = None) -> dict:
@@ -299,7 +311,7 @@ def selection_from_event(
             return None
         _, panel, code, b = (int(v) for v in cd)
         a, _ = analysis_of(ctx, limit_texts, roles, functional)
-        hists = histograms(a)
+        hists = histograms_of(ctx, a)
         if not 0 <= panel < len(hists):
             return None
         h = hists[panel]
@@ -486,7 +498,7 @@ def panel_view(
     sel = selection_mask(ctx, a, selection)
     row = chosen_row(ctx, chosen)
     if panel == "histograms":
-        hists = histograms(a)
+        hists = histograms_of(ctx, a)
         names = a.spec.space.names
         sel_counts = None
         if sel.any():

@@ -508,15 +508,17 @@ def register(app: Any, ctx: UIContext, w: Wiring, tokens: Any) -> None:
         )
 
     # -- plots: only while their tab is shown -------------------------------------------------
-    # ``vid-con-tables`` carries [constraint fields, stamp, selection] while the explorer is
+    # ``vid-con-tables`` carries [constraint fields, version, selection] while the explorer is
     # shown, so that a brush or a limit typed on another tab sends no request for its plots.
     app.clientside_callback(
-        "function(tab, sel, ...v) { return tab === 'tables' ? [v, Date.now(), sel] "
-        ": dash_clientside.no_update; }",
+        "function(tab, sel, ...v) { const cur = v.pop(), ver = v.pop(); "
+        "return window.vidGate('tables', tab, v, sel === undefined ? null : sel, ver, cur); }",
         Output("vid-con-tables", "data"),
         Input("tabs", "value"),
         Input("selection", "data"),
         *CON,
+        State("version", "data"),
+        State("vid-con-tables", "data"),
     )
     GATE = Input("vid-con-tables", "data")
 
