@@ -99,12 +99,32 @@ def test_export_all_formats(ran, tmp_path, capsys):
     rows = list(csv.DictReader(io.StringIO(out)))
     assert len(rows) == 128
     assert list(rows[0])[:6] == ["id", "seq", "stage", "status", "message", "wall_time"]
-    assert list(rows[0])[6:] == ["x1", "x2", "x3", "f1", "f2", "g"]
+    assert list(rows[0])[6:] == [
+        "x1", "x2", "x3", "f1", "f2", "g", "functional_ok", "feasible", "pareto",
+    ]  # fmt: skip
     failed = [r for r in rows if r["status"] == "failed"]
     assert failed and all(r["message"] for r in failed)
+    # the flags are those of `vectorid pareto` under the same constraints
+    _, out_p, _ = run_cli(capsys, "pareto", ran, "--json")
+    doc = json.loads(out_p)
+    assert sum(r["feasible"] == "true" for r in rows) == doc["n_feasible"] > 0
+    assert {int(r["id"]) for r in rows if r["pareto"] == "true"} == {p["id"] for p in doc["pareto"]}
+    assert all(r["feasible"] == "false" for r in failed)
+    _, out_l, _ = run_cli(capsys, "export", ran, "--limit", "f1<=0.5")
+    rows_l = list(csv.DictReader(io.StringIO(out_l)))
+    assert all(float(r["f1"]) <= 0.5 for r in rows_l if r["feasible"] == "true")
+    assert sum(r["feasible"] == "true" for r in rows_l) < doc["n_feasible"]
+    # each limit with its source
+    _, out_c, _ = run_cli(capsys, "export", ran, "--constraints", "--limit", "f1<=0.9")
+    cons = {r["name"]: r for r in csv.DictReader(io.StringIO(out_c))}
+    assert cons["f2"]["source"] == "expert" and cons["f2"]["value"] == "1.0"
+    assert cons["f1"]["source"] == "analysis" and cons["f1"]["bound"] == "<="
+    assert cons["g"]["source"] == "study" and cons["g"]["value"] == "1.5"
     code, out, _ = run_cli(capsys, "export", ran, "--format", "json")
     doc = json.loads(out)
     assert len(doc["trials"]) == 128 and doc["columns"][0] == "id"
+    assert isinstance(doc["trials"][0]["feasible"], bool)
+    assert {c["name"]: c["source"] for c in doc["constraints"]}["f2"] == "expert"
     pq = tmp_path / "t.parquet"
     code, _, err = run_cli(capsys, "export", ran, "--format", "parquet", "--out", pq)
     assert code == 0 and "128 trials" in err
@@ -113,6 +133,9 @@ def test_export_all_formats(ran, tmp_path, capsys):
     table = pqm.read_table(pq)
     assert table.num_rows == 128
     np.testing.assert_array_equal(table.column("id").to_numpy(), np.arange(1, 129))
+    assert table.column("pareto").to_numpy().sum() == len(json.loads(out_p)["pareto"])
+    meta = json.loads(table.schema.metadata[b"vectorid.constraints"])
+    assert {c["name"] for c in meta} == {"f2", "g"}
 
 
 @pytest.mark.parametrize(

@@ -164,10 +164,16 @@ def _parser() -> argparse.ArgumentParser:
     pa.add_argument("--save", action="store_true", help="save the constraints in the study")
     pa.add_argument("--json", action="store_true")
 
-    e = sub.add_parser("export", help="every trial, one row each")
+    e = sub.add_parser("export", help="every trial, one row each, with its D and Pareto flags")
     e.add_argument("store")
     e.add_argument("--format", choices=["csv", "json", "parquet"], default="csv")
     e.add_argument("--out", help="output file (default: standard output; required for parquet)")
+    add_limit_options(e)
+    e.add_argument(
+        "--constraints",
+        action="store_true",
+        help="write the constraints in force instead (bound, unit, source of each limit)",
+    )
 
     n = sub.add_parser("init", help="write a study file for a built-in analytic problem")
     n.add_argument("problem", help="e.g. binh-korn, zdt1, dtlz2-3, tanaka, osyczka-kundu")
@@ -758,18 +764,17 @@ def _cmd_pareto(args: argparse.Namespace) -> int:
 
 
 def _cmd_export(args: argparse.Namespace) -> int:
-    from .store.export import export_trials
+    from .store.export import write_analysis
 
-    study = _open_study(args.store)
-    with study:
-        out = args.out if args.out else sys.stdout
-        if args.format == "parquet" and not args.out:
-            from .errors import StudyDefinitionError
+    if args.format == "parquet" and not args.out:
+        from .errors import StudyDefinitionError
 
-            raise StudyDefinitionError("--out", "parquet needs a file", "add --out trials.parquet")
-        n = export_trials(study.store, args.format, out)
+        raise StudyDefinitionError("--out", "parquet needs a file", "add --out trials.parquet")
+    a = _analysis(args)  # the flags follow --limit/--role, as in table and pareto
+    n = write_analysis(a, args.format, args.out or sys.stdout, constraints=args.constraints)
     if args.out:
-        print(f"{n} trials written to {args.out}", file=sys.stderr)
+        what = "constraints" if args.constraints else "trials"
+        print(f"{n} {what} written to {args.out}", file=sys.stderr)
     return 0
 
 
