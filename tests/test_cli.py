@@ -1,8 +1,10 @@
 """The CLI verbs on a small study, including --json (a contract)."""
 
+import argparse
 import csv
 import io
 import json
+import re
 import shutil
 import subprocess
 import sys
@@ -250,3 +252,30 @@ def test_save_limits_persists_and_reruns_keep_working(ran, user_study, capsys):
     code, out, _ = run_cli(capsys, "run", user_study, "--store", ran, "--executor", "serial",
                            "--trials", 130, "--quiet")  # fmt: skip
     assert code == 0 and "2 trials computed" in out
+
+
+def test_help_lists_every_verb_once_grouped_by_workflow(capsys):
+    from vectorid.cli import VERB_GROUPS, _parser
+
+    with pytest.raises(SystemExit) as info:
+        main(["--help"])
+    assert info.value.code == 0
+    out = capsys.readouterr().out
+    assert out.startswith("usage: vectorid [-h] [--version] COMMAND ...")
+    sub = next(a for a in _parser()._actions if isinstance(a, argparse._SubParsersAction))
+    verbs = set(sub.choices)
+    grouped = [v for _, vs in VERB_GROUPS for v in vs]
+    assert len(grouped) == len(set(grouped)), "a verb is in two groups"
+    assert verbs == set(grouped), (
+        f"verbs without a group in vectorid.cli.VERB_GROUPS: {sorted(verbs - set(grouped))}; "
+        f"groups naming no verb: {sorted(set(grouped) - verbs)}"
+    )
+    assert "\nother:" not in out
+    titles = [t for t, _ in VERB_GROUPS]
+    assert titles == ["set up", "run", "analyse", "identify from flight data", "view"]
+    at = [out.index(f"\n{t}:\n") for t in titles]
+    assert at == sorted(at)  # in the order of the work
+    for title, vs in VERB_GROUPS:  # each verb, with its help, under its own title
+        block = out[out.index(f"\n{title}:\n") :].split("\n\n", 1)[0]
+        for v in vs:
+            assert re.search(rf"^  {re.escape(v)}\s", block, re.M), f"{v} not under {title}"

@@ -199,7 +199,49 @@ def _parser() -> argparse.ArgumentParser:
     d.add_argument("--quiet", action="store_true", help="no progress bar")
     for module in _extensions():
         module.add_parsers(sub)
+    _group_verbs(p, sub)
     return p
+
+
+#: ``vectorid --help`` lists the verbs in the order of the work. A new verb goes into one of
+#: these groups (tests/test_cli.py checks that every verb has one; until then it is listed
+#: under "other").
+VERB_GROUPS = (
+    ("set up", ("init", "demo")),
+    ("run", ("run", "info", "verify", "repair")),
+    ("analyse", ("table", "pareto", "section", "refine", "robustness", "correlation",
+                 "sensitivity", "export")),
+    ("identify from flight data", ("identifiability", "step", "descent")),
+    ("view", ("hist", "plot", "report", "ui")),
+)  # fmt: skip
+
+
+def _group_verbs(p: argparse.ArgumentParser, sub: Any) -> None:
+    """Replace argparse's flat list of verbs by :data:`VERB_GROUPS`, in the description."""
+    import shutil
+    import textwrap
+
+    helps = {a.dest: a.help or "" for a in sub._choices_actions}
+    groups = [(title, [v for v in verbs if v in helps]) for title, verbs in VERB_GROUPS]
+    grouped = {v for _, verbs in groups for v in verbs}
+    other = [v for v in helps if v not in grouped]
+    if other:
+        groups.append(("other", other))
+    width = min(shutil.get_terminal_size((100, 24)).columns, 100) - 2
+    lines = [textwrap.fill(p.description or "", width), ""]
+    for title, verbs in groups:
+        lines.append(f"{title}:")
+        for v in verbs:
+            text = textwrap.wrap(helps[v], max(width - 19, 30)) or [""]
+            head = f"  {v:<16} " if len(v) <= 16 else f"  {v}\n{'':19}"
+            lines.append(head + text[0])
+            lines += [f"{'':19}{t}" for t in text[1:]]
+        lines.append("")
+    lines.append("`vectorid COMMAND --help` gives a command's options.")
+    p.description = "\n".join(lines)
+    p.formatter_class = argparse.RawDescriptionHelpFormatter
+    p.usage = "%(prog)s [-h] [--version] COMMAND ..."
+    sub.help = argparse.SUPPRESS  # listed above, by group
 
 
 #: Modules adding verbs: each has ``add_parsers(subparsers)`` and ``COMMANDS`` (verb -> function
