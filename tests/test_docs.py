@@ -166,7 +166,7 @@ def _make_clone(folder: Path) -> dict[str, str]:
     (shims / "python3").write_text(_PYTHON3.format(python=sys.executable), encoding="utf-8")
     for f in [*bin_.iterdir(), *shims.iterdir()]:
         f.chmod(0o755)
-    for name in ("examples", "scripts"):  # what a clone has beside the package
+    for name in ("examples", "scripts", "docs"):  # what a clone has beside the package
         (folder / name).symlink_to(ROOT / name, target_is_directory=True)
     shared = ROOT.parent / "shared"
     if shared.is_dir() and not (folder.parent / "shared").exists():
@@ -422,6 +422,23 @@ def test_ci_runs_the_readme_test_command():
     assert command in [line.strip() for line in ci], (
         f".ci/run must run the README's test command exactly: {command}"
     )
+
+
+def _titles(path: Path) -> list[str]:
+    """The level-1 headings of a markdown file, outside code blocks."""
+    fenced = {n for b in blocks(path) for n in range(b.line, b.line + b.text.count("\n") + 1)}
+    lines = path.read_text(encoding="utf-8").splitlines()
+    return [s[2:].strip() for i, s in enumerate(lines, 1) if s.startswith("# ") and i not in fenced]
+
+
+def test_each_doc_has_one_title_and_no_two_share_one():
+    titles = {p.name: _titles(p) for p in DOCS}
+    several = {k: v for k, v in titles.items() if len(v) != 1}
+    assert not several, f"each doc needs exactly one '# ' title: {several}"
+    seen: dict[str, str] = {}
+    for name, (title,) in titles.items():
+        assert title not in seen, f"{name} and {seen[title]} share the title {title!r}"
+        seen[title] = name
 
 
 def test_block_parser_sees_directives_and_languages(tmp_path):

@@ -10,7 +10,7 @@ Verbs (a contract; more may be added)::
     vectorid repair STORE [--executor ...] [--workers N] [--quiet]
     vectorid table STORE [--limit 'NAME<=VALUE' ...] [--top K] [--feasible] [--json]
     vectorid pareto STORE [--limit 'NAME<=VALUE' | 'NAME>=VALUE' ...] [--role NAME=pseudo] [--json]
-    vectorid export STORE [--format csv|json|parquet] [--out PATH]
+    vectorid export STORE [--format csv|json|parquet] [--out PATH] [--limit ...] [--constraints]
     vectorid init PROBLEM [--out FILE] [--trials N]
     vectorid demo [g12|parafoil] [--out DIR] [--trials N] [--analytic]
     vectorid descent LOG --mass KG [--columns time=COL,altitude=COL] [...] [--json]
@@ -832,7 +832,7 @@ def _cmd_init(args: argparse.Namespace) -> int:
             "PROBLEM",
             str(exc),
             "e.g. `vectorid init binh-korn`; models of your own need a "
-            "study file written by hand (see README, 'A study file')",
+            "study file written by hand (see README, 'A five-minute tour')",
         ) from None
     out = Path(args.out or f"{args.problem}.toml")
     if out.exists():
