@@ -431,6 +431,29 @@ def _titles(path: Path) -> list[str]:
     return [s[2:].strip() for i, s in enumerate(lines, 1) if s.startswith("# ") and i not in fenced]
 
 
+#: The README is the first hour: what vectorid is, the two commands, a tour and links.
+README_MAX_LINES = 250
+_LINK = re.compile(r"\]\(([^)\s]+)\)")
+
+
+def test_readme_is_short_and_every_local_link_resolves():
+    readme = ROOT / "README.md"
+    n = len(readme.read_text(encoding="utf-8").splitlines())
+    assert n <= README_MAX_LINES, (
+        f"README.md has {n} lines (at most {README_MAX_LINES}): move details to a page of docs/"
+    )
+    broken = []
+    for doc in DOCS:
+        fenced = {i for b in blocks(doc) for i in range(b.line, b.line + b.text.count("\n") + 1)}
+        for i, line in enumerate(doc.read_text(encoding="utf-8").splitlines(), 1):
+            for target in _LINK.findall(line) if i not in fenced else ():
+                path = target.split("#", 1)[0]
+                if path and "://" not in path and not path.startswith("mailto:"):
+                    if not (doc.parent / path).exists():
+                        broken.append(f"{doc.relative_to(ROOT)}:{i}: {target}")
+    assert not broken, "links to files that do not exist:\n" + "\n".join(broken)
+
+
 def test_each_doc_has_one_title_and_no_two_share_one():
     titles = {p.name: _titles(p) for p in DOCS}
     several = {k: v for k, v in titles.items() if len(v) != 1}
