@@ -100,6 +100,10 @@ def test_verdicts_frame_is_the_verdicts():
         assert (row["feasible_low"], row["feasible_high"]) == v.feasible
         assert (row["box_low"], row["box_high"]) == v.box
     assert vf.loc["a", "unit"] == "kg"
+    vc = a.verdict_columns()
+    assert vc["name"].tolist() == ["a", "feasible"]
+    np.testing.assert_array_equal(vc["feasible_low"], vf["feasible_low"].to_numpy())
+    assert vc["verdict"].tolist() == vf["verdict"].tolist()
     # thresholds reach the verdicts
     loose = a.verdicts_frame(identified=1.0, weak=1.0, min_feasible=1)
     assert set(loose["verdict"]) <= {"identified", "weak"}

@@ -641,6 +641,28 @@ class Analysis:
             self, identified=identified, weak=weak, min_feasible=min_feasible, meanings=meanings
         )
 
+    def verdict_columns(self, **thresholds: Any) -> dict[str, np.ndarray]:
+        """:meth:`verdicts` as named numpy columns, one row per design variable.
+
+        Parameters
+        ----------
+        **thresholds
+            ``identified``, ``weak``, ``min_feasible`` as in :meth:`verdicts`.
+
+        Returns
+        -------
+        dict of str to (p,) ndarray
+            ``name``, ``verdict``, ``unit``, ``meaning``, ``feasible_low``/``feasible_high``
+            (range over D), ``pareto_low``/``pareto_high``, ``box_low``/``box_high`` (all in
+            ``unit``; NaN when the set is empty), ``width`` (dimensionless),
+            ``n_feasible``, ``constrained_by``, ``reason`` and ``suggestion``.
+        """
+        from ._frames import verdict_rows
+
+        rows = verdict_rows(self.verdicts(**thresholds))
+        keys = list(rows[0]) if rows else ["name", "verdict"]
+        return {k: np.array([r[k] for r in rows]) for k in keys}
+
     def verdicts_frame(self, **thresholds: Any) -> pd.DataFrame:
         """:meth:`verdicts` as a pandas DataFrame, one row per design variable.
 
@@ -652,11 +674,7 @@ class Analysis:
         Returns
         -------
         pandas.DataFrame
-            Indexed by variable name; columns ``verdict``, ``unit``, ``meaning``,
-            ``feasible_low``/``feasible_high`` (range over D), ``pareto_low``/
-            ``pareto_high``, ``box_low``/``box_high`` (all in ``unit``; NaN when the set
-            is empty), ``width`` (dimensionless), ``n_feasible``, ``constrained_by``,
-            ``reason`` and ``suggestion``.
+            Indexed by variable name; the other columns of :meth:`verdict_columns`.
         """
         from ._frames import verdicts_frame
 
