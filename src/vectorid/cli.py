@@ -832,7 +832,7 @@ def _cmd_init(args: argparse.Namespace) -> int:
             "PROBLEM",
             str(exc),
             "e.g. `vectorid init binh-korn`; models of your own need a "
-            "study file written by hand (see README, 'A five-minute tour')",
+            "study file written by hand (see README, 'A study file')",
         ) from None
     out = Path(args.out or f"{args.problem}.toml")
     if out.exists():
