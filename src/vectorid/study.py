@@ -51,12 +51,10 @@ class Study:
     store : vectorid.store.Store
         The SQLite store: the definition, the stages and every trial.
 
-    Examples
-    --------
-    >>> from vectorid import Study
-    >>> with Study.open("example.db") as study:          # doctest: +SKIP
-    ...     a = study.analysis(limits={"f1": 40.0})
-    >>> a.trials.X[a.pareto]                              # doctest: +SKIP
+    Notes
+    -----
+    The README's tour (``example.py``) and ``docs/studies.md`` ("From Python") show it at
+    work; the test suite runs both.
     """
 
     def __init__(self, store: Store) -> None:
