@@ -32,6 +32,9 @@ exclude_patterns = ["_build", "Thumbs.db", ".DS_Store"]
 # so that ``` fences stay plain code blocks that tests/test_docs.py runs.
 myst_enable_extensions = ["colon_fence"]
 myst_heading_anchors = 4
+# index.md lists the guides in reading order, then globs the rest ("*"), so that a new page
+# joins the site by itself; contributing.md is left to the glob so that it always matches
+# (Sphinx warns about a glob that matches nothing, and that warning cannot be suppressed).
 
 # API reference: the docstrings are numpydoc; class members are listed by autodoc.
 autodoc_member_order = "bysource"
