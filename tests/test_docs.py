@@ -1,6 +1,6 @@
 """Documentation that is executed: every code block of README.md and docs/*.md.
 
-The convention (also in README, "Contributing: documentation that runs"):
+The convention (also in docs/contributing.md, "Documentation that runs"):
 
 * Every fenced block has a language. ``bash``/``sh``/``shell``/``console`` blocks are run with
   bash (``set -e``, so every line must succeed); ``python`` blocks are saved as a script and
