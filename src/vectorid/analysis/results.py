@@ -312,6 +312,19 @@ class Analysis:
         this Pareto set stays in D, it *is* the new Pareto set (every other trial of the new
         D was dominated, hence dominated by a member of it; dominance is transitive), and no
         scan is needed; otherwise only the new D is scanned.
+
+        Parameters
+        ----------
+        limits : iterable of Bound or mapping, optional
+            Bounds overriding the study's, as the constructor takes them.
+        roles : mapping, optional
+            Pure/pseudo roles by criterion name, as the constructor takes them.
+
+        Returns
+        -------
+        Analysis or None
+            The narrowed analysis (sharing this one's trials), or None when a bound is
+            looser or a role differs.
         """
         b = Analysis(
             self.spec, self.trials.subset(np.zeros(len(self.trials), dtype=bool)), limits, roles
