@@ -559,8 +559,8 @@ def scatter_figure(
         yaxis={"title": {"text": axis_title(y, labels)}, "range": yr},
         shapes=_limit_shapes(a, x, y, xr=xr, yr=yr),
         annotations=_offscale_notes(a, x, y, xr, yr),
-        legend={"orientation": "h", "y": -0.17, "yanchor": "top", "x": 0},
-        margin={"t": 40, "b": 110},
+        legend={"orientation": "h", "y": -0.2, "yanchor": "top", "x": 0},
+        margin={"t": 40, "b": 130},
         height=560,
     )
     return figure({"data": data, "layout": layout}, raw)

@@ -600,8 +600,8 @@ def build_report(
         for x, y in pairs[:3]:
             page.fig(
                 fg.scatter_figure(a, x, y, max_points=max_points, seed=seed, labels=lab, gl=False),
-                "seed 001 Figs. 6, 11; seed 000 Fig. 8; infeasible trials as a density (every "
-                "one of them), feasible and Pareto trials as points",
+                "seed 001 Figs. 6, 11; seed 000 Fig. 8; infeasible trials and those of D beyond "
+                "the budget as densities (every one of them), the Pareto set as open rings",
             )
         if len(names) >= 3:
             page.fig(

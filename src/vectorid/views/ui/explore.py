@@ -247,8 +247,8 @@ def describe_selection(spec: Mapping[str, Any] | None, count: int) -> str:
     """The selection in words, with its size."""
     if not spec:
         return (
-            "no selection (box- or lasso-select points, click a histogram bin, or brush a "
-            "parameter axis of the parallel coordinates)"
+            "no selection (box- or lasso-select points, click a histogram bin, or brush "
+            "axes of the parallel coordinates)"
         )
     kind = spec.get("kind")
     if kind == "box":
@@ -475,7 +475,7 @@ def scatter_view(
         uirevision=f"{x}|{y}",
         height=520,
         clickmode="event+select",
-        margin={"t": 30, "b": 110, "l": 60, "r": 10},
+        margin={"t": 30, "b": 130, "l": 60, "r": 10},
         title={"text": clouds.counts_title(a), "font": {"size": 12}, "x": 0.01, "xanchor": "left"},
     )
     return fig, describe_selection(selection, int(sel.sum()))
