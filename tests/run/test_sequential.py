@@ -342,6 +342,7 @@ def test_downstream_reads_a_sequential_store(tmp_path):
         assert h.weighted and abs(h.feasible_weighted.sum() - h.feasible.sum()) < 1e-6
     r = cli("hist", db, "--param", "x5")
     assert r.returncode == 0 and "importance-weighted" in r.stdout, r.stderr
+    assert "sequential sampler:" in r.stdout and "ESS" in r.stdout
     r = cli("info", db)
     assert r.returncode == 0 and "generations; D:" in r.stdout and "ESS" in r.stdout, r.stderr
     for args in (("table", db), ("pareto", db), ("identifiability", db), ("correlation", db)):
