@@ -419,7 +419,6 @@ def _cmd_sensitivity(args: argparse.Namespace) -> int:
 
 def _cmd_hist(args: argparse.Namespace) -> int:
     from .analysis.histograms import histograms, stage_histograms
-
     from .run.sequential import sample_note
 
     study = _open(args.store)
