@@ -71,11 +71,10 @@ KEEP = 0.5
 ESS_SHARE = 1.0
 #: Below this share of ``population``, D's ESS means the population has collapsed.
 COLLAPSE_SHARE = 0.1
-#: The kernel's first covariance factor (Beaumont et al. 2009) and the narrowest allowed.
-SCALE, SCALE_MIN = 2.0, 0.02
-#: Acceptance band of a generation's trials at the limits they aimed at; outside it the next
-#: kernel is narrowed (below) or widened (above).
-ACCEPT_LOW, ACCEPT_HIGH = 0.15, 0.45
+#: The kernel's covariance factor (Beaumont et al. 2009). Narrowing it to the acceptance of
+#: the last generation was tried: more members per generation, but a far lower ESS on the
+#: 15-parameter quiet twin (13 against 124 at ~25,000 evaluations): D is covered more slowly.
+SCALE = 2.0
 #: Most evaluations of the local search made when the budget is spent before D is reached.
 SEARCH_EVALUATIONS = 4000
 
@@ -393,28 +392,6 @@ def _score(phi: np.ndarray, floor: np.ndarray) -> np.ndarray:
     return np.where(np.isfinite(s), s, np.inf)
 
 
-def _next_scale(last: Generation, spec, state: SequentialState) -> float:
-    """The kernel's covariance factor: 2 (Beaumont et al.) at first, then adapted to the
-    last generation's acceptance (the share of its trials that met the limits it aimed at):
-    narrowed below :data:`ACCEPT_LOW`, widened above :data:`ACCEPT_HIGH` (at most 2). A thin
-    or curved D is narrower across than the population's covariance says; a narrower kernel
-    lands more of its draws in it. A function of the stored trials, so resume stays exact."""
-    if last.proposal.get("kind") != "mixture":
-        return SCALE
-    scale = float(last.proposal.get("scale", SCALE))
-    eps = _tolerance_of(last, spec, state.constrained)
-    mine = state.generation == last.gen
-    if not mine.any():
-        return scale
-    with np.errstate(invalid="ignore"):
-        rate = float(np.mean(state.usable[mine] & np.all(state.phi[mine] <= eps, axis=1)))
-    if rate < ACCEPT_LOW:
-        scale *= 0.6
-    elif rate > ACCEPT_HIGH:
-        scale *= 1.5
-    return float(min(SCALE, max(SCALE_MIN, scale)))
-
-
 def _propose(store: Store, spec, state: SequentialState, gens, n: int, trials: Trials):
     """Generation ``len(gens)``'s points and record (a function of the seed, the generation
     number, the limits and the stored trials of earlier generations only)."""
@@ -429,7 +406,7 @@ def _propose(store: Store, spec, state: SequentialState, gens, n: int, trials: T
         centres = state.usable & np.all(phi <= eps, axis=1)
     U = _unit(spec.space, trials.X[centres])
     log_w = log_weights(U, state.proposals, state.counts)
-    scale = _next_scale(gens[-1], spec, state)
+    scale = SCALE
     kernel = fit_proposal(U, log_w, rng, scale=scale)
     try:
         Unew, kernel = kernel.sample(n, rng)
