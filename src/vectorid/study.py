@@ -61,10 +61,16 @@ class Study:
             spec = load_study(spec)
         from .builders import prepare_spec
         from .store.agreement import data_file_hashes
+        from .store.inputs import record_inputs
 
         spec = prepare_spec(spec)
-
-        return cls(Store.create(store, spec, data_files=data_file_hashes(spec)))
+        st = Store.create(store, spec, data_files=data_file_hashes(spec))
+        try:
+            record_inputs(st, spec)
+        except BaseException:
+            st.close()
+            raise
+        return cls(st)
 
     @classmethod
     def open(cls, store: str | Path, *, write: bool = False) -> Study:
@@ -78,6 +84,7 @@ class Study:
         store: str | Path,
         *,
         study_file: str | Path | None = None,
+        accept_changes: bool = False,
     ) -> Study:
         """Resume ``store`` if it exists, else create it: the same script or command run
         twice continues the same study.
@@ -98,6 +105,9 @@ class Study:
             The store.
         study_file : path, optional
             The study file ``spec`` came from (for the commands in messages).
+        accept_changes : bool
+            Take a data file whose content changed (or an FMU's) instead of refusing it, and
+            record the change in the store's history (:mod:`vectorid.store.inputs`).
         """
         if not isinstance(spec, StudySpec):
             study_file = study_file or spec
@@ -132,11 +142,15 @@ class Study:
                     stacklevel=2,
                 )
             return cls.create(spec, path)
-        if agreement.refused:
+        accepted = [d for d in agreement.refused if d.content] if accept_changes else []
+        if len(accepted) < len(agreement.refused):
             n = st.count()
             st.close()
             raise StoreError(_refusal(path, study_file, agreement, n))
+        old_hashes = st.data_files() or {}
         st.replace_study(spec, agreement.hashes)
+        if accepted:
+            _record_accepted(st, accepted, old_hashes, agreement.hashes)
         for d in agreement.taken:
             warnings.warn(VectoridNote(f"taken from the study file: {d.describe()}"), stacklevel=2)
         return cls(st)
@@ -155,10 +169,12 @@ class Study:
         progress: bool | TextIO = False,
         keep_going: bool = False,
         timeout: float | None = None,
+        accept_changes: bool = False,
     ) -> RunSummary:
         """Compute the missing trials (see :func:`vectorid.run.run_store`)."""
         return run_store(
             self.store,
+            accept_changes=accept_changes,
             trials=trials,
             executor=executor,
             workers=workers,
@@ -245,4 +261,35 @@ def _refusal(path: Path, study_file: str | Path | None, agreement: Any, n: int) 
         f"to start a new store from the file: vectorid run {src} --store {new_store_name(path)}"
     )
     lines.append(f"to keep the stored definition and extend it: vectorid run {path}")
+    if all(d.content for d in refused):
+        lines.append(
+            f"to take the changed file content and record it in the store's history: "
+            f"vectorid run {src} --accept-changes"
+        )
     return "\n".join(lines)
+
+
+def _record_accepted(
+    st: Store, accepted: list[Any], old: Mapping[str, Any], new: Mapping[str, Any]
+) -> None:
+    """Record data-file content changes taken with ``accept_changes`` in the history."""
+    import time
+
+    from .store.inputs import record_history
+
+    now = time.time()
+    entries = [
+        {
+            "at": now,
+            "what": f"data file {d.field}",
+            "old": (old.get(d.field) or {}).get("sha256"),
+            "new": (new.get(d.field) or {}).get("sha256"),
+            "note": f"accepted (--accept-changes): {d.describe()}",
+        }
+        for d in accepted
+    ]
+    record_history(st, entries)
+    for e in entries:
+        warnings.warn(
+            VectoridNote(f"accepted and recorded in the store's history: {e['note']}"), stacklevel=3
+        )
