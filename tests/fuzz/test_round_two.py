@@ -357,7 +357,9 @@ def one(x):
 """
 
 
-@pytest.mark.parametrize("executor", ["serial", "processes"])
+@pytest.mark.parametrize(
+    "executor", ["serial", "processes", pytest.param("dask", marks=pytest.mark.slow)]
+)
 @pytest.mark.parametrize("batch", [1, 4])
 def test_timeout_is_per_trial(tmp_path, executor, batch):
     folder = tmp_path / "t"
