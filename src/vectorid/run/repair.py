@@ -294,8 +294,13 @@ def _repair_batches(
     # header says nothing sure about its range: what the others do not hold is computed).
     keep = {d.block for d in damaged}
     lost = _plan_gaps(store, exclude=keep)
-    before = _plan_gaps(store, exclude=set())
-    ranges = _subtract(lost, before)
+    untrusted = {
+        d.block for d in damaged if {"header", "size"} & set(d.parts) or d.stage not in kinds
+    }
+    if untrusted:  # the range such a batch held is not known: every gap of the plan
+        ranges = lost
+    else:
+        ranges = _subtract(lost, _plan_gaps(store, exclude=set()))
     ranges += [r for r in lost_ranges if kinds.get(r[0]) == "sample"]
     if any(r[0] == -1 for r in lost_ranges):
         report.lost_rows.append(
