@@ -120,10 +120,18 @@ class Study:
         st = Store.open(path, write=True)
         try:
             agreement = compare(st.spec, spec, st.data_files())
-            if agreement and not agreement.refused and _derived(st.spec, spec):
+            # a changed data file taken on purpose: what derives from the data is computed anew
+            taking = (
+                accept_changes
+                and bool(agreement.refused)
+                and all(d.content for d in agreement.refused)
+            )
+            if agreement and (not agreement.refused or taking) and _derived(st.spec, spec):
                 # the file leaves derived parts (noise-floor limits) to be computed: take the
                 # stored ones when nothing they derive from changed, else compute them anew
-                spec = _with_derived(st.spec, spec, agreement)
+                from .builders import prepare_spec
+
+                spec = prepare_spec(spec) if taking else _with_derived(st.spec, spec, agreement)
                 agreement = compare(st.spec, spec, st.data_files())
         except BaseException:
             st.close()
@@ -260,8 +268,9 @@ def _refusal(path: Path, study_file: str | Path | None, agreement: Any, n: int) 
     lines.append(
         f"to start a new store from the file: vectorid run {src} --store {new_store_name(path)}"
     )
-    lines.append(f"to keep the stored definition and extend it: vectorid run {path}")
-    if all(d.content for d in refused):
+    if not all(d.content for d in refused):  # else the store path is refused just the same
+        lines.append(f"to keep the stored definition and extend it: vectorid run {path}")
+    else:
         lines.append(
             f"to take the changed file content and record it in the store's history: "
             f"vectorid run {src} --accept-changes"
@@ -284,12 +293,12 @@ def _record_accepted(
             "what": f"data file {d.field}",
             "old": (old.get(d.field) or {}).get("sha256"),
             "new": (new.get(d.field) or {}).get("sha256"),
-            "note": f"accepted (--accept-changes): {d.describe()}",
+            "note": "accepted (--accept-changes)",
         }
         for d in accepted
     ]
     record_history(st, entries)
     for e in entries:
         warnings.warn(
-            VectoridNote(f"accepted and recorded in the store's history: {e['note']}"), stacklevel=3
+            VectoridNote(f"accepted and recorded in the store's history: {e['what']}"), stacklevel=3
         )
