@@ -253,7 +253,14 @@ class Study:
             Store the first batch even when every one of its trials failed (default: stop
             with the reason and store none).
         timeout : float, optional
-            Most seconds one trial may take, in s (default: the study's, else no limit).
+            Most seconds one trial may take, in s (default: the study's, else no limit): a
+            batch of n trials may run n x ``timeout``; one that runs longer is re-run trial
+            by trial, and a trial that takes longer is stored as failed, "timed out after
+            X s" (see docs/store.md).
+        accept_changes : bool
+            When the model's code or a data file changed since the stored trials were
+            computed, take the change and record it in the store's history instead of
+            raising :class:`~vectorid.store.inputs.InputsChangedError`.
 
         Returns
         -------

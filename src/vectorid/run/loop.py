@@ -105,6 +105,10 @@ class RunSummary:
         Group key -> ``(trial id, full message)`` of the first trial of the group.
     notes : list of str
         Things the run decided that the user must know (a target below what is stored, ...).
+    retried : dict
+        Model errors the run recovered from by re-running trials (a batch that raised,
+        returned too few rows, lost its worker or ran past its time): group key ->
+        ``[batches, trials lost, example text]``; :attr:`model_errors` says them.
     """
 
     target: int
@@ -116,12 +120,17 @@ class RunSummary:
     reasons: collections.Counter = field(default_factory=collections.Counter)
     examples: dict[str, tuple[int, str]] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
-    #: Model errors the run recovered from by re-running trials: group key ->
-    #: [batches, trials lost, example text].
     retried: dict[str, list] = field(default_factory=dict)
 
     def add_retried(self, res: EvalResult) -> None:
-        """Count the model errors a batch recovered from (once per batch and kind)."""
+        """Count the model errors a batch recovered from (once per batch and kind; the run
+        loop calls it).
+
+        Parameters
+        ----------
+        res : EvalResult
+            The evaluated batch, with the errors it was re-run after (``res.retried``).
+        """
         if not res.retried:
             return
         lost = int(res.retry_lost)
