@@ -1799,56 +1799,6 @@ class Store:
                 r["report"] = None
         return out
 
-
-def _insert_batch(
-    con: sqlite3.Connection,
-    stage: int,
-    seq_start: int,
-    X: np.ndarray,
-    criteria: np.ndarray,
-    functionals: np.ndarray,
-    status: np.ndarray,
-    wall: np.ndarray,
-    messages: Mapping[int, str] | None,
-) -> int:
-    """Insert one batch inside the caller's transaction; 0 when its range is held."""
-    n = int(X.shape[0])
-    if n == 0:
-        return 0
-    blobs = [
-        _blob(X, "<f8"),
-        _blob(criteria, "<f8"),
-        _blob(functionals, "<f8"),
-        _blob(status, "i1"),
-        _blob(wall, "<f8"),
-    ]
-    checksum = batch_checksum(stage, seq_start, n, blobs)
-    overlap = con.execute(
-        "SELECT 1 FROM blocks WHERE stage = ? AND seq_start < ? AND seq_start + n > ? LIMIT 1",
-        (stage, seq_start + n, seq_start),
-    ).fetchone()
-    if overlap:
-        return 0
-    con.execute(
-        "INSERT INTO blocks (stage, seq_start, n, created, x, f, g, status, wall, "
-        "checksum) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
-        (stage, seq_start, n, time.time(), *blobs, checksum),
-    )
-    if messages:
-        con.executemany(
-            "INSERT OR REPLACE INTO failures VALUES (?, ?, ?)",
-            [(stage, seq_start + int(i), m) for i, m in messages.items()],
-        )
-    return n
-
-
-@contextmanager
-def _suppress_sqlite() -> Iterator[None]:
-    try:
-        yield
-    except sqlite3.Error:
-        pass
-
     # -- generations (sequential sampler) --------------------------------------------------
 
     def _has_generations(self) -> bool:
@@ -1939,6 +1889,56 @@ def _suppress_sqlite() -> Iterator[None]:
                 )
             )
         return out
+
+
+def _insert_batch(
+    con: sqlite3.Connection,
+    stage: int,
+    seq_start: int,
+    X: np.ndarray,
+    criteria: np.ndarray,
+    functionals: np.ndarray,
+    status: np.ndarray,
+    wall: np.ndarray,
+    messages: Mapping[int, str] | None,
+) -> int:
+    """Insert one batch inside the caller's transaction; 0 when its range is held."""
+    n = int(X.shape[0])
+    if n == 0:
+        return 0
+    blobs = [
+        _blob(X, "<f8"),
+        _blob(criteria, "<f8"),
+        _blob(functionals, "<f8"),
+        _blob(status, "i1"),
+        _blob(wall, "<f8"),
+    ]
+    checksum = batch_checksum(stage, seq_start, n, blobs)
+    overlap = con.execute(
+        "SELECT 1 FROM blocks WHERE stage = ? AND seq_start < ? AND seq_start + n > ? LIMIT 1",
+        (stage, seq_start + n, seq_start),
+    ).fetchone()
+    if overlap:
+        return 0
+    con.execute(
+        "INSERT INTO blocks (stage, seq_start, n, created, x, f, g, status, wall, "
+        "checksum) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+        (stage, seq_start, n, time.time(), *blobs, checksum),
+    )
+    if messages:
+        con.executemany(
+            "INSERT OR REPLACE INTO failures VALUES (?, ?, ?)",
+            [(stage, seq_start + int(i), m) for i, m in messages.items()],
+        )
+    return n
+
+
+@contextmanager
+def _suppress_sqlite() -> Iterator[None]:
+    try:
+        yield
+    except sqlite3.Error:
+        pass
 
 
 @dataclass(frozen=True)
