@@ -7,7 +7,7 @@ Usage::
 
 ``DATA_DIR`` is the shared data folder (default ``../shared/data`` beside the checkout): the
 Prometheus TeleMega log (``prometheus-2022/``) and the nine flights of ``rocketpy-descents/``.
-Each flight is identified by :func:`vectorid.identify.descent_study.identify_descent` with the
+Each flight is identified by :func:`vectorid.descent.identify_descent` with the
 mass, drag areas, triggers and pad elevations its README states (RocketPy's values; the
 TeleMega flight's from the data README). Where a flight's README shows that the log needs
 something the stated parameters do not say (a corrupt last row, an ejection disturbance that
@@ -31,9 +31,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from vectorid.descent import INCH, Canopy, DescentPlan, identify_descent
 from vectorid.errors import VectoridError
-from vectorid.identify.descent import INCH
-from vectorid.identify.descent_study import Canopy, DescentPlan, identify_descent
 
 HERE = Path(__file__).resolve().parent
 DEFAULT_DATA = HERE.parent.parent / "shared" / "data"

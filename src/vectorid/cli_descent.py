@@ -15,7 +15,7 @@
 
 Identifies the drag area C_D S of each parachute of a rocket's recovery descent from an
 altimeter log (and C_D where a canopy's diameter is given), phase by phase, with a verdict per
-phase; see :mod:`vectorid.identify.descent_study`.
+phase; see :mod:`vectorid.descent`.
 """
 
 from __future__ import annotations
@@ -191,7 +191,7 @@ def add_parsers(sub: Any) -> None:
 
 
 def _canopy(args: argparse.Namespace, c: str):
-    from .identify.descent_study import Canopy, parse_length
+    from .descent import Canopy, parse_length
 
     cds = getattr(args, f"{c}_cds")
     diam = getattr(args, f"{c}_diameter")
@@ -274,8 +274,8 @@ def _noise(text: str) -> float | str:
 
 def _cmd_descent(args: argparse.Namespace) -> int:
     from .cli import _print_json
+    from .descent import DescentPlan, identify_descent
     from .errors import StudyDefinitionError, VectoridError
-    from .identify.descent_study import DescentPlan, identify_descent
 
     windows = {}
     for c in ("drogue", "main"):

@@ -11,16 +11,16 @@ import numpy as np
 import pytest
 
 from vectorid.cli import main
-from vectorid.errors import StudyDefinitionError
-from vectorid.identify import FlightDataError
-from vectorid.identify.descent import RocketDescentCdS
-from vectorid.identify.descent_study import (
+from vectorid.descent import (
     Canopy,
     DescentPlan,
+    RocketDescentCdS,
     discrepancy,
     identify_descent,
     parse_length,
 )
+from vectorid.errors import StudyDefinitionError
+from vectorid.identify import FlightDataError
 from vectorid.models.base import InitialState
 from vectorid.models.controls import ControlSchedule
 
