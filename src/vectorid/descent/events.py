@@ -49,7 +49,9 @@ def _running_median(x: NDArray, n: int) -> NDArray:
     from scipy.ndimage import median_filter
 
     n = max(1, int(n)) | 1
-    return median_filter(x, size=n, mode="nearest") if n > 1 else x.copy()
+    # "mirror": the last sample counts once at the edge (with "nearest" a last-sample outlier
+    # fills half the window and moves the median)
+    return median_filter(x, size=n, mode="mirror") if n > 1 else x.copy()
 
 
 def _rate(s: NDArray, dt: float, half: int) -> NDArray:
@@ -130,7 +132,7 @@ class Touchdown:
     rate : float
         Descent rate just before touchdown, m/s (the fit's slope).
     settled : float
-        Time from which the vertical speed stays settled to the end of the data, s.
+        Time from which the vertical speed and the height stay settled, s.
     after : float
         Seconds of data after touchdown.
     """
@@ -151,19 +153,23 @@ def detect_touchdown(
     settle_speed: float = 1.0,
     settle_fraction: float = 0.25,
     hold: float = 1.0,
+    sustain: float = 5.0,
     fit_span: float = 8.0,
 ) -> Touchdown | None:
     """Touchdown of a descent from its altitude series: where altitude and vertical speed
     settle, not where a logger's state machine says "landed" (often many seconds later).
 
-    The altitude is put on a uniform grid and smoothed by a running median of ``smooth`` s;
-    its vertical speed is the difference over ±``smooth`` s. The descent has *settled* at the
-    first time after ``after`` from which the speed stays below
-    ``max(settle_speed, settle_fraction × descent rate)`` to the end of the data (the descent
-    rate is the median over the 5 s before), with at least ``hold`` s of data left and a
-    descent rate above twice ``settle_speed`` before it. A continuous two-segment line
-    (descending, then level) fitted to the raw samples from ``fit_span`` s before to 3 s
-    after that time places the touchdown where the two meet.
+    Single-sample spikes are left out first (:func:`vectorid.identify.outliers.find_spikes`,
+    3 m floor). The altitude is put on a uniform grid and smoothed by a running median of
+    ``smooth`` s; its vertical speed is the difference over ±``smooth`` s. The descent has
+    *settled* at the first time after ``after`` from which, for ``sustain`` s (or to the end
+    of the data, at least ``hold`` s), nine speeds in ten stay below
+    ``max(settle_speed, settle_fraction × descent rate)`` and the smoothed height stays within
+    a band of its median there (5 × the smoothed series' noise, at least 2 m), after a descent
+    rate (median over the 5 s before) above twice ``settle_speed``. What the data do later
+    (a noisy ground barometer, a last-sample outlier, the rocket carried away) does not
+    decide it. A continuous two-segment line (descending, then level) fitted to the samples
+    from ``fit_span`` s before to 3 s after that time places the touchdown where the two meet.
 
     Parameters
     ----------
@@ -171,8 +177,8 @@ def detect_touchdown(
         Times (s, strictly increasing) and altitudes (m) of the whole log or its descent.
     after : float, optional
         Search from this time, s (default: the apogee).
-    smooth, settle_speed, settle_fraction, hold, fit_span : float
-        As above (s, m/s, -, s, s).
+    smooth, settle_speed, settle_fraction, hold, sustain, fit_span : float
+        As above (s, m/s, -, s, s, s).
 
     Returns
     -------
@@ -180,33 +186,55 @@ def detect_touchdown(
         None when the data end before the descent settles (a log that stops in the air, or
         one that stops less than about ``smooth + hold`` s after touchdown).
     """
+    from vectorid.identify.outliers import find_spikes
+
     t, h = _series(t, h)
+    sp = find_spikes(t, h, floor=10.0)
+    if len(sp):
+        keep = np.ones(t.size, dtype=bool)
+        keep[sp.index] = False
+        t, h = t[keep], h[keep]
     if after is None:
         after = detect_apogee(t, h, smooth=smooth)[0]
     g, hg, dt = _uniform(t, h)
-    s = _running_median(hg, round(smooth / dt))
-    v = _rate(s, dt, max(1, round(smooth / dt)))
+    n_s = max(1, round(smooth / dt))
+    s = _running_median(hg, n_s)
+    v = _rate(s, dt, n_s)
     start = int(np.searchsorted(g, after))
     if g.size - start < 3:
         return None
     speed = np.abs(v)
-    # largest speed from each sample to the end of the data
-    tail_max = np.maximum.accumulate(speed[::-1])[::-1]
+    d2 = np.diff(hg[start:], 2)  # white noise of the samples, from second differences
+    sigma_raw = 1.4826 * float(np.median(np.abs(d2 - np.median(d2)))) / np.sqrt(6) if d2.size else 0
+    band = max(2.0, 5.0 * 1.25 * sigma_raw / np.sqrt(n_s))
+    from scipy.ndimage import median_filter, percentile_filter
+
     w = max(1, round(5.0 / dt))
-    gap = max(1, round(smooth / dt))
+    gap = n_s
+    m_sus = max(1, round(sustain / dt))
+    n = g.size
+    idx = np.arange(n)
+    # descent rate before each sample: the median of -v over [i - gap - w, i - gap)
+    med = median_filter(-v, size=w, mode="nearest")
+    j = idx - gap - (w + 1) // 2
+    rate = np.where(j >= start, med[np.clip(j, 0, n - 1)], -np.inf)
+    # nine speeds in ten below the threshold over [i, i + sustain]: the 90th percentile of a
+    # window starting at i (the end of the data shortens it)
+    q90 = percentile_filter(speed, 90, size=m_sus + 1, mode="nearest")
+    k = np.clip(idx + m_sus // 2, 0, n - 1)
+    thr = np.maximum(settle_speed, settle_fraction * np.maximum(rate, 0.0))
+    ok = (idx >= start + gap) & (g[-1] - g >= hold) & (rate >= 2 * settle_speed)
+    ok &= (q90[k] < thr) | (idx + m_sus >= n - 1)  # near the end: checked below
     found = None
-    for i in range(start + gap, g.size):
-        if g[-1] - g[i] < hold:
-            break
-        before = -v[max(start, i - gap - w) : i - gap]
-        if before.size == 0:
+    for i in np.flatnonzero(ok):
+        jj = min(n, i + m_sus + 1)
+        if np.quantile(speed[i:jj], 0.9) >= thr[i]:
             continue
-        rate = float(np.median(before))
-        if rate < 2 * settle_speed:
+        seg = s[i:jj]
+        if np.max(np.abs(seg - np.median(seg))) > band:
             continue
-        if tail_max[i] < max(settle_speed, settle_fraction * rate):
-            found = i
-            break
+        found = int(i)
+        break
     if found is None:
         return None
     t_set = float(g[found])

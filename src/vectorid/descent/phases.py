@@ -82,19 +82,35 @@ def _pad_msl(plan: DescentPlan, h) -> float:
     return float(np.median(h[:20]))
 
 
-def _main_trigger(plan, events, t, h, h_agl, start, tail, origin) -> tuple[float | None, str]:
-    """Time the main is triggered (s), or None and why the main phase has no data."""
+_TIME = re.compile(r"^\s*([-+]?(?:\d+(?:\.\d*)?|\.\d+))\s*s\s*$")
+_BARE = re.compile(r"^\s*[-+]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][-+]?\d+)?\s*$")
+
+
+def _main_trigger(
+    plan, events, t, h, h_agl, start, tail, origin, apogee, altitude_unit=None
+) -> tuple[float | None, str]:
+    """Time the main is triggered (s), or None and why the main phase has no data.
+
+    The trigger is an event of the log (with +/- seconds), a height with its unit (``870m``,
+    ``550ft``), a time with its unit (``204s``; a number from Python is a time in s), or
+    ``detect``; a bare number in text is refused (a height or a time?).
+    """
+    from vectorid.descent.checks import check_trigger
+
     at = plan.main_at
     if at is None:
         if "main" in events:
-            return float(events["main"]), ""
+            tc = float(events["main"])
+            _before_apogee(tc, apogee, "the log's 'main' event", altitude_unit)
+            return tc, ""
         raise _err(
             "main_at",
             "the log has no 'main' event, so when the main opened is unknown",
-            "give it: an event of the log, a time in s, a trigger height above the pad "
-            "(870m, 550ft), or 'detect' (the change of descent rate in the data)",
+            "give it: an event of the log, a trigger height above the pad (870m, 550ft), a "
+            "time (204s), or 'detect' (the change of descent rate in the data)",
         )
-    if isinstance(at, str) and at.strip() == "detect":
+    text = at.strip() if isinstance(at, str) else None
+    if text == "detect":
         rc = detect_rate_change(
             t, h, start + plan.drogue_settle, tail, origin_altitude=origin, min_ratio=2.0
         )
@@ -104,13 +120,43 @@ def _main_trigger(plan, events, t, h, h_agl, start, tail, origin) -> tuple[float
                 "would make (drag area ×2 or more) after the drogue phase starts"
             )
         return rc.time, ""
-    if isinstance(at, str) and at.strip() and at.strip()[-1].isalpha() and at.strip() not in events:
-        level = parse_length(at, "main_at")
-        tc = crossing_time(t, h_agl, level, after=events["apogee"])
+    if text is not None and _BARE.match(text):
+        raise _err(
+            "main_at",
+            f"{text} — a height or a time? a trigger needs its unit",
+            f"write {text}m or {text}ft (a height above the pad), {text}s (a time), or an event",
+        )
+    if text is not None and _TIME.match(text):
+        tc = float(_TIME.match(text).group(1))
+        _before_apogee(tc, apogee, f"the trigger time {text}", altitude_unit)
+        return tc, ""
+    if text and text[-1].isalpha() and text not in events and text[0] in "+-.0123456789":
+        level = parse_length(text, "main_at")
+        why = check_trigger(level, apogee, altitude_unit)
+        if why:
+            return None, why
+        tc = crossing_time(t, h_agl, level, after=apogee[0])
         if tc is None:
             return None, (
-                f"the main's trigger height ({level:.0f} m above the pad) is never reached: the "
-                f"log ends at {h_agl[-1]:.0f} m above the pad"
+                f"the trigger was never reached: the main's trigger height ({level:.0f} m above "
+                f"the pad) is not crossed before the log ends at {h_agl[-1]:.0f} m above the pad"
             )
         return tc, ""
-    return _resolve(events, at, "main_at"), ""
+    tc = _resolve(events, at, "main_at")
+    _before_apogee(tc, apogee, f"the trigger {at!r}", altitude_unit)
+    return tc, ""
+
+
+def _before_apogee(tc: float, apogee, what: str, altitude_unit) -> None:
+    if tc < apogee[0]:
+        hint = (
+            "; with --altitude-unit ft on a log in metres the heights read 3.28 × too low"
+            if altitude_unit == "ft"
+            else ""
+        )
+        raise _err(
+            "main_at",
+            f"{what} comes at {tc:.2f} s, before the apogee ({apogee[0]:.2f} s): a main "
+            f"opens on the way down{hint}",
+            "check the trigger and the altitude unit",
+        )

@@ -30,8 +30,11 @@ def _err(where: str, problem: str, fix: str = "") -> StudyDefinitionError:
     return StudyDefinitionError(where, problem, fix)
 
 
-def parse_length(text: str | float, where: str, default_unit: str = "m") -> float:
-    """A length from a number with an optional unit (``"24in"``, ``"550 ft"``, ``"0.61"``), m.
+def parse_length(text: str | float, where: str, default_unit: str | None = None) -> float:
+    """A length from a number with a unit (``"24in"``, ``"550 ft"``, ``"0.61m"``), m.
+
+    A bare number is refused unless ``default_unit`` says what it means (the Python API takes
+    SI numbers: ``parse_length(0.61, ..., "m")``): "24" may be inches or metres.
 
     Raises
     ------
@@ -39,9 +42,20 @@ def parse_length(text: str | float, where: str, default_unit: str = "m") -> floa
         When the text is not a number with one of the units m, cm, mm, in, ft.
     """
     if isinstance(text, int | float) and not isinstance(text, bool):
+        if default_unit is None:
+            raise _err(where, f"{text!r} has no unit", "write a length with its unit: 24in, 0.61m")
         return float(text) * _LENGTH_UNITS[default_unit]
-    m = _LENGTH.match(str(text))
+    m = _LENGTH.match(str(text).lower())
+    if m and not m.group(2) and default_unit is None:
+        v = m.group(1)
+        raise _err(
+            where,
+            f"{v} — inches, or metres? a length needs its unit",
+            f"write {v}in or {float(v) * 0.0254:.3g}m (units: {', '.join(_LENGTH_UNITS)})",
+        )
     unit = (m.group(2) or default_unit) if m else ""
+    unit = {"feet": "ft", "foot": "ft", "inch": "in", "inches": "in", "meters": "m",
+            "metres": "m", "meter": "m", "metre": "m"}.get(unit, unit)  # fmt: skip
     if not m or unit not in _LENGTH_UNITS:
         raise _err(
             where,
@@ -113,10 +127,23 @@ class DescentPlan:
         With two parachutes: whether the main's drag area adds to the drogue's (the drogue
         stays attached) or replaces it (RocketPy's convention). Required with two parachutes.
     format : str, optional
-        ``csv``, ``parquet``, ``telemega``, ``ulog`` (default: from the file).
+        ``csv``, ``parquet``, ``altusmetrum`` (``telemega``), ``ulog`` (default: read from the
+        file's content, :func:`vectorid.descent.formats.detect_format`).
     mapping : mapping, optional
         Column/unit mapping of a CSV or Parquet log (docs/identify.md); it needs ``time`` and
-        ``altitude``.
+        ``altitude``. Default: built from ``columns``, ``time_unit``, ``altitude_unit`` and
+        ``read`` and the units the column names state.
+    columns : mapping, optional
+        ``{"time": COL, "altitude": COL[, "event": COL]}`` of a generic CSV (default: from the
+        header when it has one time-like and one altitude-like column).
+    time_unit, altitude_unit : str, optional
+        The units of a generic CSV's columns when their names state none (an error when they
+        contradict the names, or when the format states its own units).
+    read : mapping, optional
+        ``first_line``, ``last_line``, ``max_gap`` of a generic CSV.
+    strict_data : bool
+        Stop at a single-sample spike in the log instead of leaving it out (default False:
+        spikes are left out and named with their times).
     pad_altitude : float, optional
         Altitude above mean sea level of the altitude's zero (the pad), m: the air density
         depends on it. Default: from a TeleMega log's pad pressure (ISA pressure altitude);
@@ -172,6 +199,11 @@ class DescentPlan:
     convention: str | None = None
     format: str | None = None
     mapping: Mapping[str, Any] | None = None
+    columns: Mapping[str, str] | None = None
+    time_unit: str | None = None
+    altitude_unit: str | None = None
+    read: Mapping[str, Any] = field(default_factory=dict)
+    strict_data: bool = False
     pad_altitude: float | None = None
     altitude_reference: str = "pad"
     main_at: float | str | None = None

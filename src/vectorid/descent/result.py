@@ -51,6 +51,8 @@ class PhaseResult:
     sensor_disagreement_m: float | None = None
     rate_bound: dict[str, float] | None = None
     fast_error: dict[str, float] | None = None
+    drag_along: dict[str, Any] | None = None
+    cds_range: tuple[float, float] | None = None
     identifiability: dict[str, Any] | None = None
     status: str = "no data"
     verdict: str = ""
@@ -139,6 +141,8 @@ class PhaseResult:
             "empty_by": self.empty_by,
             "effective_cds_range": _pair(self.effective_cds),
             "rate_change": self.rate_change,
+            "drag_along": self.drag_along,
+            "cds_range": _pair(self.cds_range),
             "store": self.store,
         }
         return out
@@ -244,7 +248,10 @@ def _phase_lines(p: PhaseResult) -> list[str]:
             f"|vz residual| <= {lim.vz_mean_abs:.2f} m/s ({lim.floor_vz_mean_abs:.2f} + "
             f"{lim.allowance_vz:.2f} m/s)"
         )
-        out.append(f"    limits: {lim.source}")
+        how = lim.criteria[0].get("limit_note", "") if lim.criteria else ""
+        how = how.split(";")[0].strip()
+        if how:
+            out.append(f"    noise floors: {how.removeprefix('noise floor ')}")
         out.append(
             f"  N = {p.n}   ND = {p.n_feasible}   NP = {p.n_pareto}   box of {p.variable} "
             f"{_fmt_range(p.box)} m²"
@@ -260,12 +267,40 @@ def _phase_lines(p: PhaseResult) -> list[str]:
                 f"{_fmt_range(p._cd(p.cds_pareto), 3)})"
             )
         out.append(line)
+    elif p.cds_range is not None:
+        feas = (
+            ""
+            if p.cds_feasible is None
+            else f"; constant-drag feasible {_fmt_range(p.cds_feasible)}"
+        )
+        out.append(
+            f"  C_D S in {_fmt_range(p.cds_range)} m² (the drag area is not constant: the range "
+            f"covers the sub-windows{feas})"
+        )
     elif p.cds_feasible is not None:
         out.append(f"  C_D S in {_fmt_range(p.cds_feasible)} m² (feasible range, {p.status})")
-    if p.alt_rms_m is not None:
+    da = p.drag_along
+    if da is not None and not da["varies"]:
+        n, w = len(da["cds"]), da["windows"][0][1] - da["windows"][0][0]
         out.append(
-            f"  residuals: altitude RMS {p.alt_rms_m:.2f} m, vertical speed RMS "
-            f"{p.vz_rms_ms:.2f} m/s"
+            f"  drag area from the descent rate over {n} sub-windows of {w:.0f} s: "
+            f"{da['low']:.4g}-{da['high']:.4g} m², constant within the noise"
+        )
+    if p.cds is not None and p.alt_rms_m is not None:
+        line = (
+            f"  residuals of the identified C_D S: altitude RMS {p.alt_rms_m:.2f} m, vertical "
+            f"speed RMS {p.vz_rms_ms:.2f} m/s"
+        )
+        if p.best_alt_rms_m is not None and abs(p.best_alt_rms_m - p.alt_rms_m) > 0.05:
+            line += (
+                f"; the lowest altitude RMS of any trial: {p.best_alt_rms_m:.2f} m (C_D S "
+                f"{p.best_cds:.4g} m²)"
+            )
+        out.append(line)
+    elif p.best_alt_rms_m is not None:
+        out.append(
+            f"  best fit in altitude: C_D S {p.best_cds:.4g} m², altitude RMS "
+            f"{p.best_alt_rms_m:.2f} m"
         )
     if p.rate_bound is not None:
         out.append(

@@ -17,6 +17,7 @@ from vectorid.descent.phases import _cds_estimate, _effective_cds, _Phase
 from vectorid.descent.plan import PhaseLimits, _err, _noise_table, discrepancy
 from vectorid.descent.result import PhaseResult
 from vectorid.descent.sensors import _fast_error, _sensor_disagreement
+from vectorid.descent.varying import drag_along
 
 __all__: list[str] = []
 
@@ -30,6 +31,9 @@ def _spec_dict(plan, path, name, ph: _Phase, origin, events, box, nominal, extra
         "inputs": {"main": ph.main_input},
         "origin_altitude": origin,
         "events": dict(events),
+        # the criteria compare the altitude alone: other channels (a GPS that stops before
+        # touchdown) do not bound the window
+        "channels": ["altitude"],
     }
     if plan.format is not None:
         drop["format"] = plan.format
@@ -181,6 +185,12 @@ def _run_phase(
     else:
         fixed[other] = 0.0  # main stowed in the drogue phase (input 0): any value
     noise, res.noise, res.noise_sigma_m = _phase_noise(plan, ts, hs)
+    along = drag_along(
+        ts, hs, ph.t0, ph.t1, mass=plan.mass, origin=origin,
+        noise_sigma=res.noise_sigma_m or 0.0,
+    )  # fmt: skip
+    if along is not None:
+        res.drag_along = along.to_dict()
     data = _spec_dict(plan, path, name, ph, origin, events, box, est, extra, fixed, T, allow, noise)
     spec = StudySpec.from_dict(data, base_dir=path.parent)
     store = out / f"{_safe(name)}-{ph.name}.db"
@@ -250,6 +260,15 @@ def _run_phase(
         xs = np.array([_center(v) for v in spec.space])
         xs[spec.space.index(ph.variable)] = res.stated_cds
         res.stated_alt_rms_m = _alt_rms(ident, d, xs)
+    if along is not None and along.varies:
+        # the data say the drag area is not constant: no single value, and the range printed
+        # covers what the sub-windows span as well as the constant-drag feasible range
+        lo, hi = along.low, along.high
+        if res.cds_feasible is not None:
+            lo, hi = min(lo, res.cds_feasible[0]), max(hi, res.cds_feasible[1])
+        res.cds_range = (lo, hi)
+        res.best_cds = res.cds if res.best_cds is None else res.best_cds
+        res.cds = None
     if res.status != "identified":  # a range, not a value
         res.best_cds = res.cds if res.best_cds is None else res.best_cds
         res.cds = None

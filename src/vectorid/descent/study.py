@@ -33,11 +33,14 @@ Each step is a study in its own store (``OUT/NAME-PHASE.db``): ``vectorid info``
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from dataclasses import replace
 from pathlib import Path
-from typing import TextIO
+from typing import Any, TextIO
 
 import numpy as np
 
+from vectorid.descent.checks import check_descent
 from vectorid.descent.events import detect_apogee, detect_touchdown
 from vectorid.descent.phases import _main_trigger, _pad_msl, _Phase, _resolve
 from vectorid.descent.plan import DescentPlan, _err
@@ -50,20 +53,59 @@ __all__ = ["identify_descent"]
 
 
 def _load(plan: DescentPlan):
-    from vectorid.identify import load_flight
+    """The log, read as its content says: ``(path, flight, plan with the resolved format and
+    mapping, the altitude's unit as read (None: stated by the format), notes)``."""
+    from vectorid.descent.formats import column_unit, detect_format
+    from vectorid.identify.loaders import load_flight
 
     path = Path(plan.file)
     if not path.exists():
         raise _err("file", f"no such file: {path}", "check the path of the altimeter log")
     path = path.resolve()
-    flight = load_flight(path, mapping=plan.mapping, format=plan.format)
+    notes: list[str] = []
+    if plan.mapping is not None:
+        mapping: dict[str, Any] | None = dict(plan.mapping)
+        fmt = plan.format
+        alt = mapping.get("altitude")
+        if isinstance(alt, Mapping) and "column" in alt:
+            stated = column_unit(str(alt["column"]), "length")
+            unit = str(alt.get("unit", "m"))
+            if stated is not None and stated != unit:
+                raise _err(
+                    "mapping.altitude.unit",
+                    f"the column {alt['column']!r} states {stated}, the mapping says {unit}",
+                    f"set unit = {stated!r} (or fix the column's name)",
+                )
+    else:
+        lf = detect_format(
+            path,
+            format=plan.format,
+            columns=None if plan.columns is None else dict(plan.columns),
+            time_unit=plan.time_unit,
+            altitude_unit=plan.altitude_unit,
+            extra=dict(plan.read),
+        )
+        fmt, mapping, notes = lf.format, lf.mapping, list(lf.notes)
+    # spikes are left out and named once, in the result's notes (not as warnings)
+    spikes = "strict" if plan.strict_data else "note"
+    if mapping is None and fmt in ("altusmetrum", "telemega"):
+        mapping = {}
+    if mapping is not None:
+        mapping["spikes"] = spikes
+    flight = load_flight(path, mapping=mapping, format=fmt)
     if "altitude" not in flight.channels:
         raise _err(
             "mapping",
             f"{path}: the log has no altitude channel (channels: {sorted(flight.channels)})",
             "map the altitude column: altitude = { column = ..., unit = 'm' or 'ft' }",
         )
-    return path, flight
+    unit = None
+    if mapping is not None:
+        alt = mapping.get("altitude")
+        unit = str(alt.get("unit", "m")) if isinstance(alt, Mapping) else "m"
+    notes.extend(f"the log: {n}" for n in flight.notes)
+    resolved = replace(plan, format=fmt, mapping=mapping)
+    return path, flight, resolved, unit, notes
 
 
 def _origin_altitude(plan: DescentPlan, flight) -> float:
@@ -108,7 +150,11 @@ def identify_descent(
         A plan or a log that cannot be used (one line: what, what came, how to fix it).
     """
     plan.check()
-    path, flight = _load(plan)
+    return _identify(plan, out, progress)
+
+
+def _identify(plan: DescentPlan, out: str | Path, progress) -> DescentResult:
+    path, flight, plan, altitude_unit, notes = _load(plan)
     name = plan.name or path.stem
     origin = _origin_altitude(plan, flight)
     alt = flight["altitude"]
@@ -120,12 +166,14 @@ def identify_descent(
         t, h = t[keep], h[keep]
     events = {k: float(v) for k, v in flight.events.items()}
     if "apogee" in events:
-        apogee = (events["apogee"], float(alt.at(np.array([events["apogee"]]))[0, 0]))
+        apogee = (events["apogee"], float(np.interp(events["apogee"], t, h)))
     else:
         apogee = detect_apogee(t, h)
         events["apogee"] = apogee[0]
+    h_agl = h if plan.altitude_reference == "pad" else h - _pad_msl(plan, h)
+    check_descent(plan, t, h_agl, (apogee[0], float(np.interp(apogee[0], t, h_agl))), origin,
+                  altitude_unit)  # fmt: skip
     td = detect_touchdown(t, h, after=apogee[0])
-    notes: list[str] = []
     touchdown = None
     if td is not None:
         events["touchdown"] = td.time
@@ -134,19 +182,29 @@ def identify_descent(
             touchdown["landed_state_s"] = events["landed"]
         tail = td.time - 1.0
     else:
-        tail = float(t[-1])
+        # no touchdown in the data: the windows end 1 s before the last sample, so that the
+        # end of the data decides nothing
+        tail = float(t[-1]) - 1.0
     end_of_data = (float(t[-1]), float(h[-1]))
     start = (
         _resolve(events, plan.start, "start")
         if plan.start is not None
         else events.get("drogue", apogee[0])
     )
-    h_agl = h if plan.altitude_reference == "pad" else h - _pad_msl(plan, h)
+    if start < apogee[0] - 2.0 and plan.start is None:
+        notes.append(
+            f"the log's 'drogue' event ({start:.2f} s) comes before the apogee read from the "
+            f"data ({apogee[0]:.2f} s): the descent starts at the apogee"
+        )
+        start = apogee[0]
+    apogee_agl = (apogee[0], float(np.interp(apogee[0], t, h_agl)))
 
     phases: list[_Phase] = []
     skipped: list[PhaseResult] = []
     if plan.drogue is not None and plan.main is not None:
-        trig, why = _main_trigger(plan, events, t, h, h_agl, start, tail, origin)
+        trig, why = _main_trigger(
+            plan, events, t, h, h_agl, start, tail, origin, apogee_agl, altitude_unit
+        )
         if trig is not None:
             events["main_trigger"] = trig
             events["main_open"] = trig + plan.main_lag
@@ -190,7 +248,21 @@ def identify_descent(
                 raise _err(f"windows.{ph.name}", f"expected [start, end], got {w!r}")
             ph.t0 = _resolve(events, w[0], f"windows.{ph.name}")
             ph.t1 = _resolve(events, w[1], f"windows.{ph.name}")
+        else:
+            settle = plan.drogue_settle if ph.name == "drogue" else plan.main_settle
+            note = _trim_to_steady(ph, t, h, origin, settle)
+            if note:
+                notes.append(note)
 
+    for ph in phases:
+        lo, hi = float(t[0]), float(t[-1])
+        if ph.t0 < lo or ph.t1 > hi:
+            was = (ph.t0, ph.t1)
+            ph.t0, ph.t1 = max(ph.t0, lo), min(ph.t1, hi)
+            notes.append(
+                f"the {ph.name} window {was[0]:.2f}-{was[1]:.2f} s is clipped to "
+                f"{ph.t0:.2f}-{ph.t1:.2f} s: the altitude data cover {lo:.2f}-{hi:.2f} s"
+            )
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     results: list[PhaseResult] = []
@@ -234,4 +306,33 @@ def identify_descent(
         events=events,
         phases=results,
         notes=notes,
+    )
+
+
+def _trim_to_steady(ph: _Phase, t, h, origin: float, settle: float) -> str:
+    """Move a phase window's edge past a change of drag area (×1.5 or more) in its first or
+    last 35 %: a canopy still opening at its start, the next canopy (or its ejection) at its
+    end. A change in the middle stays: the verdicts report it. Returns a note, '' if none."""
+    from vectorid.descent.events import detect_rate_change
+
+    span = ph.t1 - ph.t0
+    if span < 30.0:
+        return ""
+    rc = detect_rate_change(t, h, ph.t0, ph.t1, origin_altitude=origin, min_ratio=1.5)
+    if rc is None:
+        return ""
+    was = (ph.t0, ph.t1)
+    if rc.time - ph.t0 < 0.35 * span and ph.t1 - (rc.time + settle) >= 20.0:
+        ph.t0 = rc.time + settle
+        where = "starts"
+    elif ph.t1 - rc.time < 0.35 * span and rc.time - 1.0 - ph.t0 >= 20.0:
+        ph.t1 = rc.time - 1.0
+        where = "ends"
+    else:
+        return ""
+    edge = ph.t0 if where == "starts" else ph.t1
+    return (
+        f"the {ph.name} window {was[0]:.2f}-{was[1]:.2f} s {where} at {edge:.2f} s "
+        f"instead: the descent rate steps there (drag area ×{rc.drag_area_ratio:.2f} at "
+        f"{rc.time:.2f} s, {rc.altitude:.0f} m), and a phase is one constant drag area"
     )

@@ -56,7 +56,7 @@ def verdict(
         short.append(f"{r.status}: {lo:.3g}-{hi:.3g} m²")
     value = r.compared_cds
     stated = r.stated_cds
-    label = "identified" if r.cds is not None else ("the best fit" if empty else "the chosen")
+    label = "identified" if r.cds is not None else "the best fit"
     corrected = " (hot-day corrected)" if r.height_ratio else ""
     if stated is not None and value is not None:
         ratio = value / stated
@@ -78,15 +78,31 @@ def verdict(
             )
             short.append("stated value inside the feasible range")
         elif abs(ratio - 1) <= AGREEMENT:
+            feas = r.cds_feasible
+            in_range = feas is not None and feas[0] / k <= stated <= feas[1] / k
             if r.cds is None:  # no value: D empty, or the drag area is not identified
                 parts.append(
-                    f"{label}, {value:.4g} m²{corrected}, is within 15 % of the stated "
-                    f"{stated:.4g} m² ({pct})"
+                    f"{label}, {value:.4g} m²{corrected}, is within the ±15 % tolerance of the "
+                    f"stated {stated:.4g} m² ({pct})"
                 )
-                short.append(f"{label.removeprefix('the ')} within 15 % ({pct})")
-            else:
-                parts.insert(0, f"agrees with the stated {stated:.4g} m² ({pct}){corrected}")
+                short.append(f"{label.removeprefix('the ')} within ±15 % ({pct})")
+            elif in_range:
+                parts.insert(0, f"agrees with the stated {stated:.4g} m² ({pct}){corrected}: it "
+                             "lies inside the feasible range")  # fmt: skip
                 short.insert(0, f"agrees ({pct}{', hot-day corrected' if corrected else ''})")
+            else:
+                text = (
+                    f"within the ±15 % tolerance of the stated {stated:.4g} m² ({pct}), but the "
+                    f"data exclude the stated value: it lies outside the feasible range "
+                    f"{feas[0] / k:.4g}-{feas[1] / k:.4g} m²{corrected}"
+                )
+                if r.stated_alt_rms_m is not None and r.limits is not None:
+                    text += (
+                        f" (altitude RMS with it {r.stated_alt_rms_m:.1f} m, "
+                        f"{r.limits.alt_rms:.1f} m allowed)"
+                    )
+                parts.insert(0, text)
+                short.insert(0, f"within ±15 % ({pct}) but outside the feasible range")
         elif under is not None and under < 2.0 * dval:
             parts.append(
                 f"the main did not open (or not fully): {what}; the drag area under it, "
@@ -141,10 +157,11 @@ def verdict(
         # what the residual is made of: the noise, what no constant drag area can follow
         # (the monotone-rate bound), and, with GPS heights, the barometer's own error
         rb = r.rate_bound["rms_m"]
+        where = "within" if rms <= floor else "above"
+        near = "close to" if rms <= 1.5 * rb else "well above"
         text = (
-            f"residual: the best fit leaves {rms:.1f} m RMS, the noise floor is {floor:.1f} m, "
-            f"and no descent whose rate never increases (a constant drag area in still air, in "
-            f"any atmosphere) comes closer than {rb:.1f} m"
+            f"residual: the best altitude fit is {where} the noise floor and {near} the least "
+            "that any descent whose rate never increases leaves (the bound above)"
         )
         fe = r.fast_error
         baro = fe is not None and fe["baro_m"] > 2.0 * fe["gps_m"] and abs(fe["correlation"]) < 0.3
@@ -169,9 +186,19 @@ def verdict(
             f"the log's GPS and barometric heights disagree by {r.sensor_disagreement_m:.1f} "
             "m RMS in this window (beyond a scale factor)"
         )
+    da = r.drag_along
+    if da is not None and da["varies"]:
+        n, w = len(da["cds"]), da["windows"][0][1] - da["windows"][0][0]
+        parts.insert(
+            0,
+            f"drag area changes along the descent: {da['low']:.3g}-{da['high']:.3g} m² from the "
+            f"descent rate over {n} sub-windows of {w:.0f} s, beyond their noise; a constant drag "
+            "area is not what the data show, so no single value is given",
+        )
+        short.insert(0, f"drag area changes along the descent: {da['low']:.3g}-{da['high']:.3g} m²")
     agrees = bool(short) and short[0].startswith("agrees")
     if empty or not agrees:
-        if r.rate_change is not None:
+        if r.rate_change is not None and r.drag_along is None:  # the sub-windows decide
             rc = r.rate_change
             parts.append(
                 f"the drag area changes ×{rc['drag_area_ratio']:.2f} at {rc['time_s']:.1f} s "
