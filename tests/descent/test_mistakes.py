@@ -238,20 +238,23 @@ def _gps_cols(src: Path) -> tuple[str, ...]:
     return tuple(head[i - 3 : i + 13])  # connected .. pad_el (GPS group)
 
 
-@pytest.mark.parametrize(
-    "variant", ["telemega-bom", "telemetrum", "easymega", "easymini"]
-)
+@pytest.mark.parametrize("variant", ["telemega-bom", "telemetrum", "easymega", "easymini"])
 def test_altusmetrum_variants_are_recognised(tmp_path, variant):
     src = _need(TELEMEGA)
     gyro = ("gyro_roll", "gyro_pitch", "gyro_yaw")
     if variant == "telemega-bom":
         log = _altus_variant(src, tmp_path / "a.csv", bom=True)
     elif variant == "telemetrum":  # no gyro, no magnetometer
-        log = _altus_variant(src, tmp_path / "a.csv",
-                             drop=(*gyro, "mag_x", "mag_y", "mag_z", "accel_x", "accel_y"))
+        log = _altus_variant(
+            src, tmp_path / "a.csv", drop=(*gyro, "mag_x", "mag_y", "mag_z", "accel_x", "accel_y")
+        )
     elif variant == "easymega":  # IMU, no GPS; gyro_x/y/z names
-        log = _altus_variant(src, tmp_path / "a.csv", drop=_gps_cols(src),
-                             rename=dict(zip(gyro, ("gyro_x", "gyro_y", "gyro_z"))))
+        log = _altus_variant(
+            src,
+            tmp_path / "a.csv",
+            drop=_gps_cols(src),
+            rename=dict(zip(gyro, ("gyro_x", "gyro_y", "gyro_z"))),
+        )
     else:  # easymini: barometer only
         log = _altus_variant(
             src, tmp_path / "a.csv",

@@ -45,13 +45,11 @@ def _uniform(t, h, dt_max: float = 1.0):
     return g, np.interp(g, t, h), dt
 
 
-def _running_median(x: NDArray, n: int) -> NDArray:
+def _running_median(x: NDArray, n: int, mode: str = "nearest") -> NDArray:
     from scipy.ndimage import median_filter
 
     n = max(1, int(n)) | 1
-    # "mirror": the last sample counts once at the edge (with "nearest" a last-sample outlier
-    # fills half the window and moves the median)
-    return median_filter(x, size=n, mode="mirror") if n > 1 else x.copy()
+    return median_filter(x, size=n, mode=mode) if n > 1 else x.copy()
 
 
 def _rate(s: NDArray, dt: float, half: int) -> NDArray:
@@ -198,7 +196,9 @@ def detect_touchdown(
         after = detect_apogee(t, h, smooth=smooth)[0]
     g, hg, dt = _uniform(t, h)
     n_s = max(1, round(smooth / dt))
-    s = _running_median(hg, n_s)
+    # "mirror": the last sample counts once at the edge (with "nearest" a last-sample outlier
+    # fills half the window and moves the median: a false speed at the end of the data)
+    s = _running_median(hg, n_s, mode="mirror")
     v = _rate(s, dt, n_s)
     start = int(np.searchsorted(g, after))
     if g.size - start < 3:

@@ -1094,7 +1094,7 @@ def load_telemega(
     for c in need:
         if c not in table.names:
             raise FlightDataError(
-                f"{p}: not an AltusMetrum CSV: column {c!r} is missing; "
+                f"{p}: not a TeleMega or other AltusMetrum CSV: column {c!r} is missing; "
                 f"{suggest(c, table.names)}. Use load_csv with a mapping for other formats"
             )
     has_gps = all(c in table.names for c in ("latitude", "longitude", "altitude.1"))
@@ -1180,6 +1180,13 @@ def load_telemega(
     hm = median_filter(h.values[:, 0], size=min(5, h.t.size) | 1, mode="nearest")
     events["apogee"] = float(h.t[int(np.argmax(hm))])
     fd = drop_spikes(FlightData(p.stem, channels, events, origin), str(p), spikes)
+    if "pressure" in fd.channels:  # one barometer: a spike of either is left out of both
+        a, b = fd.channels["altitude"], fd.channels["pressure"]
+        both = np.intersect1d(a.t, b.t)
+        for c in (a, b):
+            if c.t.size != both.size:
+                k = np.isin(c.t, both)
+                fd.channels[c.name] = Channel(c.name, c.t[k], c.values[k], c.components, c.unit)
     check_units(fd, str(p))
     return fd
 
