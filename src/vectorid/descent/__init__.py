@@ -8,6 +8,9 @@ One concept a module:
 - :mod:`~vectorid.descent.events`: apogee, touchdown, trigger crossings, drag-area changes,
   read from the altitude;
 - :mod:`~vectorid.descent.bounds`: what any constant-drag descent can do with the data;
+- :mod:`~vectorid.descent.formats`: the log's format, columns and units, read from its content;
+- :mod:`~vectorid.descent.checks`: plausibility against the stated rocket (unit mistakes);
+- :mod:`~vectorid.descent.varying`: is the drag area constant along a phase (sub-windows);
 - :mod:`~vectorid.descent.plan`: what the user states (canopies, mass, allowances);
 - :mod:`~vectorid.descent.phases`: the log cut into phases;
 - :mod:`~vectorid.descent.step`: one phase as one PSI identification step;
