@@ -99,8 +99,8 @@ def _load(plan: DescentPlan):
             f"{path}: the log has no altitude channel (channels: {sorted(flight.channels)})",
             "map the altitude column: altitude = { column = ..., unit = 'm' or 'ft' }",
         )
-    unit = None
-    if mapping is not None:
+    unit = None  # None: the format states its own unit
+    if mapping is not None and "altitude" in mapping:
         alt = mapping.get("altitude")
         unit = str(alt.get("unit", "m")) if isinstance(alt, Mapping) else "m"
     notes.extend(f"the log: {n}" for n in flight.notes)
