@@ -186,6 +186,10 @@ def table(results: dict[str, Any]) -> str:
                 ident = f"none (best fit {p.best_cds:.4g})"
                 rng = "D empty"
                 rms = f"{p.best_alt_rms_m:.1f} (best fit)"
+            elif p.cds_range is not None:  # the drag area changes along the descent
+                ident = "varies"
+                rng = f"{p.cds_range[0]:.4g}-{p.cds_range[1]:.4g}"
+                rms = "-"
             elif p.cds_feasible is not None:
                 ident = p.status
                 rng = f"{p.cds_feasible[0]:.4g}-{p.cds_feasible[1]:.4g}"
