@@ -164,7 +164,14 @@ def drop_spikes(fd, source: str = "", policy: str = "drop"):
     for name, ch in fd.channels.items():
         if ch.t.size < 8:
             continue
-        sp = find_spikes(ch.t, ch.values, floor=SPIKE_FLOORS.get(name, 0.0))
+        floor = SPIKE_FLOORS.get(name, 0.0)
+        sp = find_spikes(ch.t, ch.values, floor=floor)
+        if floor == 0.0 and len(sp):
+            # a channel without a length or speed floor (angles, rates, controls, ...): its
+            # first and last samples stay (an oscillation's edge is not a glitch); inside, a
+            # spike must still be a quarter of the channel's range away from its neighbours
+            inner = (sp.index > 0) & (sp.index < ch.t.size - 1)
+            sp = Spikes(sp.index[inner], sp.times[inner], sp.values[inner], sp.expected[inner])
         if not len(sp):
             continue
         text = sp.describe(f"channel {name!r}", ch.unit)
