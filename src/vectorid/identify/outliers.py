@@ -66,7 +66,7 @@ def find_spikes(t, x, *, k: float = 10.0, floor: float = 0.0, window: int = 5) -
         Threshold in robust standard deviations of the departures from the running median.
     floor : float
         Smallest departure counted, in the unit of ``x`` (e.g. 10 m for a height: a barometer's
-        own noise is never a spike); 0: a quarter of the series' range (1st to 99th
+        own noise is never a spike); 0: the series' range (1st to 99th
         percentile), so that only a glitch far outside what the channel does is one.
     window : int
         Samples of the running median (odd, >= 3).
@@ -116,7 +116,7 @@ def find_spikes(t, x, *, k: float = 10.0, floor: float = 0.0, window: int = 5) -
                                   cval=g)  # fmt: skip
             scale = 1.4826 * local
             spread = float(np.percentile(col[finite], 99) - np.percentile(col[finite], 1))
-            thr = np.maximum(k * scale, floor if floor > 0 else 0.25 * spread)
+            thr = np.maximum(k * scale, floor if floor > 0 else spread)
             bad |= ~finite
             if np.any(thr > 0):
                 bad |= (a > thr) & (thr > 0)
@@ -169,7 +169,7 @@ def drop_spikes(fd, source: str = "", policy: str = "drop"):
         if floor == 0.0 and len(sp):
             # a channel without a length or speed floor (angles, rates, controls, ...): its
             # first and last samples stay (an oscillation's edge is not a glitch); inside, a
-            # spike must still be a quarter of the channel's range away from its neighbours
+            # spike must still be as far from its neighbours as the channel's whole range
             inner = (sp.index > 0) & (sp.index < ch.t.size - 1)
             sp = Spikes(sp.index[inner], sp.times[inner], sp.values[inner], sp.expected[inner])
         if not len(sp):
