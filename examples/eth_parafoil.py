@@ -42,7 +42,7 @@ flight in the model, while the authors' own wind model (data README: gusts integ
 height, ``b_w_xy = 8 * 0.0251``, ``b_w_z = 2 * 0.0251``, ``k_w = -0.00385``) varies along the
 descent. :func:`gust_allowance` turns that gust model into a bound on the position deviation
 it causes over each flight (a kinematic Monte Carlo: the canopy drifts with the air). The study
-runs through the parafoil demo's stage driver (``vectorid.demo_parafoil.run_stage``): where D
+runs through the parafoil demo's stage driver (``vectorid.identify.stages.run_stage``): where D
 under these limits holds too few trials, the limits are relaxed by the smallest common factor
 that fills it (saved as a stand-in, the factor in its note), and the ranges read are outer
 bounds; the factor measures how far the flights are from what noise and gusts explain.
@@ -382,10 +382,10 @@ def run(
 ):
     """One PSI study of ``model`` with double tuning (a coarse run of a quarter of ``trials``,
     the box narrowed where it identifies a variable, then ``trials`` more), through the demo's
-    stage driver; returns its :class:`~vectorid.demo_parafoil.Stage`. ``limits``: criterion ->
+    stage driver; returns its :class:`~vectorid.identify.stages.Stage`. ``limits``: criterion ->
     (limit, note) from the noise floors (None: no criteria constraints, so every trial is in D
     and the Pareto set ranks them)."""
-    from vectorid.demo_parafoil import run_stage
+    from vectorid.identify.stages import run_stage
 
     global _CURRENT
     _CURRENT = model
@@ -467,7 +467,7 @@ def identify(folder: str | Path, out: str | Path, trials: int = 4096) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from vectorid.demo_parafoil import print_stage_limits, print_verdicts
+    from vectorid.identify.stages import print_stage_limits, print_verdicts
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("data", nargs="?", default=str(DEFAULT_DATA), help="the eth-parafoil folder")

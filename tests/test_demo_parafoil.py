@@ -11,16 +11,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from vectorid import Study
 from vectorid.analysis.identifiability import ParameterVerdict
 from vectorid.cli import main
-from vectorid.demo_parafoil import (
-    DEMO_DATA,
-    DEMO_DISCREPANCY,
-    print_verdicts,
-    relaxed_limits,
-    stage_toml,
-)
+from vectorid.demo_parafoil import DEMO_DATA, DEMO_DISCREPANCY, stage_toml
+from vectorid.identify.stages import print_verdicts
 from vectorid.spec import load_study
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -138,26 +132,6 @@ def test_embedded_data_are_the_seeded_generators_output(tmp_path):
         "white": gen.GPS_POSITION_WHITE,
     }
     assert truth["sensor_noise"]["rates"] == gen.IMU_RATES_SIGMA
-
-
-def test_relaxed_limits_are_the_smallest_common_factor_that_fills_d(tmp_path):
-    from tests.analysis_helpers import make_store
-
-    with Study.open(make_store(tmp_path, trials=1000)) as st:
-        a = st.analysis()
-        limits = {"f1": 2.0, "f2": 4.0}
-        assert st.analysis(limits).n_feasible < 50
-        f, relaxed = relaxed_limits(a, limits, share=0.05, min_count=10)
-        k = max(10, int(np.ceil(0.05 * st.analysis({}).n_feasible)))  # the constraints hold
-        assert f > 1 and relaxed == pytest.approx({"f1": 2.0 * f, "f2": 4.0 * f})
-        assert st.analysis(relaxed).n_feasible >= k
-        tighter = {n: v * (f - 0.011) / f for n, v in relaxed.items()}
-        assert st.analysis(tighter).n_feasible < k  # the smallest such factor (to 0.01)
-        # D under the limits lies inside D under the relaxed ones (an outer bound)
-        inner, outer = st.analysis(limits).feasible, st.analysis(relaxed).feasible
-        assert np.all(outer[inner])
-        # enough trials already: no relaxation
-        assert relaxed_limits(a, {"f1": 1e6, "f2": 1e6}, share=0.05, min_count=10)[0] == 1.0
 
 
 def test_print_verdicts_shows_a_value_only_where_the_gain_is_identified(capsys):
