@@ -124,6 +124,21 @@ def _parser() -> argparse.ArgumentParser:
         "(default: stop with the reason and store none)",
     )
     r.add_argument("--quiet", action="store_true", help="no progress bar")
+    r.add_argument(
+        "--sampler",
+        choices=["sobol", "lhs", "sequential"],
+        help="a new study's sampler (default: the study file's)",
+    )
+    r.add_argument(
+        "--budget",
+        type=positive_int,
+        help="sampler 'sequential': most model evaluations (default: the study's, else 50000)",
+    )
+    r.add_argument(
+        "--population",
+        type=positive_int,
+        help="sampler 'sequential': members of D wanted (default: the study's, else 200)",
+    )
 
     v = sub.add_parser("verify", help="check a store: SQLite pages and every batch's checksum")
     v.add_argument("store")
@@ -463,6 +478,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
         study = Study.open(src, write=True)
     else:
         spec = load_study(src)
+        if args.sampler and args.sampler != spec.sampler:
+            spec = _with_sampler(spec, args.sampler)
         store = Path(args.store) if args.store else default_store_path(spec, src)
         study = Study.create_or_open(spec, store, study_file=src)
     executor = args.executor
@@ -480,6 +497,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
                     batch_size=args.batch_size,
                     progress=not args.quiet,
                     keep_going=args.keep_going,
+                    budget=args.budget,
+                    population=args.population,
                 )
         except RunInterrupted as exc:
             print(f"\n{exc}", file=sys.stderr)
@@ -487,6 +506,18 @@ def _cmd_run(args: argparse.Namespace) -> int:
             return EXIT_INTERRUPTED
         print(summary.describe())
     return 0
+
+
+def _with_sampler(spec: Any, sampler: str) -> Any:
+    """The study file's spec with ``--sampler`` (validated as the file's key would be)."""
+    from .spec import StudySpec
+
+    data = spec.to_dict()
+    data["study"]["sampler"] = sampler
+    if sampler != "sequential":
+        data["study"].pop("budget", None)
+        data["study"].pop("population", None)
+    return StudySpec.from_dict(data, base_dir=spec.base_dir)
 
 
 def _warn_damage(store: Any) -> None:

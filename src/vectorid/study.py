@@ -155,8 +155,11 @@ class Study:
         progress: bool | TextIO = False,
         keep_going: bool = False,
         timeout: float | None = None,
+        budget: int | None = None,
+        population: int | None = None,
     ) -> RunSummary:
-        """Compute the missing trials (see :func:`vectorid.run.run_store`)."""
+        """Compute the missing trials (see :func:`vectorid.run.run_store`; ``budget`` and
+        ``population`` for a sequential study)."""
         return run_store(
             self.store,
             trials=trials,
@@ -166,6 +169,8 @@ class Study:
             progress=progress,
             keep_going=keep_going,
             timeout=timeout,
+            budget=budget,
+            population=population,
         )
 
     def trials(self) -> Trials:

@@ -301,6 +301,8 @@ def run_store(
     keep_going: bool = False,
     ranges: Sequence[tuple[int, int, int]] | None = None,
     timeout: float | None = None,
+    budget: int | None = None,
+    population: int | None = None,
 ) -> RunSummary:
     """Run (or resume, or extend) the study held by a writable store.
 
@@ -309,7 +311,9 @@ def run_store(
     store : Store
         Opened with ``write=True``.
     trials : int, optional
-        Total number of trials the study should hold (default: the study's ``trials``). A
+        Total number of trials the study should hold (default: the study's ``trials``); for a
+        sequential study (``sampler = "sequential"``, run by
+        :func:`vectorid.run.sequential.run_sequential`) the size of generation 0. A
         larger number than before extends the study along the same sequence; a smaller one
         than is stored computes nothing and keeps every stored trial (the summary says so).
     executor : {"serial", "processes", "dask", "inline"}, optional
@@ -327,6 +331,9 @@ def run_store(
         Only compute the missing trials of these sequence ranges (used by repairs).
     timeout : float, optional
         Most seconds one trial may take (default: the study's ``timeout``).
+    budget, population : int, optional
+        Sequential studies only: most model evaluations and members of D wanted (saved in
+        the study; default: the study's).
 
     Returns
     -------
@@ -340,6 +347,32 @@ def run_store(
         When every trial of the first batches failed (unless ``keep_going``).
     """
     spec = store.spec
+    if spec.sampler != "sequential" and (budget is not None or population is not None):
+        from ..errors import StudyDefinitionError
+
+        raise StudyDefinitionError(
+            "--budget" if budget is not None else "--population",
+            f"budget and population apply to sampler 'sequential', this study's sampler is "
+            f"{spec.sampler!r}",
+            'use --trials for a plain study, or set sampler = "sequential" in a new study',
+        )
+    if spec.sampler == "sequential":
+        from .sequential import run_sequential
+
+        if trials is not None and int(trials) != spec.trials and not store.count_sample():
+            store.set_target(int(trials))  # generation 0's size, before anything is stored
+        return run_sequential(
+            store,
+            budget=budget,
+            population=population,
+            executor=executor,
+            workers=workers,
+            batch_size=batch_size,
+            progress=progress,
+            keep_going=keep_going,
+            ranges=ranges,
+            timeout=timeout,
+        )
     if trials is not None:
         _check_capacity(spec, int(trials))
     notes: list[str] = []

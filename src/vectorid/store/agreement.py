@@ -45,6 +45,8 @@ TAKEN_STUDY = {
     "workers": "a run setting",
     "scheduler": "a run setting",
     "timeout": "a run setting for trials still to compute",
+    "budget": "a run setting (sequential sampler): stored trials stay",
+    "population": "the target of later generations (sequential sampler); stored trials stay",
     "store": "where the store is",
 }
 TAKEN_VARIABLE = {"unit": "a label", "description": "a label", "nominal": "a reference value"}

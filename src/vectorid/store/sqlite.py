@@ -1,6 +1,6 @@
 """The embedded study store: one SQLite file per study.
 
-Layout (schema version 2; ``PRAGMA application_id`` marks the file as a vectorid store):
+Layout (schema version 3; ``PRAGMA application_id`` marks the file as a vectorid store):
 
 ``meta(key, value)``
     ``schema_version``, ``vectorid_version``, ``created``, ``study`` (the study definition
@@ -28,10 +28,18 @@ Layout (schema version 2; ``PRAGMA application_id`` marks the file as a vectorid
     The reason of every failed trial.
 ``runs(run, started, finished, pid, host, executor, workers, target, outcome)``
     A log of run sessions (interrupted ones and repairs included).
+``generations(gen, seq_start, n, created, proposal, x, centres, log_mix, chol, checksum)``
+    Schema 3, the sequential sampler (:mod:`vectorid.run.sequential`): generation ``gen``
+    holds the stage-0 sequence indices ``seq_start .. seq_start + n - 1``; ``proposal`` is
+    JSON (kind, the tolerance it aimed at, the kernel's in-box mass and draws), ``x`` the
+    proposed points (n, p) written *before* they are evaluated (so a resumed run evaluates
+    exactly the missing ones), ``centres``/``log_mix``/``chol`` the kernel's parameters, from
+    which every trial's importance weight is recomputed. Empty for a plain Sobol study.
 
 Schema 1 (before checksums) is still read; its batches count as *unverified*, and the first
-writer (any run, or ``vectorid repair``) upgrades the file to schema 2, computing checksums of
-the batches it holds after checking their sizes, and says so.
+writer (any run, or ``vectorid repair``) upgrades the file, computing checksums of the batches
+it holds after checking their sizes, and says so. Schema 2 (before generations) is read as
+is; the first writer adds the empty ``generations`` table (schema 3).
 
 Exactly-once: a batch whose sequence range overlaps a stored range of the same stage is
 not stored again (it is counted as a duplicate), so a batch computed twice (a retried task,
@@ -77,6 +85,7 @@ from ..spec import StudySpec
 __all__ = [
     "SCHEMA_VERSION",
     "DamagedBatch",
+    "Generation",
     "Stage",
     "Store",
     "Trials",
@@ -84,7 +93,7 @@ __all__ = [
     "batch_checksum",
 ]
 
-SCHEMA_VERSION = 2
+SCHEMA_VERSION = 3
 APPLICATION_ID = 0x56494431  # "VID1"
 #: Tables every store holds.
 TABLES = ("meta", "stages", "blocks", "failures", "runs")
@@ -129,6 +138,22 @@ CREATE TABLE runs (
     workers INTEGER,
     target INTEGER,
     outcome TEXT
+);
+"""
+
+#: The sequential sampler's generations (schema 3; created on upgrade of older stores).
+_GENERATIONS = """
+CREATE TABLE IF NOT EXISTS generations (
+    gen INTEGER PRIMARY KEY,
+    seq_start INTEGER NOT NULL,
+    n INTEGER NOT NULL,
+    created REAL NOT NULL,
+    proposal TEXT NOT NULL,
+    x BLOB NOT NULL,
+    centres BLOB NOT NULL,
+    log_mix BLOB NOT NULL,
+    chol BLOB NOT NULL,
+    checksum TEXT NOT NULL
 );
 """
 
@@ -624,6 +649,7 @@ class Store:
                 con.execute(f"PRAGMA application_id = {APPLICATION_ID}")
                 con.execute(f"PRAGMA user_version = {SCHEMA_VERSION}")
                 con.executescript(_SCHEMA)
+                con.executescript(_GENERATIONS)
             from .. import __version__
 
             study = json.dumps(spec.to_dict())
@@ -791,35 +817,20 @@ class Store:
         return app, version
 
     def _upgrade(self, version: int) -> None:
-        """Schema 1 -> 2: add the checksum column and seal the batches held (after checking
-        that their sizes fit the study)."""
-        spec = self.spec
-        widths = self._widths(spec)
+        """Bring an older store to the current schema: schema 1 -> 2 adds the checksum
+        column and seals the batches held (after checking that their sizes fit the study);
+        2 -> 3 adds the (empty) generations table of the sequential sampler."""
         sealed = bad = 0
         with self._tx() as con:
-            cols = {r[1] for r in con.execute("PRAGMA table_info(blocks)")}
-            if "checksum" not in cols:
-                con.execute("ALTER TABLE blocks ADD COLUMN checksum TEXT")
-            rows = con.execute(
-                "SELECT block, stage, seq_start, n, x, f, g, status, wall FROM blocks"
-            ).fetchall()
-            for block, stage, start, n, *blobs in rows:
-                if _size_problem(n, blobs, widths) is not None:
-                    bad += 1  # left without checksum: it shows as damaged on every load
-                    continue
-                con.execute(
-                    "UPDATE blocks SET checksum = ? WHERE block = ?",
-                    (batch_checksum(stage, start, n, blobs), block),
-                )
-                sealed += 1
-            for st, kind, start, box in con.execute(
-                "SELECT stage, kind, start_seq, box FROM stages"
-            ).fetchall():
-                con.execute(
-                    "INSERT OR REPLACE INTO meta VALUES (?, ?)",
-                    _stage_checksum_row(st, kind, start, box),
-                )
+            if version < 2:
+                sealed, bad = self._add_checksums(con)
+            con.execute(_GENERATIONS)
             study = con.execute("SELECT value FROM meta WHERE key = 'study'").fetchone()[0]
+            what = (
+                f"checksums added to {sealed} batches written without one"
+                if version < 2
+                else "generations table added"
+            )
             con.executemany(
                 "INSERT OR REPLACE INTO meta VALUES (?, ?)",
                 [
@@ -828,12 +839,13 @@ class Store:
                     (
                         "upgraded",
                         f"schema {version} -> {SCHEMA_VERSION} on "
-                        f"{time.strftime('%Y-%m-%d %H:%M:%S')}: checksums added to {sealed} "
-                        "batches written without one",
+                        f"{time.strftime('%Y-%m-%d %H:%M:%S')}: {what}",
                     ),
                 ],
             )
             con.execute(f"PRAGMA user_version = {SCHEMA_VERSION}")
+        if version >= 2:
+            return  # nothing a person needs to know: no stored number changed
         warnings.warn(
             VectoridWarning(
                 f"store {self.path} upgraded from schema {version} to {SCHEMA_VERSION}: "
@@ -843,6 +855,34 @@ class Store:
             ),
             stacklevel=3,
         )
+
+    def _add_checksums(self, con: sqlite3.Connection) -> tuple[int, int]:
+        """Schema 1 -> 2 inside the upgrade's transaction: (batches sealed, batches bad)."""
+        widths = self._widths(self.spec)
+        sealed = bad = 0
+        cols = {r[1] for r in con.execute("PRAGMA table_info(blocks)")}
+        if "checksum" not in cols:
+            con.execute("ALTER TABLE blocks ADD COLUMN checksum TEXT")
+        rows = con.execute(
+            "SELECT block, stage, seq_start, n, x, f, g, status, wall FROM blocks"
+        ).fetchall()
+        for block, stage, start, n, *blobs in rows:
+            if _size_problem(n, blobs, widths) is not None:
+                bad += 1  # left without checksum: it shows as damaged on every load
+                continue
+            con.execute(
+                "UPDATE blocks SET checksum = ? WHERE block = ?",
+                (batch_checksum(stage, start, n, blobs), block),
+            )
+            sealed += 1
+        for st, kind, start, box in con.execute(
+            "SELECT stage, kind, start_seq, box FROM stages"
+        ).fetchall():
+            con.execute(
+                "INSERT OR REPLACE INTO meta VALUES (?, ?)",
+                _stage_checksum_row(st, kind, start, box),
+            )
+        return sealed, bad
 
     def close(self) -> None:
         """Close the connection and release the writer lock."""
@@ -1015,6 +1055,16 @@ class Store:
         self._require_write()
         spec = self.spec.to_dict()
         spec["study"]["trials"] = int(trials)
+        self._write_study(spec)
+
+    def set_sequential(self, budget: int | None = None, population: int | None = None) -> None:
+        """Record a sequential study's ``budget`` and/or ``population`` (run settings)."""
+        self._require_write()
+        spec = self.spec.to_dict()
+        for key, value in (("budget", budget), ("population", population)):
+            if value is not None:
+                spec["study"][key] = int(value)
+        StudySpec.from_dict(spec, base_dir=self.spec.base_dir)  # validate before writing
         self._write_study(spec)
 
     def set_limits(
@@ -1598,6 +1648,134 @@ class Store:
             return [dict(zip(names, row)) for row in cur.fetchall()]
         except sqlite3.Error as exc:
             raise _sqlite_damage(self.path, exc) from None
+
+    # -- generations (sequential sampler) --------------------------------------------------
+
+    def _has_generations(self) -> bool:
+        rows = self._query("SELECT 1 FROM sqlite_master WHERE type='table' AND name='generations'")
+        return bool(rows)
+
+    def add_generation(
+        self,
+        gen: int,
+        seq_start: int,
+        X: np.ndarray,
+        proposal: Mapping[str, Any],
+        centres: np.ndarray,
+        log_mix: np.ndarray,
+        chol: np.ndarray,
+    ) -> None:
+        """Record generation ``gen`` of a sequential study before its trials are evaluated.
+
+        Parameters
+        ----------
+        gen, seq_start : int
+            Generation number and the first stage-0 sequence index of its trials.
+        X : (n, p) float array
+            The proposed parameter vectors, in the study's units.
+        proposal : mapping
+            JSON-able description (kind, tolerance, in-box mass, draws, ...).
+        centres, log_mix, chol : float arrays
+            The kernel's parameters (unit coordinates).
+
+        Raises
+        ------
+        StoreError
+            When generation ``gen`` is recorded already, or does not follow the last one.
+        """
+        self._require_write()
+        n = int(X.shape[0])
+        text = json.dumps(dict(proposal))
+        blobs = [_blob(X, "<f8"), _blob(centres, "<f8"), _blob(log_mix, "<f8"), _blob(chol, "<f8")]
+        checksum = _generation_checksum(gen, seq_start, n, text, blobs)
+        with self._tx() as con:
+            con.execute(_GENERATIONS)
+            last = con.execute("SELECT max(gen) FROM generations").fetchone()[0]
+            want = 0 if last is None else last + 1
+            if gen != want:
+                raise StoreError(
+                    f"store {self.path}: generation {gen} cannot follow generation {last}; "
+                    "another process may be running this study"
+                )
+            con.execute(
+                "INSERT INTO generations VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                (gen, seq_start, n, time.time(), text, *blobs, checksum),
+            )
+
+    def generations(self) -> list[Generation]:
+        """The sequential sampler's generations, in order (empty for a plain study).
+
+        Raises
+        ------
+        StoreDamagedError
+            When a generation's record does not match its checksum.
+        """
+        if not self._has_generations():
+            return []
+        p = len(self.spec.space)
+        out = []
+        for gen, start, n, created, text, x, c, lm, ch, checksum in self._query(
+            "SELECT gen, seq_start, n, created, proposal, x, centres, log_mix, chol, checksum "
+            "FROM generations ORDER BY gen"
+        ):
+            blobs = [x, c, lm, ch]
+            if checksum != _generation_checksum(gen, start, n, text, blobs):
+                raise StoreDamagedError(
+                    f"store {self.path} is damaged: generation {gen} of the sequential sampler "
+                    f"does not match its checksum; `vectorid verify {self.path}` shows what is "
+                    "readable"
+                )
+            out.append(
+                Generation(
+                    gen=int(gen),
+                    seq_start=int(start),
+                    n=int(n),
+                    created=float(created),
+                    proposal=json.loads(text),
+                    X=np.frombuffer(x, "<f8").reshape(int(n), p).astype(float),
+                    centres=np.frombuffer(c, "<f8").reshape(-1, p).astype(float),
+                    log_mix=np.frombuffer(lm, "<f8").astype(float),
+                    chol=np.frombuffer(ch, "<f8").reshape(p, p).astype(float),
+                )
+            )
+        return out
+
+
+@dataclass(frozen=True)
+class Generation:
+    """One generation of a sequential study, as stored (see the module docstring).
+
+    Attributes
+    ----------
+    gen, seq_start, n : int
+        Generation number; its trials are the stage-0 sequence indices
+        ``seq_start .. seq_start + n - 1``.
+    created : float
+        Unix time it was recorded.
+    proposal : dict
+        ``kind`` (``"sobol"`` or ``"mixture"``), ``tolerance`` (criterion -> limit aimed
+        at), ``log_mass`` and ``draws`` of the kernel, ...
+    X : (n, p) float array
+        The proposed vectors (empty for generation 0: the Sobol points of its indices).
+    centres, log_mix, chol : float arrays
+        The kernel's parameters in unit coordinates.
+    """
+
+    gen: int
+    seq_start: int
+    n: int
+    created: float
+    proposal: dict[str, Any]
+    X: np.ndarray
+    centres: np.ndarray
+    log_mix: np.ndarray
+    chol: np.ndarray
+
+
+def _generation_checksum(gen: int, start: int, n: int, text: str, blobs: Sequence[bytes]) -> str:
+    parts = [zlib.crc32(f"{int(gen)}:{int(start)}:{int(n)}:".encode() + text.encode())]
+    parts += [zlib.crc32(b) for b in blobs]
+    return "crc32:" + ",".join(f"{c:08x}" for c in parts)
 
 
 def _size_problem(n: Any, blobs: Sequence[Any], widths: Mapping[str, int]) -> str | None:
