@@ -215,14 +215,13 @@ def run_sobol(p: Problem, folder: Path, population: int, budget: int) -> Outcome
 
 def run_sequential(p: Problem, folder: Path, population: int, budget: int) -> Outcome:
     """vectorid's sequential sampler through a store (``[study] sampler = "sequential"``)."""
-    from vectorid import Study
-    from vectorid.spec import StudySpec
+    import dataclasses
 
-    data = p.spec.to_dict()
-    data["study"].update({"sampler": "sequential", "budget": int(budget),
-                          "population": int(population)})  # fmt: skip
+    from vectorid import Study
+
     try:
-        spec = StudySpec.from_dict(data, base_dir=p.spec.base_dir)
+        spec = dataclasses.replace(p.spec, sampler="sequential", budget=int(budget),
+                                   population=int(population))  # fmt: skip
     except Exception as exc:  # a vectorid without the sequential sampler
         return Outcome("sequential", 0, 0.0, 0, 0.0, None, False, f"not available: {exc}")
     store = folder / f"{p.name}-sequential.db"
