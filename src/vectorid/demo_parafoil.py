@@ -506,7 +506,6 @@ def _truth_in_d(st: Stage, ident, true: Mapping[str, float]) -> tuple[bool, str]
         c, q = max(ratios.items(), key=lambda kv: kv[1])
         return True, f"meets every noise-grounded limit (closest {c} at {q:.2f}x its limit)"
     text = ", ".join(f"{c} {q:.2f}x its limit" for c, q in over.items())
-    inside = "inside" if max(over.values()) <= st.factor else "outside"
     pn = list(ident.model.parameter_names)
     held = [
         f"{n} at {ident.base[pn.index(n)]:.3g} (truth {true[n]:.3g})"
@@ -514,6 +513,9 @@ def _truth_in_d(st: Stage, ident, true: Mapping[str, float]) -> tuple[bool, str]
         if n not in names and n in true and not math.isclose(ident.base[pn.index(n)], true[n])
     ]
     why = f"; the stage holds {', '.join(held)}" if held else ""
+    if st.factor <= 1:
+        return False, f"exceeds the noise-grounded limits ({text}){why}"
+    inside = "inside" if max(over.values()) <= st.factor else "outside"
     return False, (
         f"exceeds the noise-grounded limits ({text}){why}; {inside} the relaxed ones "
         f"(x{st.factor:g})"
@@ -600,10 +602,12 @@ def _sections(ident, true: Mapping[str, float], limits, boxes) -> dict:
 def run_parafoil_demo(
     out: Path,
     *,
-    trials: int = 16_384,
+    trials: int = 4096,
     stage1_trials: int | None = None,
     stage3_trials: int | None = None,
     progress: bool = True,
+    budget: int = 250_000,
+    population: int = 200,
     report: bool = True,
 ) -> int:
     """Run the parafoil demo into folder ``out`` and print its results (module docstring).
@@ -644,7 +648,8 @@ def run_parafoil_demo(
     if stage1_trials is None:
         stage1_trials = min(2048, max(64, trials // 8))
     stage3_trials = max(64, trials // 4) if stage3_trials is None else int(stage3_trials)
-    coarse3 = max(16, stage3_trials // 4)
+    budget1, budget3 = max(stage1_trials, budget // 5), max(stage3_trials, budget // 2)
+    seq = {"sampler": "sequential", "population": population}
     model = models.get("parafoil8dof", **MODEL_OPTIONS)
     names = list(model.parameter_names)
     full_boxes = {n: _box(model, n) for n in names}
@@ -686,9 +691,9 @@ def run_parafoil_demo(
         encoding="utf-8",
     )  # fmt: skip
     spec1 = load_study(f1)
-    coarse = max(64, stage1_trials // 4)
-    st1 = run_stage(spec1, out / "parafoil-stage1.db", trials=stage1_trials, coarse=coarse,
-                    progress=progress, name="stage 1", meanings=SHORT, hints=HINTS)  # fmt: skip
+    st1 = run_stage(spec1, out / "parafoil-stage1.db", trials=stage1_trials, budget=budget1,
+                    progress=progress, name="stage 1", meanings=SHORT, hints=HINTS,
+                    **seq)  # fmt: skip
     r1 = st1.result
     ident1 = Identification.from_spec(r1.spec)
     # the noise floors are computed once (stage 1's reference vector: the nominal gains) and
@@ -698,30 +703,38 @@ def run_parafoil_demo(
     }
     s1 = _print_stage(
         st1, ident1, true,
-        title=f"Stage 1: {', '.join(STAGE1)} ({coarse} coarse + {stage1_trials} trials)",
+        title=f"Stage 1: {', '.join(STAGE1)} (sequential sampler, budget {budget1:,})",
     )  # fmt: skip
     if report:
         print(f"  (report: vectorid report {r1.store})")
     sys.stdout.flush()
 
     # ---- stage 2: all 33 gains ----------------------------------------------------------
-    box1 = {v.name: (float(v.low), float(v.high)) for v in r1.final_box}
-    v2 = [(n, *box1.get(n, _box(model, n))) for n in names]
-    ref2 = {n: full_boxes[n] for n in box1 if box1[n] != full_boxes[n]}
+    # every gain in its full box: the sequential sampler finds D there (stage 1's narrowed box
+    # held the other gains at nominal, so it is no bound for the 33 together)
+    v2 = [(n, *full_boxes[n]) for n in names]
+    ref2: dict[str, tuple[float, float]] = {}
     f2 = out / "parafoil-stage2.toml"
     f2.write_text(
         stage_toml("parafoil-stage2", v2, truth=truth, trials=trials, reference=ref2,
                    limits_from=floors,
-                   comment="stage 2, all 33 gains (stage-1 gains in their narrowed box)"),
+                   comment="stage 2, all 33 gains in their full boxes"),
         encoding="utf-8",
     )  # fmt: skip
     spec2 = load_study(f2)
-    st2 = run_stage(spec2, out / "parafoil-stage2.db", trials=trials, coarse=0, reference=ref2,
-                    progress=progress, name="stage 2", meanings=SHORT, hints=HINTS)  # fmt: skip
+    st2 = run_stage(spec2, out / "parafoil-stage2.db", trials=trials, reference=ref2,
+                    progress=progress, name="stage 2", meanings=SHORT, hints=HINTS,
+                    budget=budget, **seq)  # fmt: skip
     r2 = st2.result
     a2 = r2.analysis
     ident8 = Identification.from_spec(r2.spec)
-    s2 = _print_stage(st2, ident8, true, title=f"Stage 2: all 33 gains ({trials} trials)")
+    s2 = _print_stage(st2, ident8, true, title=f"Stage 2: all 33 gains (sequential sampler, "
+                      f"{trials} Sobol trials first, budget {budget:,})")  # fmt: skip
+    ins = s2["inside"]
+    n_in = sum(bool(v) for v in ins.values())
+    misses = [k for k, v in ins.items() if not v]
+    print(f"  truth inside the feasible range of {n_in} of {len(ins)} gains"
+          + (f" (misses: {', '.join(misses)})" if misses else ""))
     sec = _sections(ident8, true, st2.noise_limits, full_boxes)
     _print_sections(sec, full_boxes)
     pure = a2.pure
@@ -865,16 +878,16 @@ def run_parafoil_demo(
         encoding="utf-8",
     )  # fmt: skip
     spec3 = load_study(f3)
-    st3 = run_stage(spec3, out / "parafoil-stage3.db", trials=stage3_trials, coarse=coarse3,
+    st3 = run_stage(spec3, out / "parafoil-stage3.db", trials=stage3_trials, budget=budget3,
                     reference=ref3, progress=progress, name="stage 3", meanings=SHORT,
-                    hints=HINTS)  # fmt: skip
+                    hints=HINTS, **seq)  # fmt: skip
     r3 = st3.result
     a3 = r3.analysis
     ident3 = Identification.from_spec(r3.spec)
     s3 = _print_stage(
         st3, ident3, true,
-        title=f"Stage 3: the reduced set, {len(v3)} gains ({coarse3} coarse + {stage3_trials} "
-        "trials, double tuning)",
+        title=f"Stage 3: the reduced set, {len(v3)} gains (sequential sampler, budget "
+        f"{budget3:,})",
     )  # fmt: skip
     cost3 = _cost(a3.trials.F, a3.pure, scale)
     print(
@@ -910,13 +923,16 @@ def run_parafoil_demo(
     )  # fmt: skip
     spec6 = load_study(f6)
     models.get("parafoil6dof").compile()  # first use: said before the progress bar
-    st6 = run_stage(spec6, out / "parafoil-6dof.db", trials=stage3_trials, coarse=coarse3,
+    budget6 = st3.sequential.evaluations if st3.sequential is not None else budget3
+    st6 = run_stage(spec6, out / "parafoil-6dof.db", trials=stage3_trials, budget=budget6,
                     reference=ref3, progress=progress, name="6-DoF", meanings=SHORT,
-                    hints=HINTS)  # fmt: skip
+                    hints=HINTS, **seq)  # fmt: skip
     r6 = st6.result
     _step_header(
-        r6, f"6-DoF model, the reduced set, stage 3's schedule ({coarse3} + {stage3_trials} trials)"
+        r6, f"6-DoF model, the reduced set, the evaluations stage 3 needed ({budget6:,})"
     )
+    if st6.sequential is not None:
+        print(f"  sequential sampler: {st6.sequential.verdict()}")
     a6 = r6.analysis
     print(
         "  criteria constraints: the 8-DoF's noise-grounded ones (the same data, noise and "

@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from ..analysis.relaxation import relax_study, relaxation_text
+from ..analysis.relaxation import Relaxation, relax_study, relaxation_text
 
 __all__ = ["Stage", "print_stage_limits", "print_verdicts", "run_stage"]
 
@@ -96,12 +96,23 @@ def print_stage_limits(st: Stage, indent: str = "  ") -> None:
     for h in heads:
         print(f"{indent}  ({h})")
     n_ok = int(r.analysis.ok.sum())
+    seq = st.sequential
+    if seq is not None:
+        print(f"{indent}sequential sampler: {seq.verdict()}")
+        weighted = "weighted" if seq.converged else "not weighted: D was not reached"
+        print(f"{indent}effective sample size {seq.ess:.0f} of {seq.members} members ({weighted})")
+    faithful = seq is None or seq.converged
     enough = "" if st.factor > 1 else " (enough to read ranges from)"
+    if st.factor <= 1 and not faithful:
+        enough = (
+            " (not a faithful sample of D: its ranges below are\n"
+            f"{indent}inner bounds, and a gain called identified may be wider in D)"
+        )
     print(f"{indent}D under them: {st.n_noise_feasible} of {n_ok} successful trials{enough}")
     if st.factor > 1:
         print(
-            f"{indent}{relaxation_text(st.factor)}\n{indent}(too few to read ranges from: "
-            f"x{st.factor:g} is the smallest common factor at which D holds "
+            f"{indent}{relaxation_text(st.factor)}\n{indent}(too few members to read ranges "
+            f"from: x{st.factor:g} is the smallest common factor at which D holds "
             f"{r.analysis.n_feasible} trials;\n{indent}saved as a stand-in: every vector the "
             "data admit is kept, so the ranges below are outer bounds of theirs)"
         )
@@ -125,6 +136,8 @@ class Stage:
         Members of D at the stated limits.
     proposals : list
         The double-tuning proposals applied (narrowed boxes).
+    sequential : vectorid.run.sequential.SequentialSummary or None
+        The sequential sampler's summary (evaluations, generations, ESS, converged).
     """
 
     result: Any
@@ -133,6 +146,7 @@ class Stage:
     factor: float
     n_noise_feasible: int
     proposals: list = field(default_factory=list)
+    sequential: Any = None
 
     @property
     def relaxed(self) -> bool:
@@ -144,22 +158,32 @@ def run_stage(
     spec: Any,
     store: Path,
     *,
-    coarse: int,
+    coarse: int = 0,
     trials: int,
     reference: Mapping[str, tuple[float, float]] | None = None,
     progress: bool = False,
     name: str = "stage",
     meanings: Mapping[str, str] | None = None,
     hints: Mapping[str, str] | None = None,
+    sampler: str | None = None,
+    budget: int | None = None,
+    population: int | None = None,
 ) -> Stage:
     """Run one stage of an identification into a fresh store.
 
-    ``coarse`` trials in the study box, the box narrowed where the coarse run identifies a
-    variable (:func:`vectorid.identify.twostep.noise_refine`), then ``trials`` more. Limits:
-    the study's stated ones (e.g. noise floors plus allowance); where D under them holds too
-    few trials, the smallest common relaxation (:func:`vectorid.analysis.relaxation.relax_study`)
-    is saved as a named stand-in, the last resort. Verdicts:
-    :func:`vectorid.analysis.identifiability`.
+    With the sequential sampler (``sampler="sequential"``, or the study's own), generation 0
+    is ``trials`` Sobol points and later generations move into D at the stated limits until
+    it holds ``population`` members with an effective sample size as large, or ``budget``
+    evaluations are spent (:func:`vectorid.run.sequential.run_sequential`). With a plain
+    sampler, ``coarse`` trials in the study box, the box narrowed where the coarse run
+    identifies a variable (double tuning, :func:`vectorid.identify.twostep.noise_refine`),
+    then ``trials`` more.
+
+    The stated limits (e.g. noise floors plus allowance) stay in force wherever D under them
+    can be read. Only where it cannot (a plain table too sparse, or a sequential run that did
+    not converge within its budget) are they relaxed by the smallest common factor that fills
+    D (:func:`vectorid.analysis.relaxation.relax_study`), saved and printed as the named last
+    resort. Verdicts: :func:`vectorid.analysis.identifiability`.
 
     Parameters
     ----------
@@ -168,28 +192,43 @@ def run_stage(
     store : Path
         The stage's store (deleted first: a stage starts afresh).
     coarse : int
-        Trials of the coarse run (0: no double tuning).
+        Plain sampler: trials of the coarse run (0: no double tuning).
     trials : int
-        Trials after the coarse run.
+        Plain sampler: trials after the coarse run; sequential: generation 0's size.
     reference : mapping, optional
         Variable name -> the box it was first given, where this stage inherits a narrowed one.
     progress : bool
-        Progress bars.
+        Progress bars (one line per generation for the sequential sampler).
     name : str
         The stage's name in its result.
     meanings, hints : mapping, optional
         Variable name -> what it is / what would identify it (printed with the verdicts).
+    sampler : {"sobol", "lhs", "sequential"}, optional
+        Default: the study's.
+    budget : int, optional
+        Sequential: most model evaluations (default: the study's).
+    population : int, optional
+        Sequential: members of D wanted (default: the study's, else 200).
 
     Returns
     -------
     Stage
     """
+    import dataclasses
+
     from ..analysis.choice import suggest_choice
     from ..analysis.identifiability import identifiability
     from ..run.extra import apply_refine
     from ..study import Study
     from .twostep import StepResult, noise_refine
 
+    sampler = sampler or spec.sampler
+    if sampler == "sequential":
+        spec = dataclasses.replace(
+            spec, sampler="sequential", trials=int(trials),
+            budget=budget if budget is not None else spec.budget,
+            population=population if population is not None else spec.population,
+        )  # fmt: skip
     t0 = time.perf_counter()
     proposals = []
     notes: list[str] = []
@@ -200,7 +239,20 @@ def run_stage(
         notes0 = {c.name: c.limit_note for c in held.criteria if c.limit is not None}
         # the study's own executor ("inline" for the examples' stateful models), else serial
         executor = study.spec.executor or "serial"
-        if coarse > 0 and len([s for s in study.store.stages() if s.kind == "sample"]) == 1:
+        summary = None
+        if sampler == "sequential":
+            summary = study.run(executor=executor, progress=progress)
+            if summary.converged:  # D at the stated limits holds the population: no relaxation
+                study.store.set_limits(
+                    noise, sources={c: ("noise", notes0.get(c, "")) for c in noise}
+                )
+                a0 = study.analysis()
+                rel = Relaxation(1.0, int(a0.n_feasible), int(summary.population),
+                                 int(a0.ok.sum()))  # fmt: skip
+            else:  # the last resort, named as such
+                rel = relax_study(study, noise, notes0, share=0.0,
+                                  min_count=int(summary.population))  # fmt: skip
+        elif coarse > 0 and len([s for s in study.store.stages() if s.kind == "sample"]) == 1:
             study.run(trials=coarse, executor=executor, progress=progress)
             relax_study(study, noise, notes0)
             a = study.analysis()
@@ -208,8 +260,9 @@ def run_stage(
                 proposal = noise_refine(a, study.store.stages(), reference)
                 apply_refine(study.store, proposal)
                 proposals.append(proposal)
-        study.run(trials=coarse + trials, executor=executor, progress=progress)
-        rel = relax_study(study, noise, notes0)
+        if sampler != "sequential":
+            study.run(trials=coarse + trials, executor=executor, progress=progress)
+            rel = relax_study(study, noise, notes0)
         a = study.analysis()
         spec_now = study.spec
         limits = {c.name: c.limit for c in spec_now.criteria if c.limit is not None}
@@ -245,4 +298,4 @@ def run_stage(
         verdicts=verdicts,
         notes=notes,
     )
-    return Stage(result, noise, notes0, rel.factor, rel.n_at_limits, proposals)
+    return Stage(result, noise, notes0, rel.factor, rel.n_at_limits, proposals, summary)
