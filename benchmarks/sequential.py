@@ -61,7 +61,7 @@ METHODS = ("sobol", "sequential", "pyabc")
 BUDGETS = {
     "parachute3": (200_000, 50_000, 30_000),
     "parachute15": (200_000, 50_000, 30_000),
-    "parafoil33": (65_536, 250_000, 4_000),
+    "parafoil33": (32_768, 250_000, 3_000),
 }
 SOBOL_BATCH = 1024
 VARS3 = (("x6", 0.3, 1.0), ("x8", 0.75, 1.5), ("x11", 0.06, 0.13))
@@ -302,7 +302,11 @@ def run_pyabc(p: Problem, folder: Path, population: int, budget: int, seed: int 
     try:
         h = abc.run(minimum_epsilon=1.0, max_total_nr_simulations=budget)
     except Exception as exc:  # e.g. its weights underflowing to NaN
-        return Outcome("pyabc", 0, time.perf_counter() - t0, 0, 0.0, None, False,
+        try:  # the evaluations of the generations it completed
+            done = int(abc.history.total_nr_simulations)
+        except Exception:
+            done = 0
+        return Outcome("pyabc", done, time.perf_counter() - t0, 0, 0.0, None, False,
                        f"pyABC stopped: {type(exc).__name__}: {exc}")  # fmt: skip
     wall = time.perf_counter() - t0
     evaluations = int(h.total_nr_simulations)
