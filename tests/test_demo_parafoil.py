@@ -31,7 +31,8 @@ def _generator():
 
 def test_parafoil_demo_end_to_end_reduced(tmp_path, capsys):
     out = tmp_path / "demo"
-    code = main(["demo", "parafoil", "--out", str(out), "--trials", "256", "--quiet"])
+    code = main(["demo", "parafoil", "--out", str(out), "--trials", "256", "--budget", "1500",
+                 "--population", "20", "--quiet"])  # fmt: skip
     text = capsys.readouterr().out
     assert code == 0
     for needle in (
@@ -40,7 +41,10 @@ def test_parafoil_demo_end_to_end_reduced(tmp_path, capsys):
         "criteria constraints: noise floor (joint 95 %) + allowance",
         "discrepancy position_h 26 m",
         "D under them:",
-        "Stage 2: all 33 gains (256 trials)",
+        "Stage 2: all 33 gains (sequential sampler, 256 Sobol trials first, budget 1,500)",
+        "sequential sampler: D ",  # reached or not, said plainly with the ESS
+        "effective sample size",
+        "truth inside the feasible range of",
         "Quasi-optimal sets (seed 000 Fig. 12)",
         "Correlation and sensitivity over stage 2 (seed 000 Fig. 14)",
         "reduced set:",
@@ -81,7 +85,11 @@ def test_parafoil_demo_end_to_end_reduced(tmp_path, capsys):
                 assert stage["truth_in_range"][v["name"]], v["name"]
     assert main(["pareto", str(out / "parafoil-stage2.db"), "--json"]) == 0
     doc = json.loads(capsys.readouterr().out)
-    assert doc["n"] == 256 and {c["name"] for c in doc["criteria"]} >= {"pos_h", "peak_yaw"}
+    assert 256 <= doc["n"] <= 1500 and {c["name"] for c in doc["criteria"]} >= {"pos_h", "peak_yaw"}
+    # a relaxation is only ever the named last resort, never silent
+    for line in text.splitlines():
+        if "limits relaxed x" in line:
+            assert "last resort: D at the stated limits was not reached" in line, line
 
 
 def test_stage_files_state_the_noise_and_the_allowance():

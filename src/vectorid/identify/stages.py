@@ -249,9 +249,8 @@ def run_stage(
                 a0 = study.analysis()
                 rel = Relaxation(1.0, int(a0.n_feasible), int(summary.population),
                                  int(a0.ok.sum()))  # fmt: skip
-            else:  # the last resort, named as such
-                rel = relax_study(study, noise, notes0, share=0.0,
-                                  min_count=int(summary.population))  # fmt: skip
+            else:  # the last resort, named as such: outer bounds of the stated D
+                rel = relax_study(study, noise, notes0, min_count=int(summary.population))
         elif coarse > 0 and len([s for s in study.store.stages() if s.kind == "sample"]) == 1:
             study.run(trials=coarse, executor=executor, progress=progress)
             relax_study(study, noise, notes0)
