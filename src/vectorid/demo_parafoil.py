@@ -15,24 +15,26 @@ joint stiffness, sonde errors), read from 50 twins of the generator by
 ``scripts/parafoil_discrepancy.py``. The spectral pseudo-criteria are grounded the same way:
 their floor is the Monte Carlo's (how the noise moves a whitened-spectrum peak), their
 allowance the twins' (how far the gust-excited peaks of the truth and of the model at the true
-gains lie apart), in Hz. Under these limits D is the set of vectors the data cannot tell from
-the truth; where a stage's trials are too sparse to hold enough of it, the limits are relaxed
-by the smallest common factor that does (:func:`relaxed_limits`, saved as a stand-in with the
-factor in its note), so the ranges read are outer bounds. Every chosen vector is printed
-through the identifiability verdicts (:func:`vectorid.analysis.identifiability`): a value
-only for an identified gain, otherwise its range.
+gains lie apart), in Hz. Under these limits D is the set of vectors the data cannot tell
+from the truth. Every stage runs the sequential sampler (:mod:`vectorid.run.sequential`):
+Sobol trials first, then generations that move into D at the stated limits until it holds the
+population wanted with as large an effective sample size, or the budget is spent. Only a stage
+that does not get there relaxes its limits, as the named last resort
+(:func:`vectorid.analysis.relaxation.relax_study`: "limits relaxed xf — last resort: D at the
+stated limits was not reached"; the ranges read are then outer bounds). Every chosen vector is
+printed through the identifiability verdicts (:func:`vectorid.analysis.identifiability`): a
+value only for an identified gain, otherwise its range.
 
 The demo runs the seed's workflow on SQLite stores:
 
 1. **Stage 1** — a few gains (the seed's sets 1–5: control effectiveness, lift slope, drag,
    rigging, turn-control and yaw-damping gains) on the eight adequacy criteria of §VII
    (horizontal and vertical trajectory closeness, heading, speed and turn-rate profiles, the
-   roll, pitch and yaw spectral peaks), with double tuning: a coarse run, the box narrowed
-   where the coarse run identifies a gain, the main run.
-2. **Stage 2** — all 33 gains of Figure 12: the stage-1 gains in their narrowed box, the
-   others in [0.2, 2] (additive ones in their boxes), 16,384 trials by default; then the
-   one-gain sections through the generator's truth (:func:`truth_sections`: what the data
-   hold about each gain if the others were known).
+   roll, pitch and yaw spectral peaks), the other gains at nominal.
+2. **Stage 2** — all 33 gains of Figure 12 in their full boxes ([0.2, 2]; additive ones in
+   theirs), at most ``budget`` evaluations; then the one-gain sections through the
+   generator's truth (:func:`vectorid.analysis.sections.sections_through`: what the data hold
+   about each gain if the others were known).
 3. The **"quasi-optimal sets" table of Figure 12**: Set 0 (nominal), the stage-1 vector and
    the lowest-cost Pareto vectors of stage 2 side by side with their cost.
 4. **Figure 14 turned into a proposal**: which gains the feasible set does not depend on (fix
@@ -617,17 +619,20 @@ def run_parafoil_demo(
     out : Path
         Folder for the data copy, study files, stores and reports.
     trials : int
-        Stage-2 trials (all 33 gains); the seed's study needs at least 16,384.
+        Stage 2's first generation: Sobol trials over the 33 gains' box.
     stage1_trials : int, optional
-        Stage-1 trials in the refined box (default ``trials // 8``, at most 2048; the coarse
-        run adds a quarter of it).
+        Stage 1's first generation (default ``trials // 8``, at least 64, at most 2048).
     stage3_trials : int, optional
-        Trials of stage 3 in its refined box (default ``trials // 4``; its coarse run adds a
-        quarter of it). The 6-DoF comparison runs the same schedule.
+        Stage 3's first generation (default ``trials // 4``); the 6-DoF comparison too.
     progress : bool
         Progress bars.
     report : bool
         Write the HTML reports of stages 2 and 3 (the others: ``vectorid report STORE``).
+    budget : int
+        Stage 2's most model evaluations (stage 1: a fifth, stage 3: half; the 6-DoF model:
+        what stage 3 used).
+    population : int
+        Members of D wanted per stage (with an effective sample size as large).
 
     Returns
     -------
