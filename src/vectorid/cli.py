@@ -601,7 +601,20 @@ def _cmd_info(args: argparse.Namespace) -> int:
         print(f"store      {st.path}")
         print(f"study      {spec.name}  (model {spec.to_dict()['study']['model']})")
         held = a.n + sum(d.n for d in trials.damaged if stage_kind(stages, d.stage) == "sample")
-        print(f"trials     {held} stored of {spec.trials} wanted; {a.n_failed} failed")
+        if spec.sampler == "sequential":
+            from .run.sequential import assess
+
+            sq = assess(st)
+            print(
+                f"trials     {held} evaluated of a budget of {spec.sequential_budget}; "
+                f"{a.n_failed} failed"
+            )
+            print(
+                f"sequential {len(sq.counts)} generations; D: {int(sq.members.sum())} members "
+                f"(wanted {spec.sequential_population}), ESS {sq.ess:.0f} (importance weights)"
+            )
+        else:
+            print(f"trials     {held} stored of {spec.trials} wanted; {a.n_failed} failed")
         if trials.damaged:
             lost = sum(d.n for d in trials.damaged)
             print(

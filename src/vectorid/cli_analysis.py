@@ -442,6 +442,18 @@ def _cmd_hist(args: argparse.Namespace) -> int:
                 f"{_fmt(h.high)}]"
             )
             label = f"bin of {h.param}{unit}"
+            if h.weighted:  # a sequential store: D's density needs the importance weights
+                print(
+                    f"  {label:<25}  {'feasible':>8} {'Pareto':>7} {'weighted':>8}  # = D's "
+                    "density, importance-weighted (sequential sampler)"
+                )
+                peak_w = max(1e-300, float(h.feasible_weighted.max()))
+                for lo, hi, f, p, fw in zip(
+                    h.edges[:-1], h.edges[1:], h.feasible, h.pareto, h.feasible_weighted
+                ):
+                    bar = "#" * round(30 * fw / peak_w)
+                    print(f"  [{_fmt(lo):>10}, {_fmt(hi):>10})  {f:>8} {p:>7} {fw:>8.1f}  {bar}")
+                continue
             print(f"  {label:<25}  {'feasible':>8} {'Pareto':>7}  # = feasible trials")
             peak = max(1, int(h.feasible.max()) if len(h.feasible) else 1)
             for lo, hi, f, p in zip(h.edges[:-1], h.edges[1:], h.feasible, h.pareto):

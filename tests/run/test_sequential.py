@@ -320,3 +320,33 @@ def test_sequential_refuses_a_scrambled_sequence():
             sampler="sequential",
             scramble=True,
         )
+
+
+# -- downstream ------------------------------------------------------------------------------
+
+
+def test_downstream_reads_a_sequential_store(tmp_path):
+    from vectorid.analysis import Analysis
+    from vectorid.analysis.histograms import histograms
+
+    path = write_slab_study(tmp_path / "d", budget=6000, population=100)
+    r = cli("run", path, "--executor", "serial", "--quiet")
+    assert r.returncode == 0, r.stderr
+    db = tmp_path / "d" / "slab.db"
+    with Store.open(db) as st:
+        t = st.load()
+        a = Analysis(st.spec, t)
+        hs = histograms(a)
+    assert t.log_weight is not None and a.n_feasible >= 20
+    for h in hs:
+        assert h.weighted and abs(h.feasible_weighted.sum() - h.feasible.sum()) < 1e-6
+    r = cli("hist", db, "--param", "x5")
+    assert r.returncode == 0 and "importance-weighted" in r.stdout, r.stderr
+    r = cli("info", db)
+    assert r.returncode == 0 and "generations; D:" in r.stdout and "ESS" in r.stdout, r.stderr
+    for args in (("table", db), ("pareto", db), ("identifiability", db), ("correlation", db)):
+        r = cli(*args)
+        assert r.returncode == 0, (args, r.stderr)
+        assert "do not fit" not in r.stdout + r.stderr
+    r = cli("identifiability", db, "--limit", "f0<=0.0001")  # D empty at a tightened limit
+    assert "model or the limits" not in r.stdout + r.stderr

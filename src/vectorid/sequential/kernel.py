@@ -27,6 +27,10 @@ __all__ = ["MASS_DRAWS", "Proposal", "fit_proposal"]
 
 #: Fewest draws used to estimate a kernel's in-box mass Z.
 MASS_DRAWS = 20_000
+#: Share of a kernel's draws that must land inside the box (else the kernel is narrowed).
+MIN_IN_BOX = 0.05
+#: Draws used to check that share.
+_PROBE = 4000
 #: Rows per chunk when evaluating mixture densities (bounds memory to chunk x centres).
 _CHUNK = 2048
 
@@ -98,7 +102,7 @@ class Proposal:
         Raises
         ------
         RuntimeError
-            When fewer than one draw in 10^5 lands in the box.
+            When fewer than one draw in 10^4 lands in the box.
         """
         p = self.centres.shape[1]
         kept: list[np.ndarray] = []
@@ -114,7 +118,7 @@ class Proposal:
                 take = U[ok][: n - have]
                 kept.append(take)
                 have += len(take)
-            if drawn > 100_000 * max(n, 1) and inside_total * 100_000 < drawn:
+            if drawn >= 1000 * max(n, MASS_DRAWS) and inside_total * 10_000 < drawn:
                 raise RuntimeError("the proposal puts almost no mass inside the box")
         mass = inside_total / drawn
         fitted = Proposal(self.kind, self.centres, self.log_mix, self.chol, math.log(mass), drawn)
@@ -149,7 +153,8 @@ def fit_proposal(
     rng : numpy.random.Generator
         Draws the centres when there are more than ``max_centres`` members.
     scale : float
-        Covariance = ``scale`` x the weighted covariance of the members.
+        Covariance = ``scale`` x the weighted covariance of the members, halved until at
+        least :data:`MIN_IN_BOX` of the kernel's draws land inside the box.
     max_centres : int
         Most mixture components.
     """
@@ -175,7 +180,18 @@ def fit_proposal(
     floor = np.maximum(np.diag(cov), 1e-8)
     if m < p + 1:
         cov = np.diag(np.maximum(floor, 0.05**2))
-    L = _cholesky(cov)
+    # In many dimensions a kernel as wide as the population puts almost no draw inside the
+    # box (0.6 per axis is 5e-8 over 33 axes): narrow it until at least MIN_IN_BOX of the
+    # draws land inside. The density stays exactly known: the weights use this kernel.
+    shrink = 1.0
+    mix = np.exp(log_mix)
+    for _ in range(12):
+        L = _cholesky(cov * shrink)
+        idx = rng.choice(len(mix), size=_PROBE, p=mix)
+        Z = centres[idx] + rng.standard_normal((_PROBE, p)) @ L.T
+        if np.mean(np.all((Z >= 0.0) & (Z <= 1.0), axis=1)) >= MIN_IN_BOX:
+            break
+        shrink *= 0.5
     return Proposal("mixture", centres, log_mix, L)
 
 

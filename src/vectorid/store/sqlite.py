@@ -266,6 +266,11 @@ class Trials:
         a sound store; see :meth:`Store.verify`).
     unverified : int
         Batches loaded without a checksum to verify (a schema-1 store opened read-only).
+    log_weight : callable or None
+        Sequential stores only: ``log_weight(X)`` gives the importance weights (log) of
+        parameter vectors ``X`` (n, p) against the box over every stored generation (see
+        :mod:`vectorid.sequential.weights`); densities of a subset such as D use them.
+        None for a plain study (every trial weighs the same).
     """
 
     id: np.ndarray
@@ -279,6 +284,7 @@ class Trials:
     messages: dict[tuple[int, int], str] = field(default_factory=dict)
     damaged: tuple[DamagedBatch, ...] = ()
     unverified: int = 0
+    log_weight: Any = field(default=None, compare=False, repr=False)
 
     def __len__(self) -> int:
         return int(self.id.shape[0])
@@ -298,6 +304,7 @@ class Trials:
             {k: v for k, v in self.messages.items() if k in keep},
             self.damaged,
             self.unverified,
+            self.log_weight,
         )
 
     def message(self, i: int) -> str:
@@ -1378,6 +1385,9 @@ class Store:
         """
         with self.snapshot():
             trials = self._load(stages, kinds)
+            gens = self.generations() if "sample" in kinds else []
+        if gens:
+            trials.log_weight = _weigher(self.spec, gens)
         if trials.damaged:
             self._warn(_damage_warning(self.path, trials.damaged))
         if trials.unverified:
@@ -1770,6 +1780,27 @@ class Generation:
     centres: np.ndarray
     log_mix: np.ndarray
     chol: np.ndarray
+
+
+def _weigher(spec: StudySpec, gens: Sequence[Generation]) -> Any:
+    """``X -> log importance weights`` over a sequential store's generations."""
+    from ..sequential.kernel import Proposal
+    from ..sequential.weights import log_weights
+
+    p = len(spec.space)
+    lows, widths = spec.space.lows, spec.space.highs - spec.space.lows
+    props = [
+        Proposal.uniform(p)
+        if g.proposal.get("kind") == "sobol"
+        else Proposal("mixture", g.centres, g.log_mix, g.chol, float(g.proposal["log_mass"]))
+        for g in gens
+    ]
+    counts = [g.n for g in gens]
+
+    def log_weight(X: np.ndarray) -> np.ndarray:
+        return log_weights((np.asarray(X, dtype=float) - lows) / widths, props, counts)
+
+    return log_weight
 
 
 def _generation_checksum(gen: int, start: int, n: int, text: str, blobs: Sequence[bytes]) -> str:
