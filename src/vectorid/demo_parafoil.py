@@ -629,7 +629,7 @@ def run_parafoil_demo(
     report : bool
         Write the HTML reports of stages 2 and 3 (the others: ``vectorid report STORE``).
     budget : int
-        Stage 2's most model evaluations (stage 1: a fifth, stage 3: half; the 6-DoF model:
+        Stage 2's most model evaluations (stage 1: a tenth, stage 3: half; the 6-DoF model:
         what stage 3 used).
     population : int
         Members of D wanted per stage (with an effective sample size as large).
@@ -653,7 +653,7 @@ def run_parafoil_demo(
     if stage1_trials is None:
         stage1_trials = min(2048, max(64, trials // 8))
     stage3_trials = max(64, trials // 4) if stage3_trials is None else int(stage3_trials)
-    budget1, budget3 = max(stage1_trials, budget // 5), max(stage3_trials, budget // 2)
+    budget1, budget3 = max(stage1_trials, budget // 10), max(stage3_trials, budget // 2)
     seq = {"sampler": "sequential", "population": population}
     model = models.get("parafoil8dof", **MODEL_OPTIONS)
     names = list(model.parameter_names)
