@@ -92,6 +92,7 @@ class Outcome:
     truth_inside: bool | None
     reached: bool
     note: str = ""
+    cpu: float = float("nan")  # CPU seconds of this process, all threads
 
 
 def parachute_problem(folder: Path, free: int, seed: int = 0) -> Problem:
@@ -327,6 +328,15 @@ def run_pyabc(p: Problem, folder: Path, population: int, budget: int, seed: int 
 RUNNERS = {"sobol": run_sobol, "sequential": run_sequential, "pyabc": run_pyabc}
 
 
+def _timed(runner, *args) -> Outcome:
+    """Run a method and add its CPU time (all threads of this process: the model's numba
+    threads too), less sensitive than wall time to other jobs on a shared machine."""
+    c0 = time.process_time()
+    o = runner(*args)
+    o.cpu = time.process_time() - c0
+    return o
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
     ap.add_argument("--problems", default=",".join(PROBLEMS), help="comma-separated")
@@ -381,26 +391,28 @@ def main(argv: list[str] | None = None) -> int:
         out = []
         for m in methods:
             _MISSES.clear()
-            o = RUNNERS[m](p, sub, population, budgets[m])
+            o = _timed(RUNNERS[m], p, sub, population, budgets[m])
             if _MISSES:
                 o.note = (o.note + "; " if o.note else "") + "truth outside: " + _MISSES[-1]
             out.append(o)
             inside = "-" if o.truth_inside is None else ("yes" if o.truth_inside else "NO")
-            print(f"  {m:<10} evaluations {o.evaluations:>8}  wall {o.wall:8.1f} s  members "
+            print(f"  {m:<10} evaluations {o.evaluations:>8}  wall {o.wall:8.1f} s  CPU "
+                  f"{o.cpu:8.1f} s  members "
                   f"{o.members:>4}  ESS {o.ess:7.1f}  truth inside every range: {inside}"
                   f"{'' if o.reached else '  (D not reached; budget ' + str(budgets[m]) + ')'}"
                   f"{'  ' + o.note if o.note else ''}")  # fmt: skip
             sys.stdout.flush()
         results[name] = out
     print()
-    print("| problem | method | evaluations | wall (s) | members of D | ESS | truth inside |")
-    print("|---|---|---|---|---|---|---|")
+    print("| problem | method | evaluations | wall (s) | CPU (s) | members of D | ESS | "
+          "truth inside |")  # fmt: skip
+    print("|---|---|---|---|---|---|---|---|")
     for name, out in results.items():
         for o in out:
             inside = "-" if o.truth_inside is None else ("yes" if o.truth_inside else "no")
             ev = f"{o.evaluations:,}" + ("" if o.reached else " (not reached)")
-            print(f"| {name} | {o.method} | {ev} | {o.wall:.1f} | {o.members} | {o.ess:.0f} | "
-                  f"{inside} |")  # fmt: skip
+            print(f"| {name} | {o.method} | {ev} | {o.wall:.1f} | {o.cpu:.1f} | {o.members} | "
+                  f"{o.ess:.0f} | {inside} |")  # fmt: skip
     if args.json:
         Path(args.json).write_text(json.dumps(
             {k: [o.__dict__ for o in v] for k, v in results.items()}, indent=1), encoding="utf-8")
