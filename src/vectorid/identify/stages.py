@@ -154,6 +154,20 @@ class Stage:
         return self.factor > 1.0
 
 
+def _unconverged(verdicts: list, summary: Any) -> None:
+    """A sequential run that did not converge has no faithful sample of D: a range read from
+    it may be too narrow, so no variable is called identified (demoted to weak, saying why)."""
+    why = (
+        f"the sequential sampler did not converge (D: {summary.members} members, ESS "
+        f"{summary.ess:.0f} of {summary.population} wanted), so its range may be too narrow"
+    )
+    for v in verdicts:
+        if v.verdict == "identified":
+            v.verdict = "weak"
+            v.reason = f"{why}; {v.reason}" if v.reason else why
+            v.suggestion = "raise the budget and run again"
+
+
 def run_stage(
     spec: Any,
     store: Path,
@@ -183,7 +197,8 @@ def run_stage(
     can be read. Only where it cannot (a plain table too sparse, or a sequential run that did
     not converge within its budget) are they relaxed by the smallest common factor that fills
     D (:func:`vectorid.analysis.relaxation.relax_study`), saved and printed as the named last
-    resort. Verdicts: :func:`vectorid.analysis.identifiability`.
+    resort. Verdicts: :func:`vectorid.analysis.identifiability`; where the sequential sampler did
+    not converge, no variable is called identified (its sample of D is not faithful).
 
     Parameters
     ----------
@@ -280,6 +295,8 @@ def run_stage(
             crit = {n: float(v) for n, v in zip(a.crit_names, a.trials.F[i])}
         verdicts = identifiability(a, meanings=meanings, hints=hints, stages=stages,
                                    reference=reference)  # fmt: skip
+        if summary is not None and not summary.converged:
+            _unconverged(verdicts, summary)
     result = StepResult(
         name=name,
         store=Path(store),
