@@ -329,11 +329,18 @@ RUNNERS = {"sobol": run_sobol, "sequential": run_sequential, "pyabc": run_pyabc}
 
 
 def _timed(runner, *args) -> Outcome:
-    """Run a method and add its CPU time (all threads of this process: the model's numba
-    threads too), less sensitive than wall time to other jobs on a shared machine."""
-    c0 = time.process_time()
+    """Run a method and add its CPU time (this process's threads and its ended worker
+    processes), less sensitive than wall time to other jobs on a shared machine."""
+    import resource
+
+    def cpu() -> float:
+        own, kids = (resource.getrusage(w) for w in (resource.RUSAGE_SELF,
+                                                      resource.RUSAGE_CHILDREN))  # fmt: skip
+        return own.ru_utime + own.ru_stime + kids.ru_utime + kids.ru_stime
+
+    c0 = cpu()
     o = runner(*args)
-    o.cpu = time.process_time() - c0
+    o.cpu = cpu() - c0  # worker processes count once they have ended
     return o
 
 
