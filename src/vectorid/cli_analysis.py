@@ -419,11 +419,15 @@ def _cmd_sensitivity(args: argparse.Namespace) -> int:
 
 def _cmd_hist(args: argparse.Namespace) -> int:
     from .analysis.histograms import histograms, stage_histograms
+    from .run.sequential import sample_note
 
     study = _open(args.store)
     with study:
         a = _analysis(study, args)
         stages = [s for s in study.store.stages() if s.kind == "sample"]
+        note = None if args.json else sample_note(study.store, a)
+    if note:
+        print(note)
     params = args.param or a.spec.space.names
     if args.by_stage:
         hists = [h for p in params for h in stage_histograms(a, stages, p, bins=args.bins)]
@@ -526,6 +530,9 @@ def _cmd_identifiability(args: argparse.Namespace) -> int:
 
             meanings = parameter_meanings(spec)
         verdicts = identifiability(a, identified=args.identified, weak=args.weak, meanings=meanings)
+        from .run.sequential import sample_note
+
+        note = sample_note(study.store, a)
     if args.json:
         out = verdicts_json(verdicts)
         out["n"], out["n_feasible"], out["n_pareto"] = a.n, a.n_feasible, a.n_pareto
@@ -533,6 +540,8 @@ def _cmd_identifiability(args: argparse.Namespace) -> int:
         _json(out)
         return 0
     print(f"N = {a.n}   ND = {a.n_feasible}   NP = {a.n_pareto}")
+    if note:
+        print(note)
     crit = {c.name: c for c in spec.criteria}
     for b in a.active_bounds():
         c = crit.get(b.name)

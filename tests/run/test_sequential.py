@@ -342,6 +342,7 @@ def test_downstream_reads_a_sequential_store(tmp_path):
         assert h.weighted and abs(h.feasible_weighted.sum() - h.feasible.sum()) < 1e-6
     r = cli("hist", db, "--param", "x5")
     assert r.returncode == 0 and "importance-weighted" in r.stdout, r.stderr
+    assert "sequential sampler:" in r.stdout and "ESS" in r.stdout
     r = cli("info", db)
     assert r.returncode == 0 and "generations; D:" in r.stdout and "ESS" in r.stdout, r.stderr
     for args in (("table", db), ("pareto", db), ("identifiability", db), ("correlation", db)):
@@ -350,3 +351,18 @@ def test_downstream_reads_a_sequential_store(tmp_path):
         assert "do not fit" not in r.stdout + r.stderr
     r = cli("identifiability", db, "--limit", "f0<=0.0001")  # D empty at a tightened limit
     assert "model or the limits" not in r.stdout + r.stderr
+
+
+@pytest.mark.slow
+def test_dask_evaluates_generations_in_batches_like_serial(tmp_path):
+    pytest.importorskip("distributed")
+    path = write_slab_study(tmp_path / "dk", budget=1400, population=50)
+    for name in ("serial", "dask"):
+        r = cli("run", path, "--store", tmp_path / f"{name}.db", "--executor", name,
+                "--workers", "2", "--batch-size", "64", "--quiet")  # fmt: skip
+        assert r.returncode == 0, r.stderr
+    with Store.open(tmp_path / "serial.db") as a, Store.open(tmp_path / "dask.db") as b:
+        ta, tb = a.load(), b.load()
+        assert [g.n for g in a.generations()] == [g.n for g in b.generations()]
+    np.testing.assert_array_equal(ta.X, tb.X)
+    np.testing.assert_array_equal(ta.F, tb.F)
