@@ -531,6 +531,12 @@ def _cmd_run(args: argparse.Namespace) -> int:
     if _is_store(src) or (src.suffix.lower() in (".db", ".sqlite", ".sqlite3") and src.is_file()):
         if args.store:
             print("note: --store is ignored when running a store directly", file=sys.stderr)
+        if args.sampler:
+            print(
+                "note: --sampler is ignored when running a store (its trials were drawn by "
+                "the study's sampler); start a new study to change it",
+                file=sys.stderr,
+            )
         study = Study.open(src, write=True)
     else:
         spec = load_study(src)

@@ -200,7 +200,12 @@ class SequentialSummary(RunSummary):
         )
 
     def describe(self) -> str:
-        lines = [RunSummary.describe(self), self.verdict()]
+        head, *rest = RunSummary.describe(self).split("\n")
+        head = head.replace(
+            f"the study holds {self.total_stored} of {self.target}",
+            f"the study holds {self.total_stored} (budget {self.budget})",
+        )
+        lines = [head, *rest, self.verdict()]
         if self.tolerance:
             shown = ", ".join(f"{k} {v:.4g}" for k, v in self.tolerance.items())
             lines.append(f"last generation's limits: {shown}")
