@@ -114,9 +114,19 @@ def _parser() -> argparse.ArgumentParser:
         "--timeout",
         type=positive_float,
         metavar="SECONDS",
-        help="most seconds one trial may take (default: the study's, else no limit)",
+        help="most seconds one trial may take (default: the study's, else no limit): a "
+        "batch of N trials may run N x SECONDS; one that runs longer is stopped and re-run "
+        "one trial at a time, and a trial that takes more than SECONDS is stored as failed, "
+        "'timed out after X s'",
     )
     r.add_argument("--batch-size", type=positive_int, help="trials per batch (default: auto)")
+    r.add_argument(
+        "--accept-changes",
+        action="store_true",
+        help="when a data file or the model's code changed since the stored trials were "
+        "computed, go on and record the change (what, old/new hash, when) in the store's "
+        "history (default: stop and name the change)",
+    )
     r.add_argument(
         "--keep-going",
         action="store_true",
@@ -543,7 +553,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
         if args.sampler and args.sampler != spec.sampler:
             spec = _with_sampler(spec, args.sampler)
         store = Path(args.store) if args.store else default_store_path(spec, src)
-        study = Study.create_or_open(spec, store, study_file=src)
+        study = Study.create_or_open(
+            spec, store, study_file=src, accept_changes=args.accept_changes
+        )
     executor = args.executor
     if args.scheduler and executor is None:
         executor = "dask"
@@ -561,6 +573,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
                     keep_going=args.keep_going,
                     budget=args.budget,
                     population=args.population,
+                    accept_changes=args.accept_changes,
                 )
         except RunInterrupted as exc:
             print(f"\n{exc}", file=sys.stderr)
@@ -597,6 +610,7 @@ def _warn_damage(store: Any) -> None:
 def _cmd_info(args: argparse.Namespace) -> int:
     from .analysis import Analysis
     from .run.loop import group_failures
+    from .store.inputs import history as input_history
 
     study = _open_study(args.store)
     with study:
@@ -608,6 +622,8 @@ def _cmd_info(args: argparse.Namespace) -> int:
             runs = st.runs()
             counts = {s.stage: st.count(s.stage) for s in stages}
             schema = st.meta().get("schema_version", "?")
+            history = input_history(st)
+            missing = st.missing_planned()
         a = Analysis(spec, trials)
         ids = {(int(s), int(q)): int(i) for s, q, i in zip(trials.stage, trials.seq, trials.id)}
         groups = group_failures(trials.messages, ids)
@@ -648,6 +664,8 @@ def _cmd_info(args: argparse.Namespace) -> int:
             "schema": schema,
             "wall_time_per_trial_mean": float(trials.wall.mean()) if len(trials) else None,
             "runs": runs,
+            "history": history,
+            "missing": missing,
         }
         if args.json:
             _print_json(info)
@@ -669,6 +687,11 @@ def _cmd_info(args: argparse.Namespace) -> int:
             )
         else:
             print(f"trials     {held} stored of {spec.trials} wanted; {a.n_failed} failed")
+        if missing:
+            print(
+                f"MISSING    {missing} planned trials are not stored (an interrupted run or "
+                f"repair); `vectorid run {st.path}` computes them"
+            )
         if trials.damaged:
             lost = sum(d.n for d in trials.damaged)
             print(
@@ -715,6 +738,21 @@ def _cmd_info(args: argparse.Namespace) -> int:
                     f"  #{r['run']} {r['executor']} × {r['workers']}  target {r['target']}  "
                     f"{r['outcome']}  {dur}"
                 )
+                for line in (r.get("report") or {}).get("model_errors") or []:
+                    print(f"      model error: {line}")
+        if history:
+            import time as _time
+
+            print("history")
+            for e in history:
+                when = _time.strftime("%Y-%m-%d %H:%M:%S", _time.localtime(e.get("at") or 0))
+                old, new = e.get("old"), e.get("new")
+                hashes = (
+                    f": sha256 {(old or '(absent)')[:12]} -> {(new or '(absent)')[:12]}"
+                    if old or new
+                    else ""
+                )
+                print(f"  {when}  {e.get('what')}{hashes}  ({e.get('note')})")
     return 0
 
 
@@ -748,6 +786,9 @@ def _cmd_verify(args: argparse.Namespace) -> int:
                 "batches": rep.batches,
                 "trials": rep.trials,
                 "unverified": rep.unverified,
+                "sound": rep.sound,
+                "planned": rep.planned,
+                "missing": rep.missing,
                 "damaged": [
                     {
                         "block": d.block,
@@ -763,7 +804,7 @@ def _cmd_verify(args: argparse.Namespace) -> int:
         )
     else:
         print(rep.describe())
-    return 0 if rep.ok else 1
+    return 0 if rep.sound else 1
 
 
 def _cmd_repair(args: argparse.Namespace) -> int:

@@ -699,4 +699,8 @@ def load_study(path: str | Path) -> StudySpec:
         raise StudyDefinitionError(
             str(path), f"not valid TOML: {exc}", "fix the syntax at the position given"
         ) from None
-    return StudySpec.from_dict(data, base_dir=path.resolve().parent)
+    spec = StudySpec.from_dict(data, base_dir=path.resolve().parent)
+    from .builders import check_spec
+
+    check_spec(spec)  # what the study's builder cannot run (dt/output_dt, ...)
+    return spec

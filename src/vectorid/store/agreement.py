@@ -85,6 +85,8 @@ class Difference:
     given: Any
     taken: bool
     why: str
+    #: A file's content changed (not the definition): ``--accept-changes`` may take it.
+    content: bool = False
 
     def describe(self) -> str:
         old, new = _show(self.stored), _show(self.given)
@@ -175,8 +177,8 @@ def compare(
     out = Agreement(hashes=data_file_hashes(given))
     diffs = out.differences
 
-    def add(path: str, x: Any, y: Any, taken: bool, why: str) -> None:
-        diffs.append(Difference(path, x, y, taken, why))
+    def add(path: str, x: Any, y: Any, taken: bool, why: str, content: bool = False) -> None:
+        diffs.append(Difference(path, x, y, taken, why, content))
 
     # [study]
     sa, sb = a.get("study", {}), b.get("study", {})
@@ -277,6 +279,7 @@ def compare(
                 shown_new,
                 False,
                 f"the file's content differs from {checked_against}",
+                content=True,
             )
         elif old_path != new_path:
             add(name, shown_old, shown_new, True, "the same file content")

@@ -541,6 +541,9 @@ class VerifyReport:
         Batches and trials stored (damaged ones included).
     unverified : int
         Batches without a checksum (schema 1).
+    planned, missing : int
+        Trials the study's plan holds (sample stages up to its target) and how many of them
+        no batch holds (an interrupted run or repair).
     notes : list of str
         Things that are not damage (overlapping batches are impossible; orphan failure rows).
     """
@@ -553,12 +556,19 @@ class VerifyReport:
     batches: int = 0
     trials: int = 0
     unverified: int = 0
+    planned: int = 0
+    missing: int = 0
     notes: list[str] = field(default_factory=list)
 
     @property
     def ok(self) -> bool:
         """True when nothing is damaged."""
         return self.sqlite == ["ok"] and not self.problems and not self.damaged
+
+    @property
+    def sound(self) -> bool:
+        """True when nothing is damaged and every planned trial is stored."""
+        return self.ok and not self.missing
 
     def describe(self) -> str:
         lines = [f"store      {self.path}  (schema {self.schema})"]
@@ -578,11 +588,22 @@ class VerifyReport:
             lines.append(f"damaged    {p}")
         for d in self.damaged:
             lines.append(f"damaged    {d.describe()}")
+        if self.planned:
+            lines.append(
+                f"plan       {self.planned - self.missing} of {self.planned} planned trials "
+                f"stored" + (f", {self.missing} missing" if self.missing else "")
+            )
         for n in self.notes:
             lines.append(f"note       {n}")
-        if self.ok:
+        if self.sound:
             extra = " (batches without checksum: schema 1)" if self.unverified else ""
             lines.append("verdict    sound" + extra)
+        elif self.ok:
+            lines.append(
+                f"verdict    INCOMPLETE: {self.missing} of the {self.planned} planned trials "
+                f"are missing (an interrupted run or repair); `vectorid run {self.path}` "
+                "computes them"
+            )
         else:
             lines.append(
                 f"verdict    DAMAGED: `vectorid repair {self.path}` drops the damaged batches "
@@ -672,7 +693,7 @@ class Store:
             con.execute("PRAGMA journal_mode=DELETE")
             con.execute("PRAGMA page_size = 65536")
             con.execute("VACUUM")
-            con.execute("PRAGMA journal_mode=WAL")
+            # written in rollback-journal mode (a megabyte less of log), then WAL below
             with con:
                 con.execute(f"PRAGMA application_id = {APPLICATION_ID}")
                 con.execute(f"PRAGMA user_version = {SCHEMA_VERSION}")
@@ -703,6 +724,7 @@ class Store:
                 con.execute(
                     "INSERT INTO meta VALUES (?, ?)", _stage_checksum_row(0, "sample", 0, box)
                 )
+            con.execute("PRAGMA journal_mode=WAL")
         except BaseException as exc:
             if con is not None:
                 con.close()
@@ -715,6 +737,7 @@ class Store:
             raise
         store = cls(path, con, lock)
         store._spec = spec
+        store._trim_wal()  # creating wrote a megabyte of log: fold it in
         return store
 
     @classmethod
@@ -1046,6 +1069,13 @@ class Store:
     def meta(self) -> dict[str, str]:
         return dict(self._query("SELECT key, value FROM meta"))
 
+    def set_meta(self, rows: Mapping[str, str]) -> None:
+        """Set meta keys (text values) in one transaction."""
+        self._require_write()
+        with self._tx() as con:
+            con.executemany("INSERT OR REPLACE INTO meta VALUES (?, ?)", list(rows.items()))
+        self._trim_wal()
+
     def _write_study(self, spec_dict: Mapping[str, Any], base_dir: str | None = None) -> None:
         text = json.dumps(spec_dict)
         rows = [("study", text), ("study_checksum", f"{zlib.crc32(text.encode()):08x}")]
@@ -1258,6 +1288,20 @@ class Store:
             out.append((pos, end))
         return out
 
+    def missing_planned(self, target: int | None = None) -> int:
+        """Trials of the plan (sample stages up to the study's target) that no stored batch
+        holds: an interrupted run or repair leaves some; ``vectorid run STORE`` computes
+        them. Damaged batches count as held (``verify`` names them)."""
+        target = int(self.spec.trials if target is None else target)
+        sample = [s for s in self.stages() if s.kind == "sample"]
+        out = 0
+        for i, stage in enumerate(sample):
+            end = sample[i + 1].start_seq if i + 1 < len(sample) else target
+            end = min(end, target)
+            if end > stage.start_seq:
+                out += sum(b - a for a, b in self.missing(stage.stage, stage.start_seq, end))
+        return out
+
     def write_batch(
         self,
         stage: int,
@@ -1277,36 +1321,86 @@ class Store:
             Number of trials stored: ``len(X)``, or 0 when the range was stored already.
         """
         self._require_write()
-        n = int(X.shape[0])
-        if n == 0:
+        if int(X.shape[0]) == 0:
             return 0
-        blobs = [
-            _blob(X, "<f8"),
-            _blob(criteria, "<f8"),
-            _blob(functionals, "<f8"),
-            _blob(status, "i1"),
-            _blob(wall, "<f8"),
-        ]
-        checksum = batch_checksum(stage, seq_start, n, blobs)
         with self._tx() as con:
-            overlap = con.execute(
-                "SELECT 1 FROM blocks WHERE stage = ? AND seq_start < ? AND seq_start + n > ? "
-                "LIMIT 1",
-                (stage, seq_start + n, seq_start),
-            ).fetchone()
-            if overlap:
-                return 0
-            con.execute(
-                "INSERT INTO blocks (stage, seq_start, n, created, x, f, g, status, wall, "
-                "checksum) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
-                (stage, seq_start, n, time.time(), *blobs, checksum),
+            n = _insert_batch(
+                con, stage, seq_start, X, criteria, functionals, status, wall, messages
             )
-            if messages:
-                con.executemany(
-                    "INSERT OR REPLACE INTO failures VALUES (?, ?, ?)",
-                    [(stage, seq_start + int(i), m) for i, m in messages.items()],
-                )
+        if n:
+            self._trim_wal()
         return n
+
+    def replace_batches(
+        self, drop: Sequence[int], batches: Sequence[tuple[int, int, np.ndarray, Any]], why: str
+    ) -> int:
+        """Drop the batches ``drop`` and store ``batches`` (``(stage, seq_start, X,
+        EvalResult)``) in **one** transaction, logged in the run log: a process killed at any
+        moment leaves the store as it was before or as it is after (a crash-safe repair).
+        Returns the number of trials stored."""
+        self._require_write()
+        stored = 0
+        with self._tx() as con:
+            for block in drop:
+                row = con.execute(
+                    "SELECT stage, seq_start, n FROM blocks WHERE block = ?", (block,)
+                ).fetchone()
+                if row is None:
+                    continue
+                con.execute("DELETE FROM blocks WHERE block = ?", (block,))
+                stage, start, n = row
+                if all(isinstance(v, int) for v in row):
+                    con.execute(
+                        "DELETE FROM failures WHERE stage = ? AND seq >= ? AND seq < ? AND NOT "
+                        "EXISTS (SELECT 1 FROM blocks b WHERE b.stage = failures.stage AND "
+                        "failures.seq >= b.seq_start AND failures.seq < b.seq_start + b.n)",
+                        (stage, start, start + n),
+                    )
+            for stage, start, X, res in batches:
+                stored += _insert_batch(
+                    con,
+                    stage,
+                    start,
+                    X,
+                    res.criteria,
+                    res.functionals,
+                    res.status,
+                    res.wall if res.wall is not None else np.zeros(len(X)),
+                    res.messages,
+                )
+            con.execute(
+                "INSERT INTO runs (started, finished, pid, host, executor, workers, target, "
+                "outcome) VALUES (?, ?, ?, ?, 'repair', 0, NULL, ?)",
+                (time.time(), time.time(), os.getpid(), socket.gethostname(), why),
+            )
+        self._trim_wal()
+        return stored
+
+    #: The write-ahead log is folded into the store once it passes this share of the store's
+    #: size (and this many bytes at least), so that the files on disk stay within about 2x
+    #: the store's size during a run.
+    WAL_SHARE = 0.5
+    WAL_FLOOR = 1 << 18
+
+    def _trim_wal(self) -> None:
+        """Fold the write-ahead log into the store and truncate it when it has grown past
+        :data:`WAL_SHARE` of the store, if no reader holds an old snapshot (then it waits for
+        a later batch: a reader is never blocked, nor is the run)."""
+        try:
+            wal = os.path.getsize(f"{self.path}-wal")
+            main = os.path.getsize(self.path)
+        except OSError:
+            return
+        if wal <= max(self.WAL_SHARE * main, self.WAL_FLOOR):
+            return
+        try:
+            self._con.execute("PRAGMA busy_timeout = 0")
+            self._con.execute("PRAGMA wal_checkpoint(TRUNCATE)").fetchall()
+        except sqlite3.Error:
+            pass
+        finally:
+            with _suppress_sqlite():
+                self._con.execute("PRAGMA busy_timeout = 30000")
 
     def count(self, stage: int | None = None) -> int:
         """Number of stored trials (of one stage, or all; damaged batches included)."""
@@ -1583,6 +1677,11 @@ class Store:
                 )
         except StoreError as exc:
             rep.problems.append(f"the failure reasons cannot be read ({exc})")
+        try:
+            rep.planned = int(spec.trials)
+            rep.missing = self.missing_planned()
+        except StoreError as exc:
+            rep.problems.append(f"the plan cannot be read ({exc})")
         for stage, rs in ranges.items():
             rs.sort()
             for (_, a1), (b0, b1) in itertools.pairwise(rs):
@@ -1665,20 +1764,40 @@ class Store:
             )
             return int(cur.lastrowid)
 
-    def end_run(self, run: int, outcome: str) -> None:
+    def end_run(self, run: int, outcome: str, report: Mapping[str, Any] | None = None) -> None:
+        """Close a run record; ``report`` (failures, recovered model errors) is kept with
+        it (meta key ``run_report:RUN``) and shown by :meth:`runs`."""
         with self._tx() as con:
             con.execute(
                 "UPDATE runs SET finished = ?, outcome = ? WHERE run = ?",
                 (time.time(), outcome, run),
             )
+            if report:
+                con.execute(
+                    "INSERT OR REPLACE INTO meta VALUES (?, ?)",
+                    (f"run_report:{int(run)}", json.dumps(dict(report))),
+                )
 
     def runs(self) -> list[dict[str, Any]]:
+        """The run log, oldest first; a run's ``report`` (failures and the model errors it
+        recovered from) is None where none was kept."""
         try:
             cur = self._con.execute("SELECT * FROM runs ORDER BY run")
             names = [d[0] for d in cur.description]
-            return [dict(zip(names, row)) for row in cur.fetchall()]
+            out = [dict(zip(names, row)) for row in cur.fetchall()]
+            reports = dict(
+                self._con.execute(
+                    "SELECT key, value FROM meta WHERE key LIKE 'run_report:%'"
+                ).fetchall()
+            )
         except sqlite3.Error as exc:
             raise _sqlite_damage(self.path, exc) from None
+        for r in out:
+            try:
+                r["report"] = json.loads(reports.get(f"run_report:{r['run']}", "null"))
+            except ValueError:
+                r["report"] = None
+        return out
 
     # -- generations (sequential sampler) --------------------------------------------------
 
@@ -1770,6 +1889,56 @@ class Store:
                 )
             )
         return out
+
+
+def _insert_batch(
+    con: sqlite3.Connection,
+    stage: int,
+    seq_start: int,
+    X: np.ndarray,
+    criteria: np.ndarray,
+    functionals: np.ndarray,
+    status: np.ndarray,
+    wall: np.ndarray,
+    messages: Mapping[int, str] | None,
+) -> int:
+    """Insert one batch inside the caller's transaction; 0 when its range is held."""
+    n = int(X.shape[0])
+    if n == 0:
+        return 0
+    blobs = [
+        _blob(X, "<f8"),
+        _blob(criteria, "<f8"),
+        _blob(functionals, "<f8"),
+        _blob(status, "i1"),
+        _blob(wall, "<f8"),
+    ]
+    checksum = batch_checksum(stage, seq_start, n, blobs)
+    overlap = con.execute(
+        "SELECT 1 FROM blocks WHERE stage = ? AND seq_start < ? AND seq_start + n > ? LIMIT 1",
+        (stage, seq_start + n, seq_start),
+    ).fetchone()
+    if overlap:
+        return 0
+    con.execute(
+        "INSERT INTO blocks (stage, seq_start, n, created, x, f, g, status, wall, "
+        "checksum) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+        (stage, seq_start, n, time.time(), *blobs, checksum),
+    )
+    if messages:
+        con.executemany(
+            "INSERT OR REPLACE INTO failures VALUES (?, ?, ?)",
+            [(stage, seq_start + int(i), m) for i, m in messages.items()],
+        )
+    return n
+
+
+@contextmanager
+def _suppress_sqlite() -> Iterator[None]:
+    try:
+        yield
+    except sqlite3.Error:
+        pass
 
 
 @dataclass(frozen=True)
