@@ -20,7 +20,7 @@ from the truth. Every stage runs the sequential sampler (:mod:`vectorid.run.sequ
 Sobol trials first, then generations that move into D at the stated limits until it holds the
 population wanted with as large an effective sample size, or the budget is spent. Only a stage
 that does not get there relaxes its limits, as the named last resort
-(:func:`vectorid.analysis.relaxation.relax_study`: "limits relaxed xf — last resort: D at the
+(:func:`vectorid.run.extra.relax_study`: "limits relaxed xf — last resort: D at the
 stated limits was not reached"; the ranges read are then outer bounds). Every chosen vector is
 printed through the identifiability verdicts (:func:`vectorid.analysis.identifiability`): a
 value only for an identified gain, otherwise its range.

@@ -366,3 +366,22 @@ def test_dask_evaluates_generations_in_batches_like_serial(tmp_path):
         assert [g.n for g in a.generations()] == [g.n for g in b.generations()]
     np.testing.assert_array_equal(ta.X, tb.X)
     np.testing.assert_array_equal(ta.F, tb.F)
+
+
+def test_a_rebuilt_sequential_store_keeps_its_generations(tmp_path):
+    """repair's rebuild of a damaged file copies the generations (the weights need them)."""
+    from vectorid.run.repair import rebuild_copy
+
+    path = tmp_path / "rb.db"
+    with Store.create(path, slab_spec(budget=3000)) as st:
+        run_store(st, executor="inline", progress=False)
+        before = assess(st)
+        n_gens = len(st.generations())
+    assert n_gens > 1
+    tmp, lost, ranges = rebuild_copy(path)
+    assert not lost and not ranges
+    with Store.open(tmp) as copy:
+        assert len(copy.generations()) == n_gens
+        after = assess(copy)
+    np.testing.assert_array_equal(after.members, before.members)
+    np.testing.assert_allclose(after.log_w[after.members], before.log_w[before.members])

@@ -10,8 +10,9 @@ and f says how far the sampling is from resolving them. A relaxation is always p
 saved under its name ("limits relaxed xf — last resort: D at the stated limits was not
 reached"), never passed off as the stated limits.
 
-:func:`relaxed_limits` computes the factor from an analysis; :func:`relax_study` saves the
-relaxed limits (or the stated ones, where no relaxation is needed) in a study's store.
+:func:`relaxed_limits` computes the factor from an analysis (this module only reads);
+:func:`vectorid.run.extra.relax_study` saves the relaxed limits (or the stated ones, where no
+relaxation is needed) in a study's store.
 """
 
 from __future__ import annotations
@@ -27,7 +28,6 @@ __all__ = [
     "MIN_D",
     "RELAX_SHARE",
     "Relaxation",
-    "relax_study",
     "relaxation_text",
     "relaxed_limits",
 ]
@@ -104,7 +104,7 @@ def relaxed_limits(
 
 @dataclass
 class Relaxation:
-    """What :func:`relax_study` saved.
+    """What :func:`vectorid.run.extra.relax_study` saved.
 
     Attributes
     ----------
@@ -136,55 +136,3 @@ class Relaxation:
             f"{relaxation_text(self.factor)} ({self.n_at_limits} of {self.n_ok} successful "
             f"trials meet them; relaxed, D holds {self.n_needed})"
         )
-
-
-def relax_study(
-    study: Any,
-    limits: Mapping[str, float],
-    notes: Mapping[str, str] | None = None,
-    *,
-    share: float = RELAX_SHARE,
-    min_count: int = MIN_D,
-) -> Relaxation:
-    """Save in ``study`` the stated limits, or, where D under them is too small, relaxed ones.
-
-    The relaxed limits are saved as stand-ins (source ``quantile``) whose note names the
-    relaxation (:func:`relaxation_text`) and gives the stated limit; the stated ones keep
-    source ``noise`` and their ``notes``. No trial changes.
-
-    Parameters
-    ----------
-    study : vectorid.Study
-        An open study (write access).
-    limits : mapping
-        Criterion name -> stated limit Φ** (the criterion's unit).
-    notes : mapping, optional
-        Criterion name -> note of the stated limit (where it comes from).
-    share, min_count
-        As in :func:`relaxed_limits`.
-
-    Returns
-    -------
-    Relaxation
-    """
-    notes = dict(notes or {})
-    a0 = study.analysis(dict(limits))
-    f, lim = relaxed_limits(a0, limits, share=share, min_count=min_count)
-    n_ok = int(a0.ok.sum())
-    k = min(max(int(min_count), math.ceil(share * n_ok)), n_ok)
-    if f > 1.0:
-        src = {
-            c: (
-                "quantile",
-                f"stand-in, {relaxation_text(f)}: stated limit {limits[c]:.4g} "
-                f"({notes.get(c, 'stated')}) x {f:g}, the smallest common factor at which D "
-                f"holds {k} of {n_ok} trials (under the stated limits: {a0.n_feasible})",
-            )
-            for c in lim
-        }
-        study.store.set_limits(lim, sources=src)
-    else:
-        study.store.set_limits(
-            dict(limits), sources={c: ("noise", notes.get(c, "")) for c in limits}
-        )
-    return Relaxation(f, int(a0.n_feasible), k, n_ok)

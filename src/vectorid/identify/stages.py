@@ -21,7 +21,8 @@ from typing import Any
 
 import numpy as np
 
-from ..analysis.relaxation import Relaxation, relax_study, relaxation_text
+from ..analysis.relaxation import Relaxation, relaxation_text
+from ..run.extra import relax_study
 
 __all__ = ["Stage", "print_stage_limits", "print_verdicts", "run_stage"]
 
@@ -196,7 +197,7 @@ def run_stage(
     The stated limits (e.g. noise floors plus allowance) stay in force wherever D under them
     can be read. Only where it cannot (a plain table too sparse, or a sequential run that did
     not converge within its budget) are they relaxed by the smallest common factor that fills
-    D (:func:`vectorid.analysis.relaxation.relax_study`), saved and printed as the named last
+    D (:func:`vectorid.run.extra.relax_study`), saved and printed as the named last
     resort. Verdicts: :func:`vectorid.analysis.identifiability`; where the sequential sampler did
     not converge, no variable is called identified (its sample of D is not faithful).
 

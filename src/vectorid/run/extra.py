@@ -19,13 +19,22 @@ and stores.
 
 from __future__ import annotations
 
+import math
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
 
 from ..analysis._stages import find_trial
 from ..analysis.refine import RefineProposal
+from ..analysis.relaxation import (
+    MIN_D,
+    RELAX_SHARE,
+    Relaxation,
+    relaxation_text,
+    relaxed_limits,
+)
 from ..analysis.results import Analysis
 from ..analysis.robustness import Robustness, build_robustness, neighbourhood
 from ..analysis.sections import Section, check_range, section_points
@@ -33,7 +42,7 @@ from ..errors import StoreError
 from ..problem import EvalResult, Problem
 from ..store.sqlite import Stage, Store
 
-__all__ = ["apply_refine", "evaluate_and_store", "run_robustness", "run_section"]
+__all__ = ["apply_refine", "evaluate_and_store", "relax_study", "run_robustness", "run_section"]
 
 
 def evaluate_and_store(
@@ -188,3 +197,55 @@ def apply_refine(store: Store, proposal: RefineProposal) -> Stage:
     next sequence indices in the new box.
     """
     return store.add_stage(proposal.new, kind="sample", note=proposal.note())
+
+
+def relax_study(
+    study: Any,
+    limits: Mapping[str, float],
+    notes: Mapping[str, str] | None = None,
+    *,
+    share: float = RELAX_SHARE,
+    min_count: int = MIN_D,
+) -> Relaxation:
+    """Save in ``study`` the stated limits, or, where D under them is too small, relaxed ones.
+
+    The relaxed limits are saved as stand-ins (source ``quantile``) whose note names the
+    relaxation (:func:`relaxation_text`) and gives the stated limit; the stated ones keep
+    source ``noise`` and their ``notes``. No trial changes.
+
+    Parameters
+    ----------
+    study : vectorid.Study
+        An open study (write access).
+    limits : mapping
+        Criterion name -> stated limit Φ** (the criterion's unit).
+    notes : mapping, optional
+        Criterion name -> note of the stated limit (where it comes from).
+    share, min_count
+        As in :func:`relaxed_limits`.
+
+    Returns
+    -------
+    Relaxation
+    """
+    notes = dict(notes or {})
+    a0 = study.analysis(dict(limits))
+    f, lim = relaxed_limits(a0, limits, share=share, min_count=min_count)
+    n_ok = int(a0.ok.sum())
+    k = min(max(int(min_count), math.ceil(share * n_ok)), n_ok)
+    if f > 1.0:
+        src = {
+            c: (
+                "quantile",
+                f"stand-in, {relaxation_text(f)}: stated limit {limits[c]:.4g} "
+                f"({notes.get(c, 'stated')}) x {f:g}, the smallest common factor at which D "
+                f"holds {k} of {n_ok} trials (under the stated limits: {a0.n_feasible})",
+            )
+            for c in lim
+        }
+        study.store.set_limits(lim, sources=src)
+    else:
+        study.store.set_limits(
+            dict(limits), sources={c: ("noise", notes.get(c, "")) for c in limits}
+        )
+    return Relaxation(f, int(a0.n_feasible), k, n_ok)

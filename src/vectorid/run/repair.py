@@ -121,7 +121,7 @@ def rebuild_copy(path: Path) -> tuple[Path, list[str], list[tuple[int, int, int]
     """Copy every readable row of the store at ``path`` into ``PATH.rebuild`` (the store
     itself is not touched). Returns the copy's path, the rows that could not be read, and the
     sequence ranges of batches that could not be copied."""
-    from ..store.sqlite import _SCHEMA, APPLICATION_ID, SCHEMA_VERSION
+    from ..store.sqlite import _GENERATIONS, _SCHEMA, APPLICATION_ID, SCHEMA_VERSION
 
     tmp = path.with_name(path.name + ".rebuild")
     for suffix in ("", "-wal", "-shm"):
@@ -137,14 +137,27 @@ def rebuild_copy(path: Path) -> tuple[Path, list[str], list[tuple[int, int, int]
         dst.execute(f"PRAGMA application_id = {APPLICATION_ID}")
         dst.execute(f"PRAGMA user_version = {SCHEMA_VERSION}")
         dst.executescript(_SCHEMA)
+        dst.executescript(_GENERATIONS)
         try:
             cols = {r[1] for r in src.execute("PRAGMA table_info(blocks)")}
         except sqlite3.DatabaseError:
             cols = set()
-        for table in TABLES:
-            key = {"meta": "key", "stages": "stage", "blocks": "block", "runs": "run"}.get(
-                table, "rowid"
+        try:
+            sequential = bool(
+                src.execute(
+                    "SELECT 1 FROM sqlite_master WHERE type='table' AND name='generations'"
+                ).fetchone()
             )
+        except sqlite3.DatabaseError:
+            sequential = True  # unknown: try to read it (a failure is reported below)
+        for table in (*TABLES, "generations") if sequential else TABLES:
+            key = {
+                "meta": "key",
+                "stages": "stage",
+                "blocks": "block",
+                "runs": "run",
+                "generations": "gen",
+            }.get(table, "rowid")
             try:
                 keys = [r[0] for r in src.execute(f"SELECT {key} FROM {table}")]
             except sqlite3.DatabaseError as exc:
@@ -175,12 +188,44 @@ def rebuild_copy(path: Path) -> tuple[Path, list[str], list[tuple[int, int, int]
                     dst.execute(f"INSERT OR REPLACE INTO {table} VALUES ({marks})", row)
                 except sqlite3.DatabaseError as exc:
                     lost.append(f"{table} row {k!r} ({exc})")
+        _drop_blocks_without_messages(dst, lost, lost_ranges)
         dst.commit()
         dst.execute("PRAGMA journal_mode=WAL")
     finally:
         src.close()
         dst.close()
     return tmp, lost, lost_ranges
+
+
+def _drop_blocks_without_messages(
+    dst: sqlite3.Connection, lost: list[str], lost_ranges: list[tuple[int, int, int]]
+) -> None:
+    """Batches of the copy whose failed trials lost their failure messages (the failures
+    table, or some of its rows, could not be read) are dropped from the copy and their
+    ranges recomputed: a failed trial is never kept without its reason."""
+    rows = dst.execute("SELECT block, stage, seq_start, n, status FROM blocks").fetchall()
+    for block, stage, start, n, status in rows:
+        try:
+            failed = np.flatnonzero(np.frombuffer(status, dtype="i1") != 0)
+        except (TypeError, ValueError):
+            continue  # a damaged status array: verify names the batch and repair recomputes it
+        if not len(failed):
+            continue
+        have = {
+            r[0]
+            for r in dst.execute(
+                "SELECT seq FROM failures WHERE stage = ? AND seq >= ? AND seq < ?",
+                (stage, start, start + n),
+            )
+        }
+        if all(int(start + i) in have for i in failed):
+            continue
+        dst.execute("DELETE FROM blocks WHERE block = ?", (block,))
+        lost_ranges.append((int(stage), int(start), int(start + n)))
+        lost.append(
+            f"batch {block}: the failure messages of its failed trials could not be read "
+            "(recomputed)"
+        )
 
 
 def _lost_range(src: sqlite3.Connection, block: int, out: list[tuple[int, int, int]]) -> None:
