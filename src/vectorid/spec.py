@@ -218,6 +218,16 @@ class StudySpec:
                     f"name {n!r} is used more than once among variables, criteria and constraints",
                     "give each a unique name (they become column names)",
                 )
+        for i, c in enumerate(self.criteria):  # a noise floor needs noise: never "no limit"
+            if c.limit is None and c.limit_source == "noise" and "identification" not in self.extra:
+                raise StudyDefinitionError(
+                    f"criteria[{i}].limit",
+                    f'criterion {c.name!r} has limit = "noise", but this study states no noise '
+                    "(a noise floor is computed from an [identification] table: model, measured "
+                    "data and noise = { channel = σ })",
+                    "write a number (limit = 40.0), remove the limit, or add an [identification] "
+                    "table with a noise statement (docs/own-model.md)",
+                )
         object.__setattr__(self, "trials", _int("study.trials", self.trials, 1))
         object.__setattr__(self, "seed", _int("study.seed", self.seed, 0))
         if self.batch_size is not None:
