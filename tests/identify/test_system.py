@@ -1,0 +1,133 @@
+"""Identification of a model of your own (vectorid.identify.system) from the starting point
+``vectorid init own-model`` writes: records, criteria, noise floors, refusals, executors."""
+
+from __future__ import annotations
+
+import importlib.util
+import re
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from vectorid import Study, StudyDefinitionError, load_study
+from vectorid.builders import prepare_spec
+from vectorid.own_model import NOISE, TRUTH, write_own_model
+
+
+@pytest.fixture
+def own(tmp_path: Path):
+    write_own_model(tmp_path / "own")
+    yield tmp_path / "own"
+    for name in ("msd", "msd.dynamics", "msd.fast"):
+        sys.modules.pop(name, None)
+
+
+def _edit(folder: Path, old: str, new: str) -> Path:
+    path = folder / "study.toml"
+    text = path.read_text(encoding="utf-8")
+    assert re.search(old, text, flags=re.M), old
+    path.write_text(re.sub(old, new, text, count=1, flags=re.M), encoding="utf-8")
+    return path
+
+
+def test_noise_floor_limits_and_the_truth_meets_them(own):
+    spec = prepare_spec(load_study(own / "study.toml"))
+    lim = {c.name: c for c in spec.criteria}
+    assert lim["x_rms"].limit_source == "noise" and lim["x_rms"].unit == "m"
+    assert lim["a_rms"].unit == "m/s^2" and "0.2 m/s^2" in lim["a_rms"].limit_note
+    # the record is sampled on the comparison grid: the floor of an RMS residual is the RMS
+    # of 61 noise samples at its joint-95 % quantile, a little above σ
+    assert NOISE["x"] < lim["x_rms"].limit < 1.4 * NOISE["x"]
+    assert NOISE["a"] < lim["a_rms"].limit < 1.4 * NOISE["a"]
+    prob = spec.problem()
+    truth = np.array([[TRUTH[v] for v in spec.space.names]])
+    far = truth * [1.1, 1.5, 0.9]
+    F = prob.evaluate(np.vstack([truth, far])).criteria
+    limits = np.array([lim["x_rms"].limit, lim["a_rms"].limit])
+    assert (F[0] <= limits).all(), F[0]
+    assert (F[1] > limits).all(), F[1]
+
+
+def test_own_criteria_definitions_and_functions(own):
+    (own / "mycrit.py").write_text(
+        "import numpy as np\n"
+        "def peak(sim, meas, t):\n"
+        "    return np.abs(sim.max(axis=(1, 2)) - meas.max())\n",
+        encoding="utf-8",
+    )
+    path = _edit(own, r'^name = "a_rms".*$', 'name = "a_peak"')
+    text = path.read_text(encoding="utf-8") + (
+        '\n[identification.criteria.a_peak]\nchannel = "a"\nuse = "mycrit:peak"\n'
+    )
+    path.write_text(text, encoding="utf-8")
+    sys.path.insert(0, str(own))
+    try:
+        spec = prepare_spec(load_study(path))
+    finally:
+        sys.path.remove(str(own))
+    c = {c.name: c for c in spec.criteria}["a_peak"]
+    assert c.limit_source == "noise" and c.limit > 0  # a Monte Carlo of the user's function
+    F = spec.problem().evaluate(np.array([[TRUTH[v] for v in spec.space.names]])).criteria
+    assert F.shape == (1, 2) and np.isfinite(F).all()
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "message"),
+    [
+        (r"^units = .*$", "", r"data\[0\]\.units.*must be stated"),
+        (r"^columns = .*$", 'columns = { x = "x_cm", a = "a" }', r"no column 'x_cm'"),
+        (r"^units = .*$", 'units = { x = "inch", a = "m/s^2" }', r"'inch'.*no conversion"),
+        (r'^name = "x_rms".*$', 'name = "x_mean"', r"neither <channel>_<kind>"),
+        (r"^dt = 0.01 .*$", "dt = 0.01\nwind_realisations = 4", r"does not apply to model"),
+        (r"^noise = .*$", "noise = { x = 0.002 }", r"no noise is stated for its channel 'a'"),
+        (r"^noise = .*$", "noise = { y = 0.002 }", r"'y' is not an output channel"),
+        (r"^initial = .*$", "initial = { x = 0.02, w = 1.0 }", r"initial\.w.*unknown key"),
+        (r"^window = .*$", "window = [0.0, 60.0]", r"not inside the record's time span"),
+        (r"^output_dt = 0.1 .*$", "output_dt = 0.015", r"whole multiple of dt"),
+    ],
+)
+def test_bad_study_fields_are_refused_with_the_fix(own, old, new, message):
+    path = _edit(own, old, new)
+    with pytest.raises(StudyDefinitionError, match=message):
+        prepare_spec(load_study(path)).problem()
+
+
+def test_bad_record_rows_are_refused(own):
+    lines = (own / "run1.csv").read_text(encoding="utf-8").splitlines()
+    bad = [*lines[:10], lines[10].replace(lines[10].split(",")[1], "nan"), *lines[11:]]
+    (own / "run1.csv").write_text("\n".join(bad) + "\n", encoding="utf-8")
+    with pytest.raises(StudyDefinitionError, match=r"line \d+, column 'x_mm'.*finite number"):
+        load_study(own / "study.toml").problem()
+    back = [*lines[:10], lines[12], lines[11], *lines[13:]]
+    (own / "run1.csv").write_text("\n".join(back) + "\n", encoding="utf-8")
+    with pytest.raises(StudyDefinitionError, match="does not increase"):
+        load_study(own / "study.toml").problem()
+
+
+def test_numba_kernel_matches_the_numpy_model(own):
+    sys.path.insert(0, str(own))
+    try:
+        from msd.dynamics import MassSpringDamper
+        from msd.fast import MassSpringDamperNumba
+    finally:
+        sys.path.remove(str(own))
+    P = np.array([[1.2, 0.8, 42.0], [0.9, 1.5, 35.0], [1.5, 0.2, 50.0]])
+    kw = dict(t_final=6.0, dt=0.01, output_dt=0.1, initial={"x": 0.02})
+    a = MassSpringDamper().simulate(P, **kw)
+    b = MassSpringDamperNumba().simulate(P, **kw)
+    np.testing.assert_allclose(b.outputs, a.outputs, rtol=1e-9, atol=1e-12)
+
+
+@pytest.mark.skipif(importlib.util.find_spec("distributed") is None, reason="needs dask")
+@pytest.mark.parametrize("executor", ["processes", "dask"])
+def test_every_executor_imports_the_model_by_path(own, tmp_path, executor):
+    path = _edit(own, r"^trials = .*$", "trials = 64")
+    spec = load_study(path)
+    with Study.create(spec, tmp_path / f"{executor}.db") as s:
+        s.run(executor=executor, workers=2, batch_size=16)
+        t = s.trials()
+    ref = spec.problem().evaluate(spec.space.scale(spec.sampler_for().points(0, 64)))
+    assert (t.status == 0).all() and len(t.F) == 64
+    np.testing.assert_array_equal(t.F, ref.criteria)
