@@ -218,6 +218,17 @@ class StudySpec:
                     f"name {n!r} is used more than once among variables, criteria and constraints",
                     "give each a unique name (they become column names)",
                 )
+        scheme = self.model.partition(":")[0].strip() if isinstance(self.model, str) else ""
+        for key, kind, example in (
+            ("command", "cmd", 'model = "cmd"'),
+            ("fmu", "fmu", 'model = "fmu:model.fmu"'),
+        ):
+            if getattr(self, key) is not None and scheme != kind:
+                raise StudyDefinitionError(  # never ignored silently
+                    f"study.{key}",
+                    f"{key} applies to a {kind!r} model only, but the model is {self.model!r}",
+                    f"write {example} to use it, or remove {key}",
+                )
         for i, c in enumerate(self.criteria):  # a noise floor needs noise: never "no limit"
             if c.limit is None and c.limit_source == "noise" and "identification" not in self.extra:
                 raise StudyDefinitionError(
