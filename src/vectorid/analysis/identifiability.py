@@ -324,7 +324,7 @@ def _judge(
     hint: str,
     clipped: str = "",
 ) -> tuple[str, str, str]:
-    excite = hint or "a drop or manoeuvre that excites it (e.g. a controlled drop)"
+    excite = hint or "data that excite it (another record, manoeuvre or drop)"
     more = (
         f"add a criterion sensitive to {name}, {excite}, or a longer window "
         "(more of the motion it shapes)"
