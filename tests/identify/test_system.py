@@ -131,3 +131,23 @@ def test_every_executor_imports_the_model_by_path(own, tmp_path, executor):
     ref = spec.problem().evaluate(spec.space.scale(spec.sampler_for().points(0, 64)))
     assert (t.status == 0).all() and len(t.F) == 64
     np.testing.assert_array_equal(t.F, ref.criteria)
+
+
+def test_verbs_on_an_own_model_store_report_and_thin_verdicts(own, tmp_path, capsys):
+    from vectorid.cli import main
+
+    path = _edit(own, r"^trials = .*$", "trials = 256")
+    store = tmp_path / "s.db"
+    assert main(["run", str(path), "--store", str(store), "--executor", "serial", "--quiet"]) == 0
+    capsys.readouterr()
+    # 256 trials leave D nearly empty: the verdicts say it rather than call anything identified
+    assert main(["identifiability", str(store), "--json"]) == 0
+    import json
+
+    doc = json.loads(capsys.readouterr().out)
+    assert all(p["verdict"] != "identified" for p in doc["parameters"])
+    assert all(p["thin"] or p["feasible"] is None for p in doc["parameters"])
+    out = tmp_path / "r.html"
+    assert main(["report", str(store), "--out", str(out)]) == 0
+    html = out.read_text(encoding="utf-8")
+    assert "Record run1: measured and simulated" in html and "mass-spring-damper" in html
