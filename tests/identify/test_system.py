@@ -6,6 +6,7 @@ from __future__ import annotations
 import importlib.util
 import re
 import sys
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -151,3 +152,66 @@ def test_verbs_on_an_own_model_store_report_and_thin_verdicts(own, tmp_path, cap
     assert main(["report", str(store), "--out", str(out)]) == 0
     html = out.read_text(encoding="utf-8")
     assert "Record run1: measured and simulated" in html and "mass-spring-damper" in html
+
+
+def test_library_criteria_apply_to_an_output_of_their_channel(tmp_path):
+    (tmp_path / "fall.py").write_text(
+        "import numpy as np\n"
+        "from vectorid.models import Channel, Parameter, SystemModel\n\n"
+        "class Fall(SystemModel):\n"
+        '    parameters = (Parameter("rate", 5.0, 1.0, 9.0, "m/s", "descent rate"),)\n'
+        '    states = (Channel("altitude", "m", "height", default=100.0),)\n\n'
+        "    def rhs(self, t, x, p):\n"
+        "        return -p[:, :1] * np.ones_like(x)\n",
+        encoding="utf-8",
+    )
+    rng = np.random.default_rng(3)
+    t = np.arange(0.0, 10.01, 0.1)
+    h = 100.0 - 5.0 * t + rng.normal(0.0, 0.5, t.size)
+    np.savetxt(
+        tmp_path / "h.csv", np.column_stack([t, h]), delimiter=",", header="t,h", comments=""
+    )
+    (tmp_path / "fall.toml").write_text(
+        textwrap.dedent(
+            """
+            [study]
+            name = "fall"
+            model = "fall:Fall"
+            trials = 64
+
+            [[variables]]
+            name = "rate"
+            low = 1.0
+            high = 9.0
+
+            [[criteria]]
+            name = "alt_abs"
+            [[criteria]]
+            name = "rate_fit"
+
+            [identification]
+            dt = 0.1
+            output_dt = 0.2
+            noise = { altitude = 0.5 }
+            limits = "noise"
+
+            [identification.criteria.rate_fit]
+            use = "vz_abs"
+
+            [[identification.data]]
+            file = "h.csv"
+            columns = { altitude = "h" }
+            units = { altitude = "m" }
+            """
+        ),
+        encoding="utf-8",
+    )
+    try:
+        spec = prepare_spec(load_study(tmp_path / "fall.toml"))
+        crit = {c.name: c for c in spec.criteria}
+        assert crit["alt_abs"].unit == "m·s" and crit["rate_fit"].unit == "m"
+        F = spec.problem().evaluate(np.array([[5.0], [6.0]])).criteria
+        lim = np.array([crit["alt_abs"].limit, crit["rate_fit"].limit])
+        assert (F[0] <= lim).all() and (F[1] > lim).any()
+    finally:
+        sys.modules.pop("fall", None)

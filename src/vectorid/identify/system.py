@@ -53,8 +53,11 @@ The study file
 
 Criteria (residual r = simulated − measured channel on the comparison grid, t0..tf):
 ``abs`` ∫|r| dt (unit·s), ``sq`` ∫r² dt (unit²·s), ``rms`` √(∫r² dt / (tf − t0)) (unit),
-``max`` max|r| (unit). A criterion of your own is ``use = "package.module:function"`` with
-``function(sim (n, T, m), meas (T, m), t (T,)) -> (n,)``, smaller is closer.
+``max`` max|r| (unit). A criterion of the flight library (:data:`vectorid.identify.CRITERIA`)
+that reads a one-component channel applies to an output of that name (``alt_abs``,
+``vz_abs`` on an ``altitude`` output, in m). A criterion of your own is
+``use = "package.module:function"`` with ``function(sim (n, T, m), meas (T, m), t (T,)) -> (n,)``,
+smaller is closer.
 
 The noise floor of a criterion is a seeded Monte Carlo of the twin experiment the noise
 statement describes: the model at the reference vector (the variables' nominal values, else
@@ -640,6 +643,9 @@ def _build_criterion(
     name: str, spec: Mapping[str, Any] | None, model: SystemModel, records: Sequence[Record]
 ) -> _Crit:
     outs = model.output_names
+    libdef = _library_criterion(name if spec is None else spec.get("use"), outs)
+    if libdef is not None and (spec is None or "channel" not in spec):
+        spec = {**(spec or {}), "channel": libdef.channel, "use": libdef.name}
     if spec is None:
         ch, _, kind = name.rpartition("_")
         if ch not in outs or kind not in KINDS:
@@ -686,6 +692,8 @@ def _build_criterion(
                 "with data = [...]",
             )
     unit = model.unit_of(ch)
+    if libdef is not None and libdef.channel == ch:
+        return _Crit(name, ch, use, libdef.fn, libdef.unit, data, False)
     if use in KINDS:
         return _Crit(name, ch, use, _kind_fn(use), KINDS[use][1].format(u=unit), data, True)
     if ":" not in use:
@@ -695,6 +703,30 @@ def _build_criterion(
             suggest(use, list(KINDS)) + ', or a function of your own "package.module:function"',
         )
     return _Crit(name, ch, use, _user_fn(name, use), "", data, False)
+
+
+def _library_criterion(use: Any, outputs: Sequence[str]):
+    """The flight library's criterion ``use`` when it reads a one-component channel that the
+    model outputs under the library's name (e.g. ``alt_abs`` on an ``altitude`` output), else
+    None."""
+    from vectorid.identify import criteria as lib
+
+    if not isinstance(use, str) or use in KINDS:
+        return None
+    try:
+        cdef = lib.get_criterion(use)
+    except lib.CriterionError:
+        return None
+    if cdef.channel not in outputs:
+        return None
+    if lib._MIN_COLS.get(cdef.channel, 1) > 1:
+        raise _err(
+            f"criteria.{use}",
+            f"library criterion {use!r} reads the {lib._MIN_COLS[cdef.channel]}-component "
+            f"channel {cdef.channel!r}; an own model's channels are scalars",
+            "use a residual kind (abs, sq, rms, max) on each component's channel",
+        )
+    return cdef
 
 
 # -- resolving the model of a study ------------------------------------------------------------
