@@ -215,3 +215,17 @@ def test_library_criteria_apply_to_an_output_of_their_channel(tmp_path):
         assert (F[0] <= lim).all() and (F[1] > lim).any()
     finally:
         sys.modules.pop("fall", None)
+
+
+def test_an_edited_record_is_caught_before_a_trial_is_added(own, tmp_path, capsys):
+    from vectorid.cli import main
+
+    path = _edit(own, r"^trials = .*$", "trials = 32")
+    args = ["run", str(path), "--store", str(tmp_path / "s.db"), "--executor", "serial"]
+    assert main([*args, "--quiet"]) == 0
+    rec = own / "run1.csv"
+    rec.write_text(rec.read_text(encoding="utf-8").replace("\n0.100,", "\n0.100,1"), "utf-8")
+    capsys.readouterr()
+    assert main([*args, "--trials", "64", "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "identification.data[0].file" in err and "content differs" in err
