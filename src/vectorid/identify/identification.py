@@ -13,6 +13,8 @@ Fig. 2) are functionals: the mean over realisations and the worst drop.
 
 The ``[identification]`` table of a study file
 ----------------------------------------------
+(For a model of your own, a :class:`~vectorid.models.SystemModel`, the table holds
+``[[identification.data]]`` records instead of drops: see :mod:`vectorid.identify.system`.)
 ::
 
     [study]

@@ -382,9 +382,11 @@ class SystemIdentification:
 
     @property
     def criterion_names(self) -> list[str]:
+        """The study's criteria, in column order."""
         return [c.name for c in self.criteria]
 
     def record(self, name: str) -> Record:
+        """The record called ``name``."""
         for r in self.records:
             if r.name == name:
                 return r

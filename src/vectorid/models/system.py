@@ -158,6 +158,7 @@ class SystemModel(abc.ABC):  # noqa: B024 - either hook (rhs or _simulate) is th
 
     @property
     def input_names(self) -> tuple[str, ...]:
+        """Control inputs: none (a SystemModel takes its known inputs as model options)."""
         return ()
 
     @property
