@@ -87,6 +87,8 @@ def test_own_criteria_definitions_and_functions(own):
         (r"^initial = .*$", "initial = { x = 0.02, w = 1.0 }", r"initial\.w.*unknown key"),
         (r"^window = .*$", "window = [0.0, 60.0]", r"not inside the record's time span"),
         (r"^output_dt = 0.1 .*$", "output_dt = 0.015", r"whole multiple of dt"),
+        (r"^limits = .*$", "noise_draws = 500", r"noise_draws shapes noise-floor limits.*no"),
+        (r"^limits = .*$", 'limits = "floor"', r'limits.*expected "noise"'),
     ],
 )
 def test_bad_study_fields_are_refused_with_the_fix(own, old, new, message):

@@ -1207,6 +1207,16 @@ def noise_limits(
         or (s["limits"] == "noise" and c.limit is None)
     ]
     if not targets:
+        table = spec.extra["identification"]
+        unused = [k for k in ("noise_quantile", "noise_coverage", "noise_draws", "noise_seed")
+                  if k in table]  # fmt: skip
+        if unused and _own_model(spec):  # a setting that changes nothing is an error
+            raise _err(
+                unused[0],
+                f"{unused[0]} shapes noise-floor limits, but no criterion is limited by the "
+                "noise",
+                f'add limits = "noise" (or limit = "noise" to a criterion), or remove {unused[0]}',
+            )
         return {}
     if ident is None:
         ident = Identification.from_spec(spec)
