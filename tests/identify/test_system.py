@@ -231,3 +231,19 @@ def test_an_edited_record_is_caught_before_a_trial_is_added(own, tmp_path, capsy
     assert main([*args, "--trials", "64", "--quiet"]) == 2
     err = capsys.readouterr().err
     assert "identification.data[0].file" in err and "content differs" in err
+
+
+def test_estimated_noise_is_close_to_the_stated_one(own):
+    path = _edit(own, r"^noise = .*$", 'noise = "estimate"')
+    spec = prepare_spec(load_study(path))
+    c = {c.name: c for c in spec.criteria}
+    assert "x estimated σ" in c["x_rms"].limit_note and "a estimated σ" in c["a_rms"].limit_note
+    stated = prepare_spec(
+        load_study(_edit(own, r'^noise = "estimate"', "noise = { x = 0.002, a = 0.2 }"))
+    )
+    s = {c.name: c.limit for c in stated.criteria}
+    # 10 Hz samples of a 1 Hz oscillation: the third differences hold some of the signal
+    # (A ω³ Δt³), so the estimate is high, never low: wider limits, a larger D (the
+    # tutorial says to sample well above the motion's frequencies for "estimate")
+    assert s["x_rms"] <= c["x_rms"].limit < 3 * s["x_rms"]
+    assert s["a_rms"] * 0.7 <= c["a_rms"].limit < 3 * s["a_rms"]
