@@ -15,7 +15,7 @@ re-run):
 
   ============== ===========================================================================
   identified     w <= 0.25, D holds at least ``min_feasible`` trials (by default
-                 max(20, 2p + 1) for p variables: see "thin sets" below), and D stays off
+                 max(10, 2p + 1) for p variables: see "thin sets" below), and D stays off
                  both box edges (a range that touches the box may continue beyond it)
   weak           0.25 < w <= 0.6; or w <= 0.25 but D touches a box edge (of the study
                  box, or of a refined stage's box that cut the range: the sampling, not the
@@ -26,12 +26,15 @@ re-run):
 
 **Thin sets.** A range [min, max] over N points understates the spread of the set they
 were drawn from: N points drawn uniformly over an interval span on average (N - 1)/(N + 1)
-of it, so 20 points show about 90 % of D's width along a variable and 6 points only 71 %;
-in p dimensions a set needs at least 2p + 1 points to have one on each side of its centre
-along every axis. Below ``min_feasible`` = max(20, 2p + 1) members the verdict is at best
+of it, so 10 points show about 82 % of D's width along a variable (the shortfall is then
+of the order of the spread between neighbouring trials) and 6 points only 71 %; and in p
+dimensions a set needs at least 2p + 1 points to have one on each side of its centre along
+every axis. Below ``min_feasible`` = max(10, 2p + 1) members the verdict is at best
 "weak", ``thin`` is set, and the reason says how many members D holds and how many it
 needs; the suggestion is more trials (``vectorid run STUDY --trials N``), the sequential
-sampler (``[study] sampler = "sequential"``) or a refined box.
+sampler (``[study] sampler = "sequential"``) or a refined box. (A larger number would be
+safer still, e.g. 20 for 90 %; 10 is the least at which a range is more the data's than
+the sampling's, and the two-step's quantile stand-in already aims at 20.)
 
 The thresholds are arguments (``identified``, ``weak``). With noise-grounded limits
 (:mod:`vectorid.identify.noise`) D is the set of vectors the data cannot tell from the truth,
@@ -189,7 +192,7 @@ def identifiability(
     identified, weak : float
         Thresholds on width(feasible) / width(box).
     min_feasible : int, optional
-        Fewer trials in D cannot show its spread: at best "weak" (default max(20, 2p + 1)
+        Fewer trials in D cannot show its spread: at best "weak" (default max(10, 2p + 1)
         for p design variables; see "thin sets" in the module docstring).
     meanings : mapping, optional
         Variable name -> what it is (shown beside the name).
@@ -418,8 +421,8 @@ def _clipped(a: Analysis, j: int, stages: Sequence[Any] | None, box: tuple[float
 
 def thin_threshold(p: int) -> int:
     """Members of D a verdict needs to show a spread, for p design variables:
-    max(20, 2p + 1) (see "thin sets" in the module docstring)."""
-    return max(20, 2 * int(p) + 1)
+    max(10, 2p + 1) (see "thin sets" in the module docstring)."""
+    return max(10, 2 * int(p) + 1)
 
 
 def verdicts_json(verdicts: list[ParameterVerdict]) -> dict[str, Any]:
