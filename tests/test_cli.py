@@ -1,8 +1,10 @@
 """The CLI verbs on a small study, including --json (a contract)."""
 
+import argparse
 import csv
 import io
 import json
+import re
 import shutil
 import subprocess
 import sys
@@ -99,12 +101,32 @@ def test_export_all_formats(ran, tmp_path, capsys):
     rows = list(csv.DictReader(io.StringIO(out)))
     assert len(rows) == 128
     assert list(rows[0])[:6] == ["id", "seq", "stage", "status", "message", "wall_time"]
-    assert list(rows[0])[6:] == ["x1", "x2", "x3", "f1", "f2", "g"]
+    assert list(rows[0])[6:] == [
+        "x1", "x2", "x3", "f1", "f2", "g", "functional_ok", "feasible", "pareto",
+    ]  # fmt: skip
     failed = [r for r in rows if r["status"] == "failed"]
     assert failed and all(r["message"] for r in failed)
+    # the flags are those of `vectorid pareto` under the same constraints
+    _, out_p, _ = run_cli(capsys, "pareto", ran, "--json")
+    doc = json.loads(out_p)
+    assert sum(r["feasible"] == "true" for r in rows) == doc["n_feasible"] > 0
+    assert {int(r["id"]) for r in rows if r["pareto"] == "true"} == {p["id"] for p in doc["pareto"]}
+    assert all(r["feasible"] == "false" for r in failed)
+    _, out_l, _ = run_cli(capsys, "export", ran, "--limit", "f1<=0.5")
+    rows_l = list(csv.DictReader(io.StringIO(out_l)))
+    assert all(float(r["f1"]) <= 0.5 for r in rows_l if r["feasible"] == "true")
+    assert sum(r["feasible"] == "true" for r in rows_l) < doc["n_feasible"]
+    # each limit with its source
+    _, out_c, _ = run_cli(capsys, "export", ran, "--constraints", "--limit", "f1<=0.9")
+    cons = {r["name"]: r for r in csv.DictReader(io.StringIO(out_c))}
+    assert cons["f2"]["source"] == "expert" and cons["f2"]["value"] == "1.0"
+    assert cons["f1"]["source"] == "analysis" and cons["f1"]["bound"] == "<="
+    assert cons["g"]["source"] == "study" and cons["g"]["value"] == "1.5"
     code, out, _ = run_cli(capsys, "export", ran, "--format", "json")
     doc = json.loads(out)
     assert len(doc["trials"]) == 128 and doc["columns"][0] == "id"
+    assert isinstance(doc["trials"][0]["feasible"], bool)
+    assert {c["name"]: c["source"] for c in doc["constraints"]}["f2"] == "expert"
     pq = tmp_path / "t.parquet"
     code, _, err = run_cli(capsys, "export", ran, "--format", "parquet", "--out", pq)
     assert code == 0 and "128 trials" in err
@@ -113,6 +135,9 @@ def test_export_all_formats(ran, tmp_path, capsys):
     table = pqm.read_table(pq)
     assert table.num_rows == 128
     np.testing.assert_array_equal(table.column("id").to_numpy(), np.arange(1, 129))
+    assert table.column("pareto").to_numpy().sum() == len(json.loads(out_p)["pareto"])
+    meta = json.loads(table.schema.metadata[b"vectorid.constraints"])
+    assert {c["name"] for c in meta} == {"f2", "g"}
 
 
 @pytest.mark.parametrize(
@@ -227,3 +252,30 @@ def test_save_limits_persists_and_reruns_keep_working(ran, user_study, capsys):
     code, out, _ = run_cli(capsys, "run", user_study, "--store", ran, "--executor", "serial",
                            "--trials", 130, "--quiet")  # fmt: skip
     assert code == 0 and "2 trials computed" in out
+
+
+def test_help_lists_every_verb_once_grouped_by_workflow(capsys):
+    from vectorid.cli import VERB_GROUPS, _parser
+
+    with pytest.raises(SystemExit) as info:
+        main(["--help"])
+    assert info.value.code == 0
+    out = capsys.readouterr().out
+    assert out.startswith("usage: vectorid [-h] [--version] COMMAND ...")
+    sub = next(a for a in _parser()._actions if isinstance(a, argparse._SubParsersAction))
+    verbs = set(sub.choices)
+    grouped = [v for _, vs in VERB_GROUPS for v in vs]
+    assert len(grouped) == len(set(grouped)), "a verb is in two groups"
+    assert verbs == set(grouped), (
+        f"verbs without a group in vectorid.cli.VERB_GROUPS: {sorted(verbs - set(grouped))}; "
+        f"groups naming no verb: {sorted(set(grouped) - verbs)}"
+    )
+    assert "\nother:" not in out
+    titles = [t for t, _ in VERB_GROUPS]
+    assert titles == ["set up", "run", "analyse", "identify from flight data", "view"]
+    at = [out.index(f"\n{t}:\n") for t in titles]
+    assert at == sorted(at)  # in the order of the work
+    for title, vs in VERB_GROUPS:  # each verb, with its help, under its own title
+        block = out[out.index(f"\n{title}:\n") :].split("\n\n", 1)[0]
+        for v in vs:
+            assert re.search(rf"^  {re.escape(v)}\s", block, re.M), f"{v} not under {title}"

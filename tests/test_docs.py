@@ -1,6 +1,6 @@
 """Documentation that is executed: every code block of README.md and docs/*.md.
 
-The convention (also in README, "Contributing: documentation that runs"):
+The convention (also in docs/contributing.md, "Documentation that runs"):
 
 * Every fenced block has a language. ``bash``/``sh``/``shell``/``console`` blocks are run with
   bash (``set -e``, so every line must succeed); ``python`` blocks are saved as a script and
@@ -166,7 +166,7 @@ def _make_clone(folder: Path) -> dict[str, str]:
     (shims / "python3").write_text(_PYTHON3.format(python=sys.executable), encoding="utf-8")
     for f in [*bin_.iterdir(), *shims.iterdir()]:
         f.chmod(0o755)
-    for name in ("examples", "scripts"):  # what a clone has beside the package
+    for name in ("examples", "scripts", "docs"):  # what a clone has beside the package
         (folder / name).symlink_to(ROOT / name, target_is_directory=True)
     shared = ROOT.parent / "shared"
     if shared.is_dir() and not (folder.parent / "shared").exists():
@@ -422,6 +422,46 @@ def test_ci_runs_the_readme_test_command():
     assert command in [line.strip() for line in ci], (
         f".ci/run must run the README's test command exactly: {command}"
     )
+
+
+def _titles(path: Path) -> list[str]:
+    """The level-1 headings of a markdown file, outside code blocks."""
+    fenced = {n for b in blocks(path) for n in range(b.line, b.line + b.text.count("\n") + 1)}
+    lines = path.read_text(encoding="utf-8").splitlines()
+    return [s[2:].strip() for i, s in enumerate(lines, 1) if s.startswith("# ") and i not in fenced]
+
+
+#: The README is the first hour: what vectorid is, the two commands, a tour and links.
+README_MAX_LINES = 250
+_LINK = re.compile(r"\]\(([^)\s]+)\)")
+
+
+def test_readme_is_short_and_every_local_link_resolves():
+    readme = ROOT / "README.md"
+    n = len(readme.read_text(encoding="utf-8").splitlines())
+    assert n <= README_MAX_LINES, (
+        f"README.md has {n} lines (at most {README_MAX_LINES}): move details to a page of docs/"
+    )
+    broken = []
+    for doc in DOCS:
+        fenced = {i for b in blocks(doc) for i in range(b.line, b.line + b.text.count("\n") + 1)}
+        for i, line in enumerate(doc.read_text(encoding="utf-8").splitlines(), 1):
+            for target in _LINK.findall(line) if i not in fenced else ():
+                path = target.split("#", 1)[0]
+                if path and "://" not in path and not path.startswith("mailto:"):
+                    if not (doc.parent / path).exists():
+                        broken.append(f"{doc.relative_to(ROOT)}:{i}: {target}")
+    assert not broken, "links to files that do not exist:\n" + "\n".join(broken)
+
+
+def test_each_doc_has_one_title_and_no_two_share_one():
+    titles = {p.name: _titles(p) for p in DOCS}
+    several = {k: v for k, v in titles.items() if len(v) != 1}
+    assert not several, f"each doc needs exactly one '# ' title: {several}"
+    seen: dict[str, str] = {}
+    for name, (title,) in titles.items():
+        assert title not in seen, f"{name} and {seen[title]} share the title {title!r}"
+        seen[title] = name
 
 
 def test_block_parser_sees_directives_and_languages(tmp_path):

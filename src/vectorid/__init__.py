@@ -1,14 +1,22 @@
 """vectorid: multicriteria (vector) parametric identification by the PSI method.
 
-The public face is small::
+The public face is small, and everything a user needs is importable from ``vectorid``:
 
-    from vectorid import Study, StudySpec, load_study, Continuous, Integer, Choice, Space
-    from vectorid import Criterion, FunctionalConstraint, Problem, as_batch, pareto_mask
+- define a study: :class:`StudySpec` (or :func:`load_study` of a TOML file), :class:`Space`
+  of :class:`Continuous`, :class:`Integer` and :class:`Choice` variables, :class:`Criterion`,
+  :class:`FunctionalConstraint`, :class:`Problem`, :func:`as_batch`, :class:`Sampler`;
+- run it and keep it: :class:`Study` (``Study.create``, ``Study.open``,
+  ``Study.create_or_open``, ``study.run``) with its :class:`RunSummary`; the stored trials
+  as arrays, :class:`Trials`;
+- analyse it: :class:`Analysis` (the feasible set D and the Edgeworth–Pareto set as bool
+  masks, test tables (:class:`TestTable`), why D is empty (:class:`EmptyDiagnosis`), pandas
+  frames with the flags), :class:`Bound`, :func:`pareto_mask`;
+- judge it: :func:`identifiability` and its :class:`ParameterVerdict` per design variable;
+- errors: :class:`VectoridError` and its kinds.
 
-Subpackages: :mod:`vectorid.analysis` (tables, feasible and Pareto sets),
-:mod:`vectorid.store` (SQLite study store), :mod:`vectorid.run` (executors),
-:mod:`vectorid.analytic` (test problems with known Pareto sets), :mod:`vectorid.models`
-(flight-dynamics models).
+Subpackages for more: :mod:`vectorid.models` (flight-dynamics models and the model protocol),
+:mod:`vectorid.identify` (flight data, adequacy criteria), :mod:`vectorid.analysis` (the whole
+analysis toolkit), :mod:`vectorid.analytic` (test problems with known Pareto sets).
 
 The names are imported on first use (PEP 562), so ``vectorid --help`` and the analysis
 verbs start without loading numba, scipy or the models they do not need.
@@ -24,6 +32,13 @@ __version__ = "0.1.0"
 #: Public name -> module (relative to this package) that defines it.
 _EXPORTS = {
     "Analysis": ".analysis.results",
+    "Bound": ".analysis.results",
+    "EmptyDiagnosis": ".analysis.results",
+    "TestTable": ".analysis.results",
+    "ParameterVerdict": ".analysis.identifiability",
+    "identifiability": ".analysis.identifiability",
+    "RunSummary": ".run.loop",
+    "Trials": ".store.sqlite",
     "pareto_mask": ".analysis.pareto",
     "StoreError": ".errors",
     "StoreLockedError": ".errors",
@@ -45,12 +60,16 @@ _EXPORTS = {
 
 __all__ = [
     "Analysis",
+    "Bound",
     "Choice",
     "Continuous",
     "Criterion",
+    "EmptyDiagnosis",
     "FunctionalConstraint",
     "Integer",
+    "ParameterVerdict",
     "Problem",
+    "RunSummary",
     "Sampler",
     "Space",
     "StoreError",
@@ -58,21 +77,27 @@ __all__ = [
     "Study",
     "StudyDefinitionError",
     "StudySpec",
+    "TestTable",
+    "Trials",
     "VectoridError",
     "__version__",
     "as_batch",
+    "identifiability",
     "load_study",
     "pareto_mask",
 ]
 
 if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
+    from .analysis.identifiability import ParameterVerdict, identifiability
     from .analysis.pareto import pareto_mask
-    from .analysis.results import Analysis
+    from .analysis.results import Analysis, Bound, EmptyDiagnosis, TestTable
     from .errors import StoreError, StoreLockedError, StudyDefinitionError, VectoridError
     from .problem import Criterion, FunctionalConstraint, Problem, as_batch
+    from .run.loop import RunSummary
     from .sampling import Sampler
     from .space import Choice, Continuous, Integer, Space
     from .spec import StudySpec, load_study
+    from .store.sqlite import Trials
     from .study import Study
 
 

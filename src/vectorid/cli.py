@@ -10,7 +10,7 @@ Verbs (a contract; more may be added)::
     vectorid repair STORE [--executor ...] [--workers N] [--quiet]
     vectorid table STORE [--limit 'NAME<=VALUE' ...] [--top K] [--feasible] [--json]
     vectorid pareto STORE [--limit 'NAME<=VALUE' | 'NAME>=VALUE' ...] [--role NAME=pseudo] [--json]
-    vectorid export STORE [--format csv|json|parquet] [--out PATH]
+    vectorid export STORE [--format csv|json|parquet] [--out PATH] [--limit ...] [--constraints]
     vectorid init PROBLEM [--out FILE] [--trials N]
     vectorid demo [g12|parafoil] [--out DIR] [--trials N] [--analytic]
     vectorid descent LOG --mass KG [--columns time=COL,altitude=COL] [...] [--json]
@@ -165,10 +165,16 @@ def _parser() -> argparse.ArgumentParser:
     pa.add_argument("--save", action="store_true", help="save the constraints in the study")
     pa.add_argument("--json", action="store_true")
 
-    e = sub.add_parser("export", help="every trial, one row each")
+    e = sub.add_parser("export", help="every trial, one row each, with its D and Pareto flags")
     e.add_argument("store")
     e.add_argument("--format", choices=["csv", "json", "parquet"], default="csv")
     e.add_argument("--out", help="output file (default: standard output; required for parquet)")
+    add_limit_options(e)
+    e.add_argument(
+        "--constraints",
+        action="store_true",
+        help="write the constraints in force instead (bound, unit, source of each limit)",
+    )
 
     n = sub.add_parser(
         "init",
@@ -210,7 +216,49 @@ def _parser() -> argparse.ArgumentParser:
     d.add_argument("--quiet", action="store_true", help="no progress bar")
     for module in _extensions():
         module.add_parsers(sub)
+    _group_verbs(p, sub)
     return p
+
+
+#: ``vectorid --help`` lists the verbs in the order of the work. A new verb goes into one of
+#: these groups (tests/test_cli.py checks that every verb has one; until then it is listed
+#: under "other").
+VERB_GROUPS = (
+    ("set up", ("init", "demo")),
+    ("run", ("run", "info", "verify", "repair")),
+    ("analyse", ("table", "pareto", "section", "refine", "robustness", "correlation",
+                 "sensitivity", "export")),
+    ("identify from flight data", ("identifiability", "step", "descent")),
+    ("view", ("hist", "plot", "report", "ui")),
+)  # fmt: skip
+
+
+def _group_verbs(p: argparse.ArgumentParser, sub: Any) -> None:
+    """Replace argparse's flat list of verbs by :data:`VERB_GROUPS`, in the description."""
+    import shutil
+    import textwrap
+
+    helps = {a.dest: a.help or "" for a in sub._choices_actions}
+    groups = [(title, [v for v in verbs if v in helps]) for title, verbs in VERB_GROUPS]
+    grouped = {v for _, verbs in groups for v in verbs}
+    other = [v for v in helps if v not in grouped]
+    if other:
+        groups.append(("other", other))
+    width = min(shutil.get_terminal_size((100, 24)).columns, 100) - 2
+    lines = [textwrap.fill(p.description or "", width), ""]
+    for title, verbs in groups:
+        lines.append(f"{title}:")
+        for v in verbs:
+            text = textwrap.wrap(helps[v], max(width - 19, 30)) or [""]
+            head = f"  {v:<16} " if len(v) <= 16 else f"  {v}\n{'':19}"
+            lines.append(head + text[0])
+            lines += [f"{'':19}{t}" for t in text[1:]]
+        lines.append("")
+    lines.append("`vectorid COMMAND --help` gives a command's options.")
+    p.description = "\n".join(lines)
+    p.formatter_class = argparse.RawDescriptionHelpFormatter
+    p.usage = "%(prog)s [-h] [--version] COMMAND ..."
+    sub.help = argparse.SUPPRESS  # listed above, by group
 
 
 #: Modules adding verbs: each has ``add_parsers(subparsers)`` and ``COMMANDS`` (verb -> function
@@ -775,18 +823,17 @@ def _cmd_pareto(args: argparse.Namespace) -> int:
 
 
 def _cmd_export(args: argparse.Namespace) -> int:
-    from .store.export import export_trials
+    from .store.export import write_analysis
 
-    study = _open_study(args.store)
-    with study:
-        out = args.out if args.out else sys.stdout
-        if args.format == "parquet" and not args.out:
-            from .errors import StudyDefinitionError
+    if args.format == "parquet" and not args.out:
+        from .errors import StudyDefinitionError
 
-            raise StudyDefinitionError("--out", "parquet needs a file", "add --out trials.parquet")
-        n = export_trials(study.store, args.format, out)
+        raise StudyDefinitionError("--out", "parquet needs a file", "add --out trials.parquet")
+    a = _analysis(args)  # the flags follow --limit/--role, as in table and pareto
+    n = write_analysis(a, args.format, args.out or sys.stdout, constraints=args.constraints)
     if args.out:
-        print(f"{n} trials written to {args.out}", file=sys.stderr)
+        what = "constraints" if args.constraints else "trials"
+        print(f"{n} {what} written to {args.out}", file=sys.stderr)
     return 0
 
 

@@ -172,6 +172,7 @@ class Criterion:
         return f"{side} {self.limit:.6g}{unit} ({self.source}{note})"
 
     def to_dict(self) -> dict[str, Any]:
+        """The ``[[criteria]]`` table of a study file (dict of TOML values)."""
         out: dict[str, Any] = {"name": self.name, "sense": self.sense, "role": self.role}
         if self.limit is not None:
             out["limit"] = self.limit
@@ -189,6 +190,15 @@ class FunctionalConstraint:
     """A functional constraint ``low <= f_j(α) <= high`` (eq. 6 of seed 000).
 
     Either bound may be omitted. A trial violating it is outside the feasible set D.
+
+    Parameters
+    ----------
+    name : str
+        Column name, unique among criteria and constraints.
+    low, high : float, optional
+        The bounds, in the functional's unit (at least one of them).
+    unit : str, optional
+        Physical unit, for display.
     """
 
     name: str
@@ -211,6 +221,7 @@ class FunctionalConstraint:
         object.__setattr__(self, "high", hi)
 
     def to_dict(self) -> dict[str, Any]:
+        """The ``[[constraints]]`` table of a study file (dict of TOML values)."""
         out: dict[str, Any] = {"name": self.name}
         if self.low is not None:
             out["low"] = self.low
@@ -377,6 +388,17 @@ def as_batch(func: Callable[[np.ndarray], Any]) -> BatchModel:
 
     :meth:`Problem.evaluate` calls it once per trial, catching each trial's failure
     separately and timing each trial.
+
+    Parameters
+    ----------
+    func : callable
+        ``func(x)`` with ``x`` one parameter vector (p,) in the variables' units, returning
+        the criteria (k,) or a pair ``(criteria (k,), functionals (q,))``.
+
+    Returns
+    -------
+    callable
+        The batch model :class:`Problem` evaluates.
     """
     return _PerTrial(func)
 
@@ -429,10 +451,12 @@ class Problem:
 
     @property
     def k(self) -> int:
+        """Number of criteria."""
         return len(self.criteria)
 
     @property
     def q(self) -> int:
+        """Number of functional constraints."""
         return len(self.constraints)
 
     def evaluate(self, X: np.ndarray) -> EvalResult:
@@ -440,6 +464,17 @@ class Problem:
 
         A batch model that raises is bisected until the failing trials are isolated, so one
         bad trial does not fail its neighbours.
+
+        Parameters
+        ----------
+        X : (n, p) array of float
+            Parameter vectors, columns in variable order and units.
+
+        Returns
+        -------
+        EvalResult
+            Criteria (n, k) and functionals (n, q) in their units (NaN for a failed trial),
+            status (n,), failure messages and wall time per trial (s).
         """
         X = np.ascontiguousarray(X, dtype=float)
         if getattr(self.model, "per_trial", False):

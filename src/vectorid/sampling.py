@@ -74,7 +74,21 @@ class Sampler:
         self.block = int(block)
 
     def points(self, start: int, n: int) -> np.ndarray:
-        """Points with sequence indices ``start, ..., start + n - 1`` as an (n, d) array."""
+        """Points with sequence indices ``start, ..., start + n - 1``.
+
+        Parameters
+        ----------
+        start : int
+            Sequence index of the first point (index i is LP_tau point Q_{i+1}).
+        n : int
+            Number of points.
+
+        Returns
+        -------
+        (n, d) ndarray of float
+            Points of the unit cube [0, 1)^d (dimensionless); the same indices give the same
+            points however the sequence is split.
+        """
         if start < 0 or n < 0:
             raise ValueError(f"start and n must be >= 0, got start={start}, n={n}")
         if n == 0:

@@ -58,7 +58,18 @@ class Variable(abc.ABC):
 
     @abc.abstractmethod
     def from_unit(self, q: np.ndarray) -> np.ndarray:
-        """Map values in [0, 1) to this variable's values."""
+        """Map values in [0, 1) to this variable's values.
+
+        Parameters
+        ----------
+        q : ndarray of float
+            Points of the unit interval, any shape (dimensionless).
+
+        Returns
+        -------
+        ndarray of float
+            The variable's values, same shape, in its unit.
+        """
 
     @abc.abstractmethod
     def to_dict(self) -> dict[str, Any]:
@@ -66,7 +77,18 @@ class Variable(abc.ABC):
 
     @abc.abstractmethod
     def with_bounds(self, low: float, high: float) -> Variable:
-        """The same variable on a narrower (or wider) interval."""
+        """The same variable on a narrower (or wider) interval (double tuning).
+
+        Parameters
+        ----------
+        low, high : float
+            The new bounds, in the variable's unit.
+
+        Returns
+        -------
+        Variable
+            A new variable of the same kind; a nominal outside the new bounds is dropped.
+        """
 
     def __eq__(self, other: object) -> bool:
         return type(other) is type(self) and self.to_dict() == other.to_dict()
@@ -130,16 +152,40 @@ class Continuous(Variable):
         self.unit = str(unit)
 
     def from_unit(self, q: np.ndarray) -> np.ndarray:
-        """Scale unit-interval values by eq. (10): ``low + q (high - low)``."""
+        """Scale unit-interval values by eq. (10): ``low + q (high - low)``.
+
+        Parameters
+        ----------
+        q : ndarray of float
+            Points of the unit interval, any shape (dimensionless).
+
+        Returns
+        -------
+        ndarray of float
+            The variable's values, same shape, in its unit.
+        """
         return self.low + q * (self.high - self.low)
 
     def with_bounds(self, low: float, high: float) -> Continuous:
+        """The same variable on a narrower (or wider) interval (double tuning).
+
+        Parameters
+        ----------
+        low, high : float
+            The new bounds, in the variable's unit.
+
+        Returns
+        -------
+        Variable
+            A new variable of the same kind; a nominal outside the new bounds is dropped.
+        """
         nominal = self.nominal
         if nominal is not None and not low <= nominal <= high:
             nominal = None
         return Continuous(self.name, low, high, nominal, self.unit)
 
     def to_dict(self) -> dict[str, Any]:
+        """The ``[[variables]]`` table of a study file (dict of TOML values)."""
         out: dict[str, Any] = {"name": self.name, "low": self.low, "high": self.high}
         if self.nominal is not None:
             out["nominal"] = self.nominal
@@ -153,6 +199,17 @@ class Integer(Variable):
 
     The unit interval is split into ``high - low + 1`` equal cells, one per value, so every
     value is equally likely.
+
+    Parameters
+    ----------
+    name : str
+        Variable name, unique within the study.
+    low, high : int
+        The smallest and largest value (a whole number each), ``low < high``.
+    nominal : int, optional
+        Reference value; must lie inside ``[low, high]``.
+    unit : str, optional
+        Physical unit, for display only.
     """
 
     kind = "integer"
@@ -190,11 +247,35 @@ class Integer(Variable):
         self.unit = str(unit)
 
     def from_unit(self, q: np.ndarray) -> np.ndarray:
+        """Map values in [0, 1) to this variable's values.
+
+        Parameters
+        ----------
+        q : ndarray of float
+            Points of the unit interval, any shape (dimensionless).
+
+        Returns
+        -------
+        ndarray of float
+            The variable's values, same shape, in its unit.
+        """
         m = self.high - self.low + 1
         idx = np.minimum(np.floor(q * m), m - 1)
         return self.low + idx
 
     def with_bounds(self, low: float, high: float) -> Integer:
+        """The same variable on a narrower (or wider) interval (double tuning).
+
+        Parameters
+        ----------
+        low, high : float
+            The new bounds, in the variable's unit.
+
+        Returns
+        -------
+        Variable
+            A new variable of the same kind; a nominal outside the new bounds is dropped.
+        """
         lo, hi = math.floor(low), math.ceil(high)
         if lo == hi:
             hi = lo + 1 if hi < self.high else hi
@@ -203,6 +284,7 @@ class Integer(Variable):
         return Integer(self.name, lo, hi, nominal, self.unit)
 
     def to_dict(self) -> dict[str, Any]:
+        """The ``[[variables]]`` table of a study file (dict of TOML values)."""
         out: dict[str, Any] = {
             "name": self.name,
             "type": "integer",
@@ -218,7 +300,19 @@ class Integer(Variable):
 
 class Choice(Variable):
     """A variable taking one of a finite set of numeric values (e.g. a catalogue of line
-    lengths). The unit interval is split into ``len(values)`` equal cells."""
+    lengths). The unit interval is split into ``len(values)`` equal cells.
+
+    Parameters
+    ----------
+    name : str
+        Variable name, unique within the study.
+    values : sequence of float
+        The admissible values, distinct, in the variable's unit.
+    nominal : float, optional
+        Reference value; must be one of ``values``.
+    unit : str, optional
+        Physical unit, for display only.
+    """
 
     kind = "choice"
 
@@ -260,23 +354,50 @@ class Choice(Variable):
 
     @property
     def low(self) -> float:
+        """The smallest admissible value, in the variable's unit."""
         return min(self.values)
 
     @property
     def high(self) -> float:
+        """The largest admissible value, in the variable's unit."""
         return max(self.values)
 
     def from_unit(self, q: np.ndarray) -> np.ndarray:
+        """Map values in [0, 1) to this variable's values.
+
+        Parameters
+        ----------
+        q : ndarray of float
+            Points of the unit interval, any shape (dimensionless).
+
+        Returns
+        -------
+        ndarray of float
+            The variable's values, same shape, in its unit.
+        """
         m = len(self.values)
         idx = np.minimum(np.floor(q * m), m - 1).astype(np.intp)
         return np.asarray(self.values, dtype=float)[idx]
 
     def with_bounds(self, low: float, high: float) -> Choice:
+        """The same variable on a narrower (or wider) interval (double tuning).
+
+        Parameters
+        ----------
+        low, high : float
+            The new bounds, in the variable's unit.
+
+        Returns
+        -------
+        Variable
+            A new variable of the same kind; a nominal outside the new bounds is dropped.
+        """
         kept = [v for v in self.values if low <= v <= high] or list(self.values)
         nominal = self.nominal if self.nominal in kept else None
         return Choice(self.name, kept, nominal, self.unit)
 
     def to_dict(self) -> dict[str, Any]:
+        """The ``[[variables]]`` table of a study file (dict of TOML values)."""
         out: dict[str, Any] = {"name": self.name, "type": "choice", "values": list(self.values)}
         if self.nominal is not None:
             out["nominal"] = self.nominal
@@ -361,7 +482,23 @@ class Space:
         )
 
     def index(self, name: str) -> int:
-        """Column of variable ``name``."""
+        """Column of variable ``name``.
+
+        Parameters
+        ----------
+        name : str
+            A variable of this space.
+
+        Returns
+        -------
+        int
+            Its column in parameter arrays.
+
+        Raises
+        ------
+        StudyDefinitionError
+            Unknown name (the message suggests the nearest).
+        """
         from .errors import suggest
 
         try:
@@ -372,7 +509,18 @@ class Space:
             ) from None
 
     def scale(self, q: np.ndarray) -> np.ndarray:
-        """Map unit-cube points ``q`` (n, p) to parameter vectors (n, p) by eq. (10)."""
+        """Map unit-cube points to parameter vectors by eq. (10).
+
+        Parameters
+        ----------
+        q : (n, p) array of float
+            Points of the unit cube [0, 1)^p (dimensionless).
+
+        Returns
+        -------
+        (n, p) ndarray of float
+            Parameter vectors, each column in its variable's unit.
+        """
         q = np.asarray(q, dtype=float)
         if q.ndim != 2 or q.shape[1] != len(self):
             raise ValueError(f"expected unit points of shape (n, {len(self)}), got {q.shape}")
@@ -382,12 +530,32 @@ class Space:
         return out
 
     def contains(self, X: np.ndarray) -> np.ndarray:
-        """Rows of ``X`` (n, p) that lie inside the box (bool (n,))."""
+        """Which parameter vectors lie inside the box Π.
+
+        Parameters
+        ----------
+        X : (n, p) array of float
+            Parameter vectors, columns in variable order and units.
+
+        Returns
+        -------
+        (n,) ndarray of bool
+        """
         X = np.asarray(X, dtype=float)
         return np.all((X >= self.lows) & (X <= self.highs), axis=1)
 
     def with_bounds(self, bounds: dict[str, tuple[float, float]]) -> Space:
-        """A new space with some variables' bounds replaced (double tuning)."""
+        """A new space with some variables' bounds replaced (double tuning).
+
+        Parameters
+        ----------
+        bounds : dict of str to (float, float)
+            Variable name -> new (low, high), in the variable's unit.
+
+        Returns
+        -------
+        Space
+        """
         unknown = set(bounds) - set(self.names)
         if unknown:
             from .errors import suggest

@@ -145,6 +145,8 @@ class StudySpec:
         Store path (relative to ``base_dir``).
     base_dir : str, optional
         Folder of the study file, put on the import path for ``module:function`` models.
+    description : str, optional
+        What the study is, for people.
     executor, workers : optional
         Default executor (``"serial"``, ``"processes"``, ``"dask"``, ``"inline"``) and worker count.
     scheduler : str, optional
@@ -155,6 +157,9 @@ class StudySpec:
         Command-line model template, with ``model = "cmd"`` (see :mod:`vectorid.external`).
     fmu : dict, optional
         FMU options, with ``model = "fmu:PATH"`` (see :mod:`vectorid.external`).
+    extra : dict, optional
+        The study file's other tables: a builder's table (``[identification]``) or ``x-``
+        tables kept for tools.
     """
 
     name: str
@@ -309,10 +314,12 @@ class StudySpec:
 
     @property
     def criterion_names(self) -> list[str]:
+        """Criterion names, in study order."""
         return [c.name for c in self.criteria]
 
     @property
     def constraint_names(self) -> list[str]:
+        """Functional-constraint names, in study order."""
         return [c.name for c in self.constraints]
 
     def sampler_for(self) -> Sampler:
@@ -331,7 +338,17 @@ class StudySpec:
         return build_problem(self)
 
     def with_limits(self, limits: Mapping[str, float | None]) -> StudySpec:
-        """A copy with criteria constraints Φ** replaced (None removes a limit)."""
+        """A copy with criteria constraints Φ** replaced.
+
+        Parameters
+        ----------
+        limits : mapping of str to float or None
+            Criterion name -> its new limit, in the criterion's unit (None removes it).
+
+        Returns
+        -------
+        StudySpec
+        """
         names = self.criterion_names
         for key in limits:
             if key not in names:
@@ -384,7 +401,24 @@ class StudySpec:
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], base_dir: str | Path | None = None) -> StudySpec:
-        """Build and validate a spec from the TOML structure."""
+        """Build and validate a spec from the TOML structure.
+
+        Parameters
+        ----------
+        data : mapping
+            The study file's tables, as ``tomllib.load`` returns them.
+        base_dir : path, optional
+            The study file's folder (model imports and data paths are relative to it).
+
+        Returns
+        -------
+        StudySpec
+
+        Raises
+        ------
+        StudyDefinitionError
+            Naming the field, what came and the fix.
+        """
         if not isinstance(data, Mapping):
             raise StudyDefinitionError("(top)", f"expected a table, got {type(data).__name__}")
         extra = {k: v for k, v in data.items() if k not in _TOP_KEYS}

@@ -35,10 +35,26 @@ def default_store_path(spec: StudySpec, study_file: str | Path | None = None) ->
 
 
 class Study:
-    """A study definition bound to its store.
+    """A study definition bound to its store: the entry point of the Python API.
 
     Use :meth:`create` for a new study, :meth:`open` for an existing store, or
-    :meth:`create_or_open` to resume when the store exists.
+    :meth:`create_or_open` to resume when the store exists; the command line uses the same
+    calls. A study is a context manager that closes its store.
+
+    Parameters
+    ----------
+    store : vectorid.store.Store
+        The open store (use the class methods rather than this constructor).
+
+    Attributes
+    ----------
+    store : vectorid.store.Store
+        The SQLite store: the definition, the stages and every trial.
+
+    Notes
+    -----
+    The README's tour (``example.py``) and ``docs/studies.md`` ("From Python") show it at
+    work; the test suite runs both.
     """
 
     def __init__(self, store: Store) -> None:
@@ -51,6 +67,18 @@ class Study:
         The definition is completed here, once, by its builder's ``prepare`` hook (an
         identification study's noise-floor limits, ``limit = "noise"``: see
         :mod:`vectorid.identify.noise`) and kept with the study.
+
+        Parameters
+        ----------
+        spec : StudySpec or path
+            The definition, or its TOML study file.
+        store : path
+            The store file to create (SQLite).
+
+        Returns
+        -------
+        Study
+            Open for writing; no trial is computed yet (see :meth:`run`).
 
         Raises
         ------
@@ -68,7 +96,26 @@ class Study:
 
     @classmethod
     def open(cls, store: str | Path, *, write: bool = False) -> Study:
-        """Open an existing store (``write=True`` to extend it)."""
+        """Open an existing store.
+
+        Parameters
+        ----------
+        store : path
+            The store file.
+        write : bool
+            Open for writing (to run more trials); one process at a time may.
+
+        Returns
+        -------
+        Study
+
+        Raises
+        ------
+        StoreError
+            No store there, or the file is not a vectorid store.
+        StoreLockedError
+            ``write=True`` while another process writes the store.
+        """
         return cls(Store.open(store, write=write))
 
     @classmethod
@@ -98,6 +145,11 @@ class Study:
             The store.
         study_file : path, optional
             The study file ``spec`` came from (for the commands in messages).
+
+        Returns
+        -------
+        Study
+            Open for writing.
         """
         if not isinstance(spec, StudySpec):
             study_file = study_file or spec
@@ -143,6 +195,7 @@ class Study:
 
     @property
     def spec(self) -> StudySpec:
+        """The study definition held by the store."""
         return self.store.spec
 
     def run(
@@ -156,7 +209,34 @@ class Study:
         keep_going: bool = False,
         timeout: float | None = None,
     ) -> RunSummary:
-        """Compute the missing trials (see :func:`vectorid.run.run_store`)."""
+        """Compute the missing trials and store them (see :func:`vectorid.run.run_store`).
+
+        A run computes exactly the trials the store lacks, so an interrupted run resumes
+        and a larger ``trials`` extends the study along the same sequence.
+
+        Parameters
+        ----------
+        trials : int, optional
+            The total number of trials the study should hold (default: the study's).
+        executor : {"serial", "processes", "dask", "inline"}, optional
+            Where trials run (default: the study's, else ``"processes"``).
+        workers : int, optional
+            Worker processes (default: all cores).
+        batch_size : int, optional
+            Trials per batch (default: chosen from the study size).
+        progress : bool or text file
+            Show a progress bar (on stderr, or on the given file).
+        keep_going : bool
+            Store the first batch even when every one of its trials failed (default: stop
+            with the reason and store none).
+        timeout : float, optional
+            Most seconds one trial may take, in s (default: the study's, else no limit).
+
+        Returns
+        -------
+        RunSummary
+            Trials stored and failed, the failure reasons with an example each, elapsed s.
+        """
         return run_store(
             self.store,
             trials=trials,
@@ -169,7 +249,14 @@ class Study:
         )
 
     def trials(self) -> Trials:
-        """All sample-stage trials as arrays."""
+        """All sample-stage trials as arrays.
+
+        Returns
+        -------
+        Trials
+            ``X`` (n, p) parameters, ``F`` (n, k) criteria, ``G`` (n, q) functionals, each in
+            its study unit (NaN rows for failed trials), with ids, status and wall time (s).
+        """
         return self.store.load()
 
     def analysis(
@@ -177,10 +264,27 @@ class Study:
         limits: Iterable[Bound] | Mapping[str, Any] | None = None,
         roles: Mapping[str, str] | None = None,
     ) -> Analysis:
-        """Feasible and Pareto sets under ``limits`` (see :class:`~vectorid.analysis.Analysis`)."""
+        """Feasible and Pareto sets of the stored trials under ``limits``.
+
+        Nothing is re-run: limits chosen here only select among stored trials.
+
+        Parameters
+        ----------
+        limits : mapping or iterable of Bound, optional
+            Criteria constraints overriding the study's, in each criterion's unit:
+            ``{"f1": 40.0}`` bounds f1 on its worse side (above for ``min``), ``None``
+            removes a limit, ``{"g1": (low, high)}`` replaces a functional's bounds.
+        roles : mapping of str to str, optional
+            Criterion name -> ``"pure"`` or ``"pseudo"`` for this analysis.
+
+        Returns
+        -------
+        Analysis
+        """
         return Analysis(self.spec, self.store.load(), limits, roles)
 
     def close(self) -> None:
+        """Close the store (and release its write lock)."""
         self.store.close()
 
     def __enter__(self) -> Study:

@@ -112,6 +112,7 @@ class ParameterVerdict:
 
     @property
     def identified(self) -> bool:
+        """Whether the verdict is ``"identified"``."""
         return self.verdict == "identified"
 
     def label(self) -> str:
@@ -123,7 +124,23 @@ class ParameterVerdict:
     ) -> str:
         """How a chosen vector shows this variable: the value (with the feasible range) when
         identified; otherwise the feasible range (or the box) and the verdict, never a value
-        alone. ``with_verdict=False`` leaves the verdict out, for lines that print it already."""
+        alone.
+
+        Parameters
+        ----------
+        value : float, optional
+            The chosen vector's value of this variable, in its unit.
+        digits : int
+            Significant digits.
+        with_verdict : bool
+            ``False`` leaves the verdict out, for lines that print it already.
+
+        Returns
+        -------
+        str
+            E.g. ``"1.02 (feasible [0.98, 1.06])"`` or ``"feasible [0.2, 1.9] (weak)"``,
+            with the unit.
+        """
         u = f" {self.unit}" if self.unit and self.unit != "-" else ""
         rng = self.feasible if self.feasible is not None else self.box
         span = f"[{rng[0]:.{digits}g}, {rng[1]:.{digits}g}]{u}"
@@ -133,6 +150,8 @@ class ParameterVerdict:
         return f"{where} {span}" + (f" ({self.verdict})" if with_verdict else "")
 
     def to_dict(self) -> dict[str, Any]:
+        """This verdict as one entry of ``vectorid identifiability --json``."""
+
         def pair(p: tuple[float, float] | None) -> list[float] | None:
             return None if p is None else [float(p[0]), float(p[1])]
 

@@ -13,7 +13,7 @@ import math
 import re
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -23,6 +23,11 @@ from ..spec import StudySpec
 from ..store.sqlite import Trials
 from .pareto import pareto_mask
 
+if TYPE_CHECKING:  # pragma: no cover
+    import pandas as pd
+
+    from .identifiability import ParameterVerdict
+
 __all__ = ["Analysis", "Bound", "EmptyDiagnosis", "TestTable", "parse_limit", "parse_limits"]
 
 # The last operator splits name and value, so names with spaces or operators work too.
@@ -31,7 +36,17 @@ _LIMIT = re.compile(r"^\s*(.+?)\s*(<=|>=|<|>)\s*([^<>=\s]+)\s*$")
 
 @dataclass(frozen=True)
 class Bound:
-    """One side of a constraint: ``name <= value`` (``side='high'``) or ``name >= value``."""
+    """One side of a constraint: ``name <= value`` (``side='high'``) or ``name >= value``.
+
+    Parameters
+    ----------
+    name : str
+        A criterion or functional constraint of the study.
+    side : {"low", "high"}
+        ``"high"`` for ``name <= value``, ``"low"`` for ``name >= value``.
+    value : float
+        The bound, in the quantity's unit (±inf for none).
+    """
 
     name: str
     side: str  # "low" | "high"
@@ -103,6 +118,19 @@ class TestTable:
     limit: float | None
 
     def to_dict(self, top: int | None = None) -> dict[str, Any]:
+        """The ``vectorid table --json`` entry of this criterion.
+
+        Parameters
+        ----------
+        top : int, optional
+            Keep only the ``top`` best rows (default: all).
+
+        Returns
+        -------
+        dict
+            ``{"name", "sense", "min", "max", "limit", "rows": [{"id", "value",
+            "feasible"}]}``, non-finite numbers as None.
+        """
         m = len(self.ids) if top is None else min(top, len(self.ids))
         return {
             "name": self.name,
@@ -143,6 +171,7 @@ class EmptyDiagnosis:
     joint: dict[str, Any] | None
 
     def describe(self) -> str:
+        """The diagnosis in words, as ``vectorid pareto`` prints it."""
         lines = ["The feasible set D is empty."]
         first = next((b for b, c in self.cumulative if c == 0), None)
         if first is not None:
@@ -164,6 +193,7 @@ class EmptyDiagnosis:
         return "\n".join(lines)
 
     def to_dict(self) -> dict[str, Any]:
+        """The ``"empty"`` object of ``vectorid pareto --json``."""
         return {
             "cumulative": [{"constraint": str(b), "left": c} for b, c in self.cumulative],
             "relaxations": [
@@ -179,6 +209,10 @@ class EmptyDiagnosis:
 class Analysis:
     """Feasible and Pareto sets of stored trials under chosen constraints.
 
+    Made by :meth:`vectorid.Study.analysis`. Nothing here re-runs a model: a new set of
+    limits is a new ``Analysis`` of the same trials. Every array has one row per trial, in
+    the order of :attr:`trials`, so ``a.trials.X[a.pareto]`` are the Pareto vectors.
+
     Parameters
     ----------
     spec : StudySpec
@@ -186,11 +220,37 @@ class Analysis:
     trials : Trials
         Stored trials (``Store.load()``).
     limits : iterable of Bound or mapping, optional
-        Bounds overriding the study's: ``Bound`` objects (from :func:`parse_limit`), or a
-        mapping ``name -> value`` applied to the worse side of a criterion (upper for min,
-        lower for max) or, for a constraint, ``name -> (low, high)``.
+        Bounds overriding the study's, in the criterion's or functional's own unit:
+        ``Bound`` objects (from :func:`parse_limit`), or a mapping ``name -> value`` applied
+        to the worse side of a criterion (upper for min, lower for max; ``None`` removes the
+        limit) or, for a functional constraint, ``name -> (low, high)``.
     roles : mapping, optional
         Override pure/pseudo roles by criterion name.
+
+    Attributes
+    ----------
+    spec : StudySpec
+        The study definition.
+    trials : Trials
+        The trials analysed: ``trials.X`` (n, p) parameters, ``trials.F`` (n, k) criteria,
+        ``trials.G`` (n, q) functionals, each in its study unit; ``trials.id`` (n,) ids.
+    crit_names, con_names : list of str
+        Criterion and functional-constraint names, in the order of the columns of ``F``
+        and ``G``.
+    senses, roles : list of str
+        Per criterion: ``"min"``/``"max"`` and ``"pure"``/``"pseudo"`` (after ``roles``).
+    bounds : dict of str to [float, float]
+        Per criterion and functional: the [low, high] bound in force (±inf where none).
+    ok : (n,) bool ndarray
+        The trial computed (status 0).
+    functional_ok : (n,) bool ndarray
+        The trial computed and meets every functional constraint.
+    feasible : (n,) bool ndarray
+        The trial lies in the feasible set D (functional and criteria constraints met).
+    pareto : (n,) bool ndarray
+        The trial lies in the Edgeworth–Pareto set of D over the pure criteria.
+    pure : list of int
+        Column indices (into ``F``) of the pure criteria.
     """
 
     def __init__(
@@ -327,6 +387,7 @@ class Analysis:
 
     @property
     def n_failed(self) -> int:
+        """Trials that failed (no criteria values)."""
         return int((~self.ok).sum())
 
     @property
@@ -346,7 +407,20 @@ class Analysis:
 
     def test_table(self, name: str, feasible_only: bool = False) -> TestTable:
         """The test table of one criterion: trials meeting the functional constraints (or,
-        with ``feasible_only``, the feasible ones) sorted best first."""
+        with ``feasible_only``, the feasible ones) sorted best first (seed 000, Fig. 6).
+
+        Parameters
+        ----------
+        name : str
+            A criterion of the study.
+        feasible_only : bool
+            Only the trials of D.
+
+        Returns
+        -------
+        TestTable
+            Ids, values (in the criterion's unit) and D membership, best first.
+        """
         if name not in self.crit_names:
             raise StudyDefinitionError(
                 "criterion", f"unknown criterion {name!r}", suggest(name, self.crit_names)
@@ -370,10 +444,33 @@ class Analysis:
         )
 
     def test_tables(self, feasible_only: bool = False) -> list[TestTable]:
+        """:meth:`test_table` of every criterion, in study order.
+
+        Parameters
+        ----------
+        feasible_only : bool
+            Only the trials of D (default: every trial meeting the functional constraints).
+
+        Returns
+        -------
+        list of TestTable
+        """
         return [self.test_table(n, feasible_only) for n in self.crit_names]
 
     def rows(self, mask: np.ndarray) -> list[dict[str, Any]]:
-        """Trials of ``mask`` as dicts with id, seq, stage, params and criteria."""
+        """Trials of ``mask`` as dicts (the rows of ``vectorid pareto --json``).
+
+        Parameters
+        ----------
+        mask : (n,) array of bool
+            Which trials, e.g. :attr:`pareto` or :attr:`feasible`.
+
+        Returns
+        -------
+        list of dict
+            ``{"id", "seq", "stage", "params", "criteria", "functionals"}`` per trial, values
+            in their study units.
+        """
         t = self.trials
         names = self.spec.space.names
         out = []
@@ -452,6 +549,136 @@ class Analysis:
         if self.n_feasible == 0:
             out["empty"] = self.diagnose_empty().to_dict()
         return out
+
+    # -- for notebooks: named arrays, pandas frames, verdicts --------------------------------
+
+    @property
+    def param_names(self) -> list[str]:
+        """Design-variable names, in the order of the columns of ``trials.X``."""
+        return list(self.spec.space.names)
+
+    def columns(self) -> dict[str, np.ndarray]:
+        """Every trial as named columns of equal length ``n``, with the set flags.
+
+        Returns
+        -------
+        dict of str to (n,) ndarray
+            ``id``, ``seq``, ``stage``, ``status`` (``"ok"``/``"failed"``), ``message``
+            (why it failed, else empty), ``wall_time`` (s); then one column per design
+            variable, criterion and functional, named as in the study and in its unit (a
+            name that clashes with a fixed column or with a quantity of another kind is
+            written ``"parameter:NAME"``, ``"criterion:NAME"`` or ``"functional:NAME"``);
+            then the bool flags ``functional_ok``, ``feasible`` (in D) and ``pareto``
+            under the constraints in force. ``vectorid export`` writes the same columns.
+        """
+        from ._frames import trial_columns
+
+        return trial_columns(self)
+
+    def to_frame(self) -> pd.DataFrame:
+        """Every trial as a pandas DataFrame: the columns of :meth:`columns`.
+
+        Needs pandas (``pip install 'vectorid[pandas]'``).
+
+        Returns
+        -------
+        pandas.DataFrame
+            One row per trial. ``df.attrs["units"]`` maps a column to its unit and
+            ``df.attrs["constraints"]`` is :meth:`constraints_in_force`.
+
+        Raises
+        ------
+        ImportError
+            pandas is not installed (the message gives the command that installs it).
+        """
+        from ._frames import trials_frame
+
+        return trials_frame(self)
+
+    def constraints_in_force(self) -> list[dict[str, Any]]:
+        """Each finite bound in force, with its unit and where it came from.
+
+        Returns
+        -------
+        list of dict
+            Functional constraints first, then criteria, each ``{"name", "kind"
+            ("criterion"/"functional"), "bound" ("<="/">="), "value" (in "unit"), "unit",
+            "source", "note"}``. ``source`` is the criterion's stated source (``"expert"``,
+            ``"noise"`` for a noise floor, ``"quantile"`` for the quantile stand-in),
+            ``"study"`` for a functional bound of the study, or ``"analysis"`` for a bound
+            given to this analysis (``limits=`` or ``--limit``).
+        """
+        from ._frames import constraint_rows
+
+        return constraint_rows(self)
+
+    def verdicts(
+        self, *, identified: float = 0.25, weak: float = 0.6, min_feasible: int = 5
+    ) -> list[ParameterVerdict]:
+        """The identifiability verdict of each design variable, as ``vectorid
+        identifiability`` prints it (see :func:`vectorid.identifiability`).
+
+        Parameters
+        ----------
+        identified, weak : float
+            Thresholds on width(D's range) / width(box), dimensionless.
+        min_feasible : int
+            Fewer trials in D than this cannot show a spread: at best ``"weak"``.
+
+        Returns
+        -------
+        list of ParameterVerdict
+            In the order of the study's variables; ranges in each variable's unit.
+        """
+        from .identifiability import identifiability
+
+        meanings: dict[str, str] = {}
+        if "identification" in self.spec.extra:  # the model's parameter meanings
+            from ..identify.twostep import parameter_meanings
+
+            meanings = parameter_meanings(self.spec)
+        return identifiability(
+            self, identified=identified, weak=weak, min_feasible=min_feasible, meanings=meanings
+        )
+
+    def verdict_columns(self, **thresholds: Any) -> dict[str, np.ndarray]:
+        """:meth:`verdicts` as named numpy columns, one row per design variable.
+
+        Parameters
+        ----------
+        **thresholds
+            ``identified``, ``weak``, ``min_feasible`` as in :meth:`verdicts`.
+
+        Returns
+        -------
+        dict of str to (p,) ndarray
+            ``name``, ``verdict``, ``unit``, ``meaning``, ``feasible_low``/``feasible_high``
+            (range over D), ``pareto_low``/``pareto_high``, ``box_low``/``box_high`` (all in
+            ``unit``; NaN when the set is empty), ``width`` (dimensionless),
+            ``n_feasible``, ``constrained_by``, ``reason`` and ``suggestion``.
+        """
+        from ._frames import verdict_rows
+
+        rows = verdict_rows(self.verdicts(**thresholds))
+        keys = list(rows[0]) if rows else ["name", "verdict"]
+        return {k: np.array([r[k] for r in rows]) for k in keys}
+
+    def verdicts_frame(self, **thresholds: Any) -> pd.DataFrame:
+        """:meth:`verdicts` as a pandas DataFrame, one row per design variable.
+
+        Parameters
+        ----------
+        **thresholds
+            ``identified``, ``weak``, ``min_feasible`` as in :meth:`verdicts`.
+
+        Returns
+        -------
+        pandas.DataFrame
+            Indexed by variable name; the other columns of :meth:`verdict_columns`.
+        """
+        from ._frames import verdicts_frame
+
+        return verdicts_frame(self.verdicts(**thresholds))
 
 
 def senses_of(spec: StudySpec, names: Sequence[str]) -> list[str]:

@@ -49,7 +49,7 @@ __all__ = [
 class Parameter:
     """One model parameter (design variable).
 
-    Attributes
+    Parameters
     ----------
     name : str
         Identifier, e.g. ``"x6"`` or ``"kCD0"``.
@@ -221,8 +221,10 @@ class SimulationResult:
 class Model(abc.ABC):
     """Base class of the batch flight-dynamics models.
 
-    Contract for subclasses
-    -----------------------
+    Notes
+    -----
+    Contract for subclasses:
+
     - Class attributes: ``name`` (registry name), ``parameters`` (tuple of :class:`Parameter`,
       in the column order of ``params``), ``inputs`` (tuple of :class:`Channel`, with the
       no-control value in ``default``), ``outputs`` (tuple of :class:`Channel`, starting with
@@ -449,6 +451,22 @@ class Model(abc.ABC):
         Optional: a model that provides it can be checked against its compiled kernel and
         benchmarked against ``scipy.integrate.solve_ivp`` (benchmarks/models.py). It must use the
         same state layout and equations as the compiled right-hand side.
+
+        Parameters
+        ----------
+        x_row : (p,) or (1, p) array of float
+            One parameter vector, in the parameters' units.
+        t_final : float
+            Flight time, s.
+        inputs, wind, initial, atmosphere : optional
+            As for :meth:`simulate`.
+
+        Returns
+        -------
+        f : callable
+            ``f(t, x) -> dx/dt`` with ``t`` in s and the model's state layout.
+        x0 : ndarray
+            The initial state.
         """
         raise NotImplementedError(f"{self.name} has no plain-numpy reference right-hand side")
 
@@ -473,7 +491,20 @@ class Model(abc.ABC):
         return X, controls, env, initial
 
     def altitude_range(self, initial: InitialState, t_final: float) -> tuple[float, float]:
-        """Altitudes (m) the environment tables must cover; default: ground-500 m to h0+2 km."""
+        """Altitudes the environment tables must cover; default: ground-500 m to h0+2 km.
+
+        Parameters
+        ----------
+        initial : InitialState
+            The initial state (its altitude, m).
+        t_final : float
+            Flight time, s.
+
+        Returns
+        -------
+        (float, float)
+            Lowest and highest altitude, m.
+        """
         return min(-500.0, initial.altitude - 5_000.0), initial.altitude + 2_000.0
 
     def _check_parameters(self, X: NDArray[np.float64]) -> NDArray[np.int64]:

@@ -131,6 +131,15 @@ class RunSummary:
         ]
 
     def add_failures(self, start_id: int, res: EvalResult) -> None:
+        """Count the failed trials of one evaluated batch (the run loop calls it).
+
+        Parameters
+        ----------
+        start_id : int
+            Trial id of the batch's first row.
+        res : EvalResult
+            The batch's evaluation.
+        """
         failed = np.flatnonzero(res.status == FAILED)
         self.failed += len(failed)
         for i in failed:

@@ -1,7 +1,12 @@
-"""Export every stored trial, one row each, one column per quantity.
+"""Export every stored trial, one row each, one column per quantity, with the set flags.
 
-Columns: ``id, seq, stage, status, message, wall_time``, then the variables, criteria and
-functionals, named as in the study.
+Columns (:meth:`vectorid.analysis.Analysis.columns`): ``id, seq, stage, status, message,
+wall_time`` (s), then the variables, criteria and functionals named as in the study, then the
+flags ``functional_ok``, ``feasible`` (in D) and ``pareto`` under the constraints in force (the
+study's, or those given with ``--limit``). Each bound in force, with its source (``expert``,
+``noise``, ``quantile``, ``study``, ``analysis``), goes into the JSON document
+(``"constraints"``) and the Parquet file's metadata (key ``vectorid.constraints``, JSON);
+``--constraints`` writes that table alone, in any format.
 """
 
 from __future__ import annotations
@@ -9,6 +14,7 @@ from __future__ import annotations
 import csv
 import json
 import math
+from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any, TextIO
 
@@ -17,53 +23,93 @@ import numpy as np
 from ..errors import StudyDefinitionError, suggest
 from .sqlite import Store
 
-__all__ = ["FORMATS", "export_trials", "trial_columns"]
+__all__ = ["FORMATS", "export_trials", "trial_columns", "write_analysis"]
 
 FORMATS = ("csv", "json", "parquet")
 
 
-def trial_columns(store: Store, kinds: tuple[str, ...] = ("sample",)) -> dict[str, np.ndarray]:
-    """Every stored trial as named columns (dict of equal-length arrays)."""
-    spec = store.spec
-    t = store.load(kinds=kinds)
-    cols: dict[str, Any] = {
-        "id": t.id,
-        "seq": t.seq,
-        "stage": t.stage,
-        "status": np.where(t.status == 0, "ok", "failed"),
-        "message": np.array([t.message(i) for i in range(len(t))], dtype=object),
-        "wall_time": t.wall,
-    }
-    for j, name in enumerate(spec.space.names):
-        cols[name] = t.X[:, j]
-    for j, c in enumerate(spec.criteria):
-        cols[c.name] = t.F[:, j]
-    for j, c in enumerate(spec.constraints):
-        cols[c.name] = t.G[:, j]
-    return cols
+def _analysis(store: Store, limits: Any = None, roles: Mapping[str, str] | None = None) -> Any:
+    from ..analysis.results import Analysis
+
+    return Analysis(store.spec, store.load(kinds=("sample",)), limits, roles)
 
 
-def _json_value(v: Any) -> Any:
-    if isinstance(v, np.generic):
-        v = v.item()
-    if isinstance(v, float) and not math.isfinite(v):
-        return None
-    return v
+def trial_columns(
+    store: Store,
+    limits: Iterable[Any] | Mapping[str, Any] | None = None,
+    roles: Mapping[str, str] | None = None,
+) -> dict[str, np.ndarray]:
+    """Every stored sample trial as named columns with the set flags (dict of equal-length
+    arrays; see :meth:`vectorid.analysis.Analysis.columns`)."""
+    return _analysis(store, limits, roles).columns()
 
 
-def export_trials(store: Store, fmt: str, out: str | Path | TextIO) -> int:
+def _check(fmt: str, out: Any) -> None:
+    if fmt not in FORMATS:
+        raise StudyDefinitionError("--format", f"unknown format {fmt!r}", suggest(fmt, FORMATS))
+    if fmt == "parquet" and not isinstance(out, str | Path):
+        raise StudyDefinitionError("--out", "parquet needs a file path", "give --out FILE")
+
+
+def export_trials(
+    store: Store,
+    fmt: str,
+    out: str | Path | TextIO,
+    limits: Iterable[Any] | Mapping[str, Any] | None = None,
+    roles: Mapping[str, str] | None = None,
+) -> int:
     """Write every trial to ``out`` in ``fmt`` (``csv``, ``json`` or ``parquet``).
+
+    Parameters
+    ----------
+    store : Store
+        The study store.
+    fmt : {"csv", "json", "parquet"}
+        The file format.
+    out : path or text file
+        Where to write (parquet needs a path).
+    limits, roles : optional
+        Constraints and roles for the flags, as for :class:`~vectorid.analysis.Analysis`
+        (default: the study's).
 
     Returns
     -------
     int
         Number of trials written.
     """
-    if fmt not in FORMATS:
-        raise StudyDefinitionError("--format", f"unknown format {fmt!r}", suggest(fmt, FORMATS))
-    cols = trial_columns(store)
+    _check(fmt, out)
+    return write_analysis(_analysis(store, limits, roles), fmt, out)
+
+
+def write_analysis(a: Any, fmt: str, out: str | Path | TextIO, *, constraints: bool = False) -> int:
+    """Write the trials of the analysis ``a`` with its flags (JSON and Parquet carry the
+    constraints in force too), or with ``constraints=True`` only the constraints in force,
+    one row per bound with its unit and source.
+
+    Returns
+    -------
+    int
+        Number of rows written.
+    """
+    _check(fmt, out)
+    rows = a.constraints_in_force()
+    if not constraints:
+        return _write(a.columns(), fmt, out, {"constraints": rows})
+    names = ["name", "kind", "bound", "value", "unit", "source", "note"]
+    cols = {k: np.array([r[k] for r in rows], dtype=float if k == "value" else object)
+            for k in names}  # fmt: skip
+    return _write(cols, fmt, out, None, key="constraints")
+
+
+def _write(
+    cols: Mapping[str, np.ndarray],
+    fmt: str,
+    out: str | Path | TextIO,
+    meta: Mapping[str, Any] | None,
+    key: str = "trials",
+) -> int:
     names = list(cols)
-    n = len(cols["id"])
+    n = len(next(iter(cols.values()))) if cols else 0
     if fmt == "parquet":
         try:
             import pyarrow as pa
@@ -76,11 +122,13 @@ def export_trials(store: Store, fmt: str, out: str | Path | TextIO) -> int:
                 "parquet export needs pyarrow, which is not installed",
                 f"{install_hint('parquet')}, or use --format csv",
             ) from None
-        if not isinstance(out, str | Path):
-            raise StudyDefinitionError("--out", "parquet needs a file path", "give --out FILE")
         table = pa.table(
             {k: pa.array(list(v) if v.dtype == object else v) for k, v in cols.items()}
         )
+        if meta:
+            table = table.replace_schema_metadata(
+                {f"vectorid.{k}": json.dumps(v) for k, v in meta.items()}
+            )
         pq.write_table(table, out)
         return n
     own = isinstance(out, str | Path)
@@ -93,7 +141,10 @@ def export_trials(store: Store, fmt: str, out: str | Path | TextIO) -> int:
                 w.writerow([_csv_value(cols[k][i]) for k in names])
         else:
             rows = [{k: _json_value(cols[k][i]) for k in names} for i in range(n)]
-            json.dump({"columns": names, "trials": rows}, fh, indent=1)
+            doc: dict[str, Any] = {"columns": names, key: rows}
+            for k, v in (meta or {}).items():
+                doc[k] = [{kk: _json_value(vv) for kk, vv in r.items()} for r in v]
+            json.dump(doc, fh, indent=1)
             fh.write("\n")
     finally:
         if own:
@@ -101,7 +152,17 @@ def export_trials(store: Store, fmt: str, out: str | Path | TextIO) -> int:
     return n
 
 
+def _json_value(v: Any) -> Any:
+    if isinstance(v, np.generic):
+        v = v.item()
+    if isinstance(v, float) and not math.isfinite(v):
+        return None
+    return v
+
+
 def _csv_value(v: Any) -> Any:
+    if isinstance(v, np.bool_ | bool):
+        return "true" if v else "false"
     if isinstance(v, np.floating | float):
         return repr(float(v))
     if isinstance(v, np.generic):

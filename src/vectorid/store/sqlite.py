@@ -259,7 +259,17 @@ class Trials:
         return int(self.id.shape[0])
 
     def subset(self, mask: np.ndarray) -> Trials:
-        """The trials where ``mask`` is true."""
+        """The trials where ``mask`` is true.
+
+        Parameters
+        ----------
+        mask : (n,) array of bool
+            Which rows to keep.
+
+        Returns
+        -------
+        Trials
+        """
         keep = {(int(s), int(q)) for s, q in zip(self.stage[mask], self.seq[mask])}
         return Trials(
             self.id[mask],
@@ -276,7 +286,18 @@ class Trials:
         )
 
     def message(self, i: int) -> str:
-        """Failure message of row ``i`` ('' if it did not fail)."""
+        """Failure message of one trial.
+
+        Parameters
+        ----------
+        i : int
+            Row of the trial in these arrays.
+
+        Returns
+        -------
+        str
+            Why it failed ('' if it did not fail).
+        """
         return self.messages.get((int(self.stage[i]), int(self.seq[i])), "")
 
 
