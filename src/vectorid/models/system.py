@@ -108,8 +108,10 @@ class SystemResult:
 class SystemModel(abc.ABC):  # noqa: B024 - either hook (rhs or _simulate) is the one to write
     """Base class of a user's batch ODE model (see the module docstring).
 
-    Contract for subclasses
-    -----------------------
+    Notes
+    -----
+    Contract for subclasses:
+
     - Class attributes: ``name`` (shown in messages and stores), ``parameters`` (tuple of
       :class:`~vectorid.models.Parameter`: name, nominal, low, high, unit, meaning; in the
       column order of ``params``), ``states`` (tuple of :class:`~vectorid.models.Channel`
@@ -172,7 +174,13 @@ class SystemModel(abc.ABC):  # noqa: B024 - either hook (rhs or _simulate) is th
         return np.array([[p.low, p.high] for p in self.parameters], dtype=float)
 
     def unit_of(self, channel: str) -> str:
-        """Unit of an output channel."""
+        """Unit of an output channel.
+
+        Parameters
+        ----------
+        channel : str
+            Output channel name.
+        """
         for c in self.outputs:
             if c.name == channel:
                 return c.unit
@@ -192,9 +200,24 @@ class SystemModel(abc.ABC):  # noqa: B024 - either hook (rhs or _simulate) is th
 
     # ---- hooks --------------------------------------------------------------------------
     def rhs(self, t: float, x: NDArray[np.float64], p: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Time derivative of the states of a batch: ``x`` (n, s), ``p`` (n, p) -> (n, s).
+        """Time derivative of the states of a batch.
 
-        Implement it (numpy over the batch), or override :meth:`_simulate` instead."""
+        Implement it (numpy over the batch), or override :meth:`_simulate` instead.
+
+        Parameters
+        ----------
+        t : float
+            Time since the start of the simulation, s.
+        x : ndarray (n, s)
+            States of the trials, in the units of ``states``.
+        p : ndarray (n, p)
+            Parameters of the trials, in the units of ``parameters``.
+
+        Returns
+        -------
+        ndarray (n, s)
+            d x / d t, in the states' units per second.
+        """
         raise NotImplementedError(
             f"{type(self).__name__} must implement rhs(t, x, p) or override _simulate"
         )
@@ -202,8 +225,25 @@ class SystemModel(abc.ABC):  # noqa: B024 - either hook (rhs or _simulate) is th
     def output(
         self, t: float, x: NDArray[np.float64], p: NDArray[np.float64]
     ) -> NDArray[np.float64]:
-        """Output channels of a batch at time ``t``: (n, len(outputs)). Default: the states
-        (override when the outputs are not the states, e.g. an acceleration)."""
+        """Output channels of a batch at time ``t``.
+
+        Default: the states (override when the outputs are not the states, e.g. an
+        acceleration).
+
+        Parameters
+        ----------
+        t : float
+            Time since the start of the simulation, s.
+        x : ndarray (n, s)
+            States of the trials.
+        p : ndarray (n, p)
+            Parameters of the trials.
+
+        Returns
+        -------
+        ndarray (n, len(outputs))
+            The outputs, in the units of ``outputs``.
+        """
         if self.output_names != self.state_names:
             raise NotImplementedError(
                 f"{type(self).__name__}: outputs {self.output_names} are not the states "
@@ -324,7 +364,13 @@ class SystemModel(abc.ABC):  # noqa: B024 - either hook (rhs or _simulate) is th
         )
 
     def initial_state(self, initial: Mapping[str, float] | None = None) -> NDArray[np.float64]:
-        """The initial state vector (s,): the states' defaults, overridden by ``initial``."""
+        """The initial state vector (s,): the states' defaults, overridden by ``initial``.
+
+        Parameters
+        ----------
+        initial : mapping, optional
+            State name -> initial value, in the state's unit.
+        """
         x0 = np.array([c.default for c in self.states], dtype=float)
         for key, value in dict(initial or {}).items():
             if key not in self.state_names:
