@@ -42,6 +42,7 @@ __all__ = [
     "analysis_only",
     "build_problem",
     "builder_for",
+    "check_spec",
     "data_files",
     "kind_of",
     "prepare_spec",
@@ -60,6 +61,7 @@ class Builder:
     data_files: Callable[[Any], Mapping[str, Path]] | str | None = None
     prepare: Callable[[Any], Any] | str | None = None
     analysis_keys: tuple[str, ...] = ()
+    check: Callable[[Any], None] | str | None = None
 
     def resolve(self, attr: str) -> Callable[..., Any] | None:
         ref = getattr(self, attr)
@@ -81,6 +83,7 @@ def register_problem_builder(
     data_files: Callable[[Any], Mapping[str, Path]] | str | None = None,
     prepare: Callable[[Any], Any] | str | None = None,
     analysis_keys: tuple[str, ...] = (),
+    check: Callable[[Any], None] | str | None = None,
 ) -> None:
     """Register how studies of ``kind`` become a Problem.
 
@@ -102,10 +105,14 @@ def register_problem_builder(
     analysis_keys : tuple of str
         Keys of the kind's table (at any depth, e.g. ``noise`` also inside a drop) that
         only shape the analysis, never a computed trial.
+    check : callable or str, optional
+        ``check(spec)``: raises :class:`~vectorid.errors.StudyDefinitionError` for a
+        definition the builder cannot run (run when a study file is loaded, before any store
+        is touched).
     """
     if not isinstance(kind, str) or not kind or ":" in kind:
         raise ValueError(f"a builder kind is a non-empty name without ':', got {kind!r}")
-    _BUILDERS[kind] = Builder(kind, build, table, data_files, prepare, tuple(analysis_keys))
+    _BUILDERS[kind] = Builder(kind, build, table, data_files, prepare, tuple(analysis_keys), check)
 
 
 def table_kinds() -> list[str]:
@@ -152,6 +159,16 @@ def data_files(spec: Any) -> dict[str, Path]:
     fn = b.resolve("data_files")
     assert fn is not None
     return dict(fn(spec))
+
+
+def check_spec(spec: Any) -> None:
+    """Run the ``check`` hook of ``spec``'s builder (nothing when it has none)."""
+    b = builder_for(spec)
+    if b.check is None:
+        return
+    fn = b.resolve("check")
+    assert fn is not None
+    fn(spec)
 
 
 def prepare_spec(spec: Any) -> Any:
@@ -232,4 +249,5 @@ register_problem_builder(
         "noise_draws",
         "noise_seed",
     ),
+    check="vectorid.timesteps:check_identification_steps",
 )

@@ -115,9 +115,19 @@ def _parser() -> argparse.ArgumentParser:
         "--timeout",
         type=positive_float,
         metavar="SECONDS",
-        help="most seconds one trial may take (default: the study's, else no limit)",
+        help="most seconds one trial may take (default: the study's, else no limit): a "
+        "batch of N trials may run N x SECONDS; one that runs longer is stopped and re-run "
+        "one trial at a time, and a trial that takes more than SECONDS is stored as failed, "
+        "'timed out after X s'",
     )
     r.add_argument("--batch-size", type=positive_int, help="trials per batch (default: auto)")
+    r.add_argument(
+        "--accept-changes",
+        action="store_true",
+        help="when a data file or the model's code changed since the stored trials were "
+        "computed, go on and record the change (what, old/new hash, when) in the store's "
+        "history (default: stop and name the change)",
+    )
     r.add_argument(
         "--keep-going",
         action="store_true",
@@ -125,6 +135,21 @@ def _parser() -> argparse.ArgumentParser:
         "(default: stop with the reason and store none)",
     )
     r.add_argument("--quiet", action="store_true", help="no progress bar")
+    r.add_argument(
+        "--sampler",
+        choices=["sobol", "lhs", "sequential"],
+        help="a new study's sampler (default: the study file's)",
+    )
+    r.add_argument(
+        "--budget",
+        type=positive_int,
+        help="sampler 'sequential': most model evaluations (default: the study's, else 50000)",
+    )
+    r.add_argument(
+        "--population",
+        type=positive_int,
+        help="sampler 'sequential': members of D wanted (default: the study's, else 200)",
+    )
 
     v = sub.add_parser("verify", help="check a store: SQLite pages and every batch's checksum")
     v.add_argument("store")
@@ -525,11 +550,21 @@ def _cmd_run(args: argparse.Namespace) -> int:
     if _is_store(src) or (src.suffix.lower() in (".db", ".sqlite", ".sqlite3") and src.is_file()):
         if args.store:
             print("note: --store is ignored when running a store directly", file=sys.stderr)
+        if args.sampler:
+            print(
+                "note: --sampler is ignored when running a store (its trials were drawn by "
+                "the study's sampler); start a new study to change it",
+                file=sys.stderr,
+            )
         study = Study.open(src, write=True)
     else:
         spec = load_study(src)
+        if args.sampler and args.sampler != spec.sampler:
+            spec = _with_sampler(spec, args.sampler)
         store = Path(args.store) if args.store else default_store_path(spec, src)
-        study = Study.create_or_open(spec, store, study_file=src)
+        study = Study.create_or_open(
+            spec, store, study_file=src, accept_changes=args.accept_changes
+        )
     executor = args.executor
     if args.scheduler and executor is None:
         executor = "dask"
@@ -545,6 +580,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
                     batch_size=args.batch_size,
                     progress=not args.quiet,
                     keep_going=args.keep_going,
+                    budget=args.budget,
+                    population=args.population,
+                    accept_changes=args.accept_changes,
                 )
         except RunInterrupted as exc:
             print(f"\n{exc}", file=sys.stderr)
@@ -552,6 +590,18 @@ def _cmd_run(args: argparse.Namespace) -> int:
             return EXIT_INTERRUPTED
         print(summary.describe())
     return 0
+
+
+def _with_sampler(spec: Any, sampler: str) -> Any:
+    """The study file's spec with ``--sampler`` (validated as the file's key would be)."""
+    from .spec import StudySpec
+
+    data = spec.to_dict()
+    data["study"]["sampler"] = sampler
+    if sampler != "sequential":
+        data["study"].pop("budget", None)
+        data["study"].pop("population", None)
+    return StudySpec.from_dict(data, base_dir=spec.base_dir)
 
 
 def _warn_damage(store: Any) -> None:
@@ -569,6 +619,7 @@ def _warn_damage(store: Any) -> None:
 def _cmd_info(args: argparse.Namespace) -> int:
     from .analysis import Analysis
     from .run.loop import group_failures
+    from .store.inputs import history as input_history
 
     study = _open_study(args.store)
     with study:
@@ -580,6 +631,8 @@ def _cmd_info(args: argparse.Namespace) -> int:
             runs = st.runs()
             counts = {s.stage: st.count(s.stage) for s in stages}
             schema = st.meta().get("schema_version", "?")
+            history = input_history(st)
+            missing = st.missing_planned()
         a = Analysis(spec, trials)
         ids = {(int(s), int(q)): int(i) for s, q, i in zip(trials.stage, trials.seq, trials.id)}
         groups = group_failures(trials.messages, ids)
@@ -620,6 +673,8 @@ def _cmd_info(args: argparse.Namespace) -> int:
             "schema": schema,
             "wall_time_per_trial_mean": float(trials.wall.mean()) if len(trials) else None,
             "runs": runs,
+            "history": history,
+            "missing": missing,
         }
         if args.json:
             _print_json(info)
@@ -627,7 +682,25 @@ def _cmd_info(args: argparse.Namespace) -> int:
         print(f"store      {st.path}")
         print(f"study      {spec.name}  (model {spec.to_dict()['study']['model']})")
         held = a.n + sum(d.n for d in trials.damaged if stage_kind(stages, d.stage) == "sample")
-        print(f"trials     {held} stored of {spec.trials} wanted; {a.n_failed} failed")
+        if spec.sampler == "sequential":
+            from .run.sequential import assess
+
+            sq = assess(st)
+            print(
+                f"trials     {held} evaluated of a budget of {spec.sequential_budget}; "
+                f"{a.n_failed} failed"
+            )
+            print(
+                f"sequential {len(sq.counts)} generations; D: {int(sq.members.sum())} members "
+                f"(wanted {spec.sequential_population}), ESS {sq.ess:.0f} (importance weights)"
+            )
+        else:
+            print(f"trials     {held} stored of {spec.trials} wanted; {a.n_failed} failed")
+        if missing:
+            print(
+                f"MISSING    {missing} planned trials are not stored (an interrupted run or "
+                f"repair); `vectorid run {st.path}` computes them"
+            )
         if trials.damaged:
             lost = sum(d.n for d in trials.damaged)
             print(
@@ -674,6 +747,21 @@ def _cmd_info(args: argparse.Namespace) -> int:
                     f"  #{r['run']} {r['executor']} × {r['workers']}  target {r['target']}  "
                     f"{r['outcome']}  {dur}"
                 )
+                for line in (r.get("report") or {}).get("model_errors") or []:
+                    print(f"      model error: {line}")
+        if history:
+            import time as _time
+
+            print("history")
+            for e in history:
+                when = _time.strftime("%Y-%m-%d %H:%M:%S", _time.localtime(e.get("at") or 0))
+                old, new = e.get("old"), e.get("new")
+                hashes = (
+                    f": sha256 {(old or '(absent)')[:12]} -> {(new or '(absent)')[:12]}"
+                    if old or new
+                    else ""
+                )
+                print(f"  {when}  {e.get('what')}{hashes}  ({e.get('note')})")
     return 0
 
 
@@ -707,6 +795,9 @@ def _cmd_verify(args: argparse.Namespace) -> int:
                 "batches": rep.batches,
                 "trials": rep.trials,
                 "unverified": rep.unverified,
+                "sound": rep.sound,
+                "planned": rep.planned,
+                "missing": rep.missing,
                 "damaged": [
                     {
                         "block": d.block,
@@ -722,7 +813,7 @@ def _cmd_verify(args: argparse.Namespace) -> int:
         )
     else:
         print(rep.describe())
-    return 0 if rep.ok else 1
+    return 0 if rep.sound else 1
 
 
 def _cmd_repair(args: argparse.Namespace) -> int:

@@ -419,11 +419,15 @@ def _cmd_sensitivity(args: argparse.Namespace) -> int:
 
 def _cmd_hist(args: argparse.Namespace) -> int:
     from .analysis.histograms import histograms, stage_histograms
+    from .run.sequential import sample_note
 
     study = _open(args.store)
     with study:
         a = _analysis(study, args)
         stages = [s for s in study.store.stages() if s.kind == "sample"]
+        note = None if args.json else sample_note(study.store, a)
+    if note:
+        print(note)
     params = args.param or a.spec.space.names
     if args.by_stage:
         hists = [h for p in params for h in stage_histograms(a, stages, p, bins=args.bins)]
@@ -442,6 +446,18 @@ def _cmd_hist(args: argparse.Namespace) -> int:
                 f"{_fmt(h.high)}]"
             )
             label = f"bin of {h.param}{unit}"
+            if h.weighted:  # a sequential store: D's density needs the importance weights
+                print(
+                    f"  {label:<25}  {'feasible':>8} {'Pareto':>7} {'weighted':>8}  # = D's "
+                    "density, importance-weighted (sequential sampler)"
+                )
+                peak_w = max(1e-300, float(h.feasible_weighted.max()))
+                for lo, hi, f, p, fw in zip(
+                    h.edges[:-1], h.edges[1:], h.feasible, h.pareto, h.feasible_weighted
+                ):
+                    bar = "#" * round(30 * fw / peak_w)
+                    print(f"  [{_fmt(lo):>10}, {_fmt(hi):>10})  {f:>8} {p:>7} {fw:>8.1f}  {bar}")
+                continue
             print(f"  {label:<25}  {'feasible':>8} {'Pareto':>7}  # = feasible trials")
             peak = max(1, int(h.feasible.max()) if len(h.feasible) else 1)
             for lo, hi, f, p in zip(h.edges[:-1], h.edges[1:], h.feasible, h.pareto):
@@ -514,6 +530,9 @@ def _cmd_identifiability(args: argparse.Namespace) -> int:
 
             meanings = parameter_meanings(spec)
         verdicts = identifiability(a, identified=args.identified, weak=args.weak, meanings=meanings)
+        from .run.sequential import sample_note
+
+        note = sample_note(study.store, a)
     if args.json:
         out = verdicts_json(verdicts)
         out["n"], out["n_feasible"], out["n_pareto"] = a.n, a.n_feasible, a.n_pareto
@@ -527,6 +546,8 @@ def _cmd_identifiability(args: argparse.Namespace) -> int:
             "verdict needs to show a spread; run more trials, or use the sequential sampler "
             '([study] sampler = "sequential")'
         )
+    if note:
+        print(note)
     crit = {c.name: c for c in spec.criteria}
     for b in a.active_bounds():
         c = crit.get(b.name)

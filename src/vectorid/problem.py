@@ -242,6 +242,12 @@ class EvalResult:
     status: np.ndarray
     messages: dict[int, str] = field(default_factory=dict)
     wall: np.ndarray | None = None
+    #: Model errors the batch recovered from by re-running its trials in parts (one line
+    #: each, e.g. "raised ValueError: ... (at m.py:3)"), so that a run can report them even
+    #: when every value came back.
+    retried: list[str] = field(default_factory=list)
+    #: Trials that still failed when re-run on their own after such an error.
+    retry_lost: int = 0
 
     @property
     def n(self) -> int:
@@ -555,26 +561,41 @@ class Problem:
         self._mark_nonfinite(res, np.arange(n))
         return res
 
-    def _batch_into(self, X: np.ndarray, rows: np.ndarray, res: EvalResult) -> None:
+    def _batch_into(
+        self, X: np.ndarray, rows: np.ndarray, res: EvalResult, split: bool = False
+    ) -> None:
         t0 = time.perf_counter()
         try:
-            crit, func = self._coerce(self.model(X[rows]), len(rows))
+            out = self.model(X[rows])
+            rows_back = _row_count(out)
+            if rows_back is not None and rows_back != len(rows) and len(rows) > 1:
+                raise _WrongRows(f"returned {rows_back} rows for {len(rows)} trials")
+            crit, func = self._coerce(out, len(rows))
         except (Exception, SystemExit) as exc:
             if len(rows) == 1:
                 res.status[rows[0]] = FAILED
                 res.messages[int(rows[0])] = _describe(exc)
                 res.wall[rows] = time.perf_counter() - t0
+                res.retry_lost += split
                 return
-            if isinstance(exc, ValueError) and "model returned" in str(exc):
+            if (
+                isinstance(exc, ValueError)
+                and "model returned" in str(exc)
+                and not isinstance(exc, _WrongRows)
+            ):
                 # A shape error is a property of the model, not of a trial: fail the batch.
                 res.status[rows] = FAILED
                 for r in rows:
                     res.messages[int(r)] = str(exc)
                 res.wall[rows] = (time.perf_counter() - t0) / len(rows)
                 return
+            # re-run in halves down to single trials: only the guilty trials fail
+            res.retried.append(
+                str(exc) if isinstance(exc, _WrongRows) else "raised " + _describe(exc)
+            )
             half = len(rows) // 2
-            self._batch_into(X, rows[:half], res)
-            self._batch_into(X, rows[half:], res)
+            self._batch_into(X, rows[:half], res, True)
+            self._batch_into(X, rows[half:], res, True)
             return
         self._put(res, rows, crit, func)
         res.wall[rows] = (time.perf_counter() - t0) / len(rows)
@@ -612,6 +633,20 @@ class Problem:
             res.wall[i] = time.perf_counter() - t0
         self._mark_nonfinite(res, np.arange(n))
         return res
+
+
+class _WrongRows(ValueError):
+    """A batch model returned another number of rows than it was given trials."""
+
+
+def _row_count(out: Any) -> int | None:
+    """Rows of the criteria a batch model returned (None when it cannot be told)."""
+    try:
+        crit, _ = _split_output(out)
+        shape = np.shape(crit)
+    except Exception:
+        return None
+    return int(shape[0]) if len(shape) >= 1 else None
 
 
 def _numeric(value: Any, what: str) -> np.ndarray:

@@ -45,6 +45,14 @@ from .problem import Criterion, FunctionalConstraint, Problem
 from .sampling import SAMPLERS, Sampler
 from .space import Choice, Continuous, Integer, Space, Variable
 
+#: Samplers a study may name: the point sequences plus the sequential sampler
+#: (:mod:`vectorid.run.sequential`), whose generation 0 is the Sobol sequence.
+STUDY_SAMPLERS = (*SAMPLERS, "sequential")
+#: Default ``population`` of a sequential study (members of D wanted).
+DEFAULT_POPULATION = 200
+#: Default ``budget`` of a sequential study (model evaluations; at least ``trials``).
+DEFAULT_BUDGET = 50_000
+
 __all__ = ["StudySpec", "load_study"]
 
 _STUDY_KEYS = {
@@ -54,7 +62,9 @@ _STUDY_KEYS = {
     "seed": "seed for scrambling and Latin hypercubes (integer)",
     "batch": "true if the model takes a batch (n, p); false for one vector at a time",
     "batch_size": "trials per batch sent to a worker (integer >= 1)",
-    "sampler": "'sobol' (LP_tau, default) or 'lhs'",
+    "sampler": "'sobol' (LP_tau, default), 'lhs' or 'sequential' (generations toward D)",
+    "budget": "sampler 'sequential': most model evaluations (integer >= 1)",
+    "population": "sampler 'sequential': members of D wanted (integer >= 2, default 200)",
     "scramble": "Owen-scramble the Sobol sequence (default false)",
     "store": "path of the SQLite store, relative to the study file",
     "description": "free text",
@@ -139,8 +149,13 @@ class StudySpec:
         Whether the model takes a batch ``(n, p)`` (True) or one vector ``(p,)`` (False).
     batch_size : int, optional
         Trials per batch; chosen automatically when None.
-    sampler : {"sobol", "lhs"}
+    sampler : {"sobol", "lhs", "sequential"}
     scramble : bool
+    budget : int, optional
+        Sampler ``"sequential"``: most model evaluations (default 50,000, or ``trials``
+        if larger).
+    population : int, optional
+        Sampler ``"sequential"``: distinct members of D wanted (default 200).
     store : str, optional
         Store path (relative to ``base_dir``).
     base_dir : str, optional
@@ -183,6 +198,8 @@ class StudySpec:
     timeout: float | None = None
     command: tuple[str, ...] | None = None
     fmu: dict[str, Any] | None = field(default=None, hash=False)
+    budget: int | None = None
+    population: int | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name:
@@ -248,12 +265,13 @@ class StudySpec:
         object.__setattr__(self, "seed", _int("study.seed", self.seed, 0))
         if self.batch_size is not None:
             object.__setattr__(self, "batch_size", _int("study.batch_size", self.batch_size, 1))
-        if self.sampler not in SAMPLERS:
+        if self.sampler not in STUDY_SAMPLERS:
             raise StudyDefinitionError(
                 "study.sampler",
                 f"unknown sampler {self.sampler!r}",
-                suggest(self.sampler, SAMPLERS),
+                suggest(self.sampler, STUDY_SAMPLERS),
             )
+        self._check_sequential()
         if self.executor is not None and self.executor not in EXECUTORS:
             raise StudyDefinitionError(
                 "study.executor",
@@ -310,6 +328,48 @@ class StudySpec:
                     f"write {flag} = true or {flag} = false",
                 )
 
+    def _check_sequential(self) -> None:
+        """``budget`` and ``population`` apply to the sequential sampler only."""
+        for key, least in (("budget", 1), ("population", 2)):
+            value = getattr(self, key)
+            if value is None:
+                continue
+            if self.sampler != "sequential":
+                raise StudyDefinitionError(
+                    f"study.{key}",
+                    f"{key} applies to sampler 'sequential', this study's sampler is "
+                    f"{self.sampler!r}",
+                    f'set sampler = "sequential", or remove {key}',
+                )
+            object.__setattr__(self, key, _int(f"study.{key}", value, least))
+        if self.sampler != "sequential":
+            return
+        if self.scramble:
+            raise StudyDefinitionError(
+                "study.scramble",
+                "sampler 'sequential' starts from the unscrambled Sobol sequence",
+                "remove scramble = true",
+            )
+        odd = [v.name for v in self.space if v.kind != "continuous"]
+        if odd:
+            raise StudyDefinitionError(
+                "study.sampler",
+                f"sampler 'sequential' needs continuous variables, got {', '.join(odd)} "
+                "(integer or choice)",
+                'use sampler = "sobol" for this study, or make those variables continuous',
+            )
+
+    @property
+    def sequential_budget(self) -> int:
+        """Most model evaluations of a sequential study (``budget``, else 50,000 or
+        ``trials`` if larger)."""
+        return int(self.budget if self.budget is not None else max(DEFAULT_BUDGET, self.trials))
+
+    @property
+    def sequential_population(self) -> int:
+        """Distinct members of D a sequential study wants (``population``, default 200)."""
+        return int(self.population if self.population is not None else DEFAULT_POPULATION)
+
     # -- derived objects -----------------------------------------------------------------
 
     @property
@@ -324,7 +384,8 @@ class StudySpec:
 
     def sampler_for(self) -> Sampler:
         """The point sequence of this study."""
-        return Sampler(len(self.space), self.sampler, scramble=self.scramble, seed=self.seed)
+        kind = "sobol" if self.sampler == "sequential" else self.sampler
+        return Sampler(len(self.space), kind, scramble=self.scramble, seed=self.seed)
 
     def problem(self) -> Problem:
         """Resolve the model and build the :class:`~vectorid.problem.Problem`.
@@ -380,7 +441,10 @@ class StudySpec:
             "sampler": self.sampler,
             "scramble": self.scramble,
         }
-        for key in ("batch_size", "store", "executor", "workers", "scheduler", "timeout"):
+        for key in (
+            "batch_size", "store", "executor", "workers", "scheduler", "timeout", "budget",
+            "population",
+        ):  # fmt: skip
             if getattr(self, key) is not None:
                 study[key] = getattr(self, key)
         if self.command is not None:
@@ -477,6 +541,8 @@ class StudySpec:
             timeout=study.get("timeout"),
             command=study.get("command"),
             fmu=study.get("fmu"),
+            budget=study.get("budget"),
+            population=study.get("population"),
         )
         if limits:
             spec = spec.with_limits(dict(limits))
@@ -654,4 +720,8 @@ def load_study(path: str | Path) -> StudySpec:
         raise StudyDefinitionError(
             str(path), f"not valid TOML: {exc}", "fix the syntax at the position given"
         ) from None
-    return StudySpec.from_dict(data, base_dir=path.resolve().parent)
+    spec = StudySpec.from_dict(data, base_dir=path.resolve().parent)
+    from .builders import check_spec
+
+    check_spec(spec)  # what the study's builder cannot run (dt/output_dt, ...)
+    return spec

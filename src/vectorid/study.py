@@ -89,10 +89,16 @@ class Study:
             spec = load_study(spec)
         from .builders import prepare_spec
         from .store.agreement import data_file_hashes
+        from .store.inputs import record_inputs
 
         spec = prepare_spec(spec)
-
-        return cls(Store.create(store, spec, data_files=data_file_hashes(spec)))
+        st = Store.create(store, spec, data_files=data_file_hashes(spec))
+        try:
+            record_inputs(st, spec)
+        except BaseException:
+            st.close()
+            raise
+        return cls(st)
 
     @classmethod
     def open(cls, store: str | Path, *, write: bool = False) -> Study:
@@ -125,6 +131,7 @@ class Study:
         store: str | Path,
         *,
         study_file: str | Path | None = None,
+        accept_changes: bool = False,
     ) -> Study:
         """Resume ``store`` if it exists, else create it: the same script or command run
         twice continues the same study.
@@ -145,6 +152,9 @@ class Study:
             The store.
         study_file : path, optional
             The study file ``spec`` came from (for the commands in messages).
+        accept_changes : bool
+            Take a data file whose content changed (or an FMU's) instead of refusing it, and
+            record the change in the store's history (:mod:`vectorid.store.inputs`).
 
         Returns
         -------
@@ -162,10 +172,18 @@ class Study:
         st = Store.open(path, write=True)
         try:
             agreement = compare(st.spec, spec, st.data_files())
-            if agreement and not agreement.refused and _derived(st.spec, spec):
+            # a changed data file taken on purpose: what derives from the data is computed anew
+            taking = (
+                accept_changes
+                and bool(agreement.refused)
+                and all(d.content for d in agreement.refused)
+            )
+            if agreement and (not agreement.refused or taking) and _derived(st.spec, spec):
                 # the file leaves derived parts (noise-floor limits) to be computed: take the
                 # stored ones when nothing they derive from changed, else compute them anew
-                spec = _with_derived(st.spec, spec, agreement)
+                from .builders import prepare_spec
+
+                spec = prepare_spec(spec) if taking else _with_derived(st.spec, spec, agreement)
                 agreement = compare(st.spec, spec, st.data_files())
         except BaseException:
             st.close()
@@ -184,11 +202,15 @@ class Study:
                     stacklevel=2,
                 )
             return cls.create(spec, path)
-        if agreement.refused:
+        accepted = [d for d in agreement.refused if d.content] if accept_changes else []
+        if len(accepted) < len(agreement.refused):
             n = st.count()
             st.close()
             raise StoreError(_refusal(path, study_file, agreement, n))
+        old_hashes = st.data_files() or {}
         st.replace_study(spec, agreement.hashes)
+        if accepted:
+            _record_accepted(st, accepted, old_hashes, agreement.hashes)
         for d in agreement.taken:
             warnings.warn(VectoridNote(f"taken from the study file: {d.describe()}"), stacklevel=2)
         return cls(st)
@@ -208,6 +230,9 @@ class Study:
         progress: bool | TextIO = False,
         keep_going: bool = False,
         timeout: float | None = None,
+        budget: int | None = None,
+        population: int | None = None,
+        accept_changes: bool = False,
     ) -> RunSummary:
         """Compute the missing trials and store them (see :func:`vectorid.run.run_store`).
 
@@ -231,14 +256,29 @@ class Study:
             with the reason and store none).
         timeout : float, optional
             Most seconds one trial may take, in s (default: the study's, else no limit).
+        budget, population : int, optional
+            A sequential study (``sampler = "sequential"``, docs/sequential.md): most model
+            evaluations and members of D wanted (saved in the study; default: the study's).
+            Its ``trials`` is the size of generation 0.
+            Most seconds one trial may take, in s (default: the study's, else no limit): a
+            batch of n trials may run n x ``timeout``; one that runs longer is re-run trial
+            by trial, and a trial that takes longer is stored as failed, "timed out after
+            X s" (see docs/store.md).
+        accept_changes : bool
+            When the model's code or a data file changed since the stored trials were
+            computed, take the change and record it in the store's history instead of
+            raising :class:`~vectorid.store.inputs.InputsChangedError`.
 
         Returns
         -------
         RunSummary
-            Trials stored and failed, the failure reasons with an example each, elapsed s.
+            Trials stored and failed, the failure reasons with an example each, elapsed s
+            (a :class:`~vectorid.run.sequential.SequentialSummary` for a sequential study:
+            generations, evaluations, members of D, ESS).
         """
         return run_store(
             self.store,
+            accept_changes=accept_changes,
             trials=trials,
             executor=executor,
             workers=workers,
@@ -246,6 +286,8 @@ class Study:
             progress=progress,
             keep_going=keep_going,
             timeout=timeout,
+            budget=budget,
+            population=population,
         )
 
     def trials(self) -> Trials:
@@ -348,5 +390,37 @@ def _refusal(path: Path, study_file: str | Path | None, agreement: Any, n: int) 
     lines.append(
         f"to start a new store from the file: vectorid run {src} --store {new_store_name(path)}"
     )
-    lines.append(f"to keep the stored definition and extend it: vectorid run {path}")
+    if not all(d.content for d in refused):  # else the store path is refused just the same
+        lines.append(f"to keep the stored definition and extend it: vectorid run {path}")
+    else:
+        lines.append(
+            f"to take the changed file content and record it in the store's history: "
+            f"vectorid run {src} --accept-changes"
+        )
     return "\n".join(lines)
+
+
+def _record_accepted(
+    st: Store, accepted: list[Any], old: Mapping[str, Any], new: Mapping[str, Any]
+) -> None:
+    """Record data-file content changes taken with ``accept_changes`` in the history."""
+    import time
+
+    from .store.inputs import record_history
+
+    now = time.time()
+    entries = [
+        {
+            "at": now,
+            "what": f"data file {d.field}",
+            "old": (old.get(d.field) or {}).get("sha256"),
+            "new": (new.get(d.field) or {}).get("sha256"),
+            "note": "accepted (--accept-changes)",
+        }
+        for d in accepted
+    ]
+    record_history(st, entries)
+    for e in entries:
+        warnings.warn(
+            VectoridNote(f"accepted and recorded in the store's history: {e['what']}"), stacklevel=3
+        )

@@ -331,7 +331,7 @@ def test_schema_1_store_opens_and_is_upgraded_by_a_run(reference, tmp_path):
     expect(KIND, r.code == 0 and "schema 1" in r.err and "no checksum" in r.err, r.err, r)
     assert_subset_of_reference(KIND, path, reference, set())
     r = cli("run", path, "--executor", "serial", "--quiet")
-    expect(KIND, r.code == 0 and "upgraded from schema 1 to 2" in r.err, r.err, r)
+    expect(KIND, r.code == 0 and "upgraded from schema 1 to 3" in r.err, r.err, r)
     r = cli("verify", path)
     expect(KIND, r.code == 0 and "16 verified" in r.out, r.out, r)
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -36,6 +36,10 @@ class Histogram:
         The box the histogram spans (the stage's or the study's box).
     stage : int or None
         The stage whose trials are counted (None: every sample stage).
+    feasible_weighted : (m,) float or None
+        Sequential stores: D's importance-weighted counts per bin, scaled to D's number of
+        members (the density of D over the box; the plain ``feasible`` counts follow where
+        the generations sampled). None where every trial weighs the same.
     n_outside : int
         Trials of the selection outside ``[low, high]`` (not counted; happens when a
         histogram spans a narrower box than some trials were drawn in).
@@ -50,6 +54,12 @@ class Histogram:
     high: float
     stage: int | None = None
     n_outside: int = 0
+    feasible_weighted: np.ndarray | None = None
+
+    @property
+    def weighted(self) -> bool:
+        """Whether D's density is importance-weighted (a sequential store)."""
+        return self.feasible_weighted is not None
 
     @property
     def centres(self) -> np.ndarray:
@@ -72,6 +82,9 @@ class Histogram:
             "feasible": self.feasible.tolist(),
             "pareto": self.pareto.tolist(),
             "n_outside": self.n_outside,
+            "feasible_weighted": None
+            if self.feasible_weighted is None
+            else self.feasible_weighted.tolist(),
         }
 
 
@@ -164,20 +177,32 @@ def histograms(
     sel = np.ones(a.n, bool) if stage is None else a.trials.stage == stage
     nbins = bins or default_bins(int((a.feasible & sel).sum()))
     out = []
+    d = a.feasible & sel
+    w = None
+    weigh = getattr(a.trials, "log_weight", None)
+    if weigh is not None and d.any():
+        lw = weigh(a.trials.X[d])
+        w = np.exp(lw - lw.max())
+        w *= d.sum() / w.sum()
     for name in names:
         j = a.spec.space.index(name)
         var = space.variables[j]
         edges = _edges(var, var.low, var.high, nbins)
-        out.append(
-            histogram(
-                a.trials.X[sel, j],
-                a.feasible[sel],
-                a.pareto[sel],
-                edges,
-                param=name,
-                stage=stage,
-            )
+        h = histogram(
+            a.trials.X[sel, j],
+            a.feasible[sel],
+            a.pareto[sel],
+            edges,
+            param=name,
+            stage=stage,
         )
+        if w is not None:
+            x = a.trials.X[d, j]
+            inside = (x >= edges[0]) & (x <= edges[-1])
+            idx = np.clip(np.searchsorted(edges, x, side="right") - 1, 0, len(edges) - 2)
+            fw = np.bincount(idx[inside], weights=w[inside], minlength=len(edges) - 1)
+            h = replace(h, feasible_weighted=fw)
+        out.append(h)
     return out
 
 

@@ -355,8 +355,11 @@ def _judge(
         return (
             "not identified",
             "the feasible set D is empty: no trial meets every constraint",
-            "see which constraint empties D (`vectorid pareto STORE`): the model or the "
-            "limits do not fit the data (loosen a limit or grant a discrepancy allowance)",
+            "see which constraint empties D (`vectorid pareto STORE`); an empty D among "
+            "the trials says the trials have not reached D, not that the model is wrong: run "
+            'the sequential sampler (sampler = "sequential", docs/sequential.md), which '
+            "moves trials toward the limits and, if it cannot reach them, says whether a "
+            "local search from the best trials can",
         )
     if not limited:
         return (

@@ -369,6 +369,9 @@ class Identification:
             self._check_drops(f"dropout.{d.name}.drops", d.drops)
         self.dt = _positive("dt", dt)
         self.output_dt = _positive("output_dt", output_dt)
+        from ..timesteps import check_time_steps
+
+        check_time_steps(self.dt, self.output_dt, where="identification")
         self.window_step = (
             self.output_dt if window_step is None else _positive("window_step", window_step)
         )

@@ -64,6 +64,7 @@ from .executors import (
     batch_deadline,
     describe_exception,
     failed_result,
+    judge_time,
     timeout_reason,
 )
 
@@ -217,6 +218,17 @@ def dask_setup(worker):
 """
 
 
+def _code_on_worker(blob: bytes) -> dict[str, str]:
+    """``{file: sha256}`` of the model code as this worker sees it (see
+    :func:`vectorid.store.inputs.code_hashes`)."""
+    import cloudpickle
+
+    from ..store.inputs import code_hashes
+
+    spec = cloudpickle.loads(blob)
+    return {k: str(v.get("sha256")) for k, v in code_hashes(spec).items()}
+
+
 def _where() -> str:
     try:
         from distributed import get_worker
@@ -355,6 +367,7 @@ class DaskExecutor(Executor):
             from distributed.scheduler import KilledWorker as killed_worker
         blob = cloudpickle.dumps(self.spec)
         token = hashlib.sha1(blob).hexdigest()
+        self._check_worker_code(client, blob)
         k, q = len(self.spec.criteria), len(self.spec.constraints)
         tracker = SuspectTracker(k, q)
         threads = sum(client.nthreads().values()) or self.workers
@@ -425,10 +438,42 @@ class DaskExecutor(Executor):
                 elif kind == "error":
                     finished = tracker.done(task, failed_result(len(task.X), k, q, payload))
                 else:
-                    finished = tracker.done(task, payload)
+                    judged = judge_time(task, payload, self.timeout, 0.0)
+                    if judged is None:  # a batch past n x timeout: re-run trial by trial
+                        assert self.timeout is not None
+                        finished = tracker.lost(task, timeout_reason(self.timeout), True)
+                    else:
+                        finished = tracker.done(task, judged)
             fut.release()
             yield from finished
             top_up()
+
+    def _check_worker_code(self, client: Any, blob: bytes) -> None:
+        """Refuse to run when a worker's copy of the model code differs from this machine's
+        (the code the store records): its trials would come from another model. A worker
+        that finds no source file of the model cannot be compared (it reports an error of
+        its own if it cannot build the model)."""
+        from ..store.inputs import code_hashes
+
+        here = {k: str(v.get("sha256")) for k, v in code_hashes(self.spec).items()}
+        if not here:
+            return
+        try:
+            seen = client.run(_code_on_worker, blob)
+        except Exception as exc:  # a worker without vectorid, ...: building reports it
+            logging.getLogger(__name__).info("model code not compared on workers: %s", exc)
+            return
+        for address, theirs in sorted(seen.items()):
+            if not theirs or set(theirs.values()) == set(here.values()):
+                continue
+            diff = sorted({*here, *theirs} - {k for k in here if theirs.get(k) == here[k]})
+            raise StudyDefinitionError(
+                "study.model",
+                f"Dask worker {address} has other model code than this machine "
+                f"(differs: {', '.join(diff[:4])}); its trials would not match the store's",
+                "give every worker the same model files (the same project checkout), or run "
+                "with --executor processes",
+            )
 
     def _restart(self, address: str) -> None:
         """Restart a worker whose model thread is stuck (through its nanny)."""

@@ -18,13 +18,17 @@ runs each of them through it):
 Executors by name (:data:`EXECUTORS`): ``"serial"`` (this process), ``"processes"`` (local
 worker processes) and ``"dask"`` (:mod:`vectorid.run.dask`, imported only when used).
 
-Timeouts. ``timeout`` (study key or ``--timeout``) is the most seconds one trial may take; a
-batch of ``n`` trials may take ``n × timeout`` (plus 10 % and 1 s of grace, see
-:func:`batch_deadline`), counted from the moment its worker starts on it. The process
-executor kills a worker whose batch overruns (``SIGKILL``: it works for a model stuck in
-compiled code too) and starts a fresh one; the Dask executor does the same through the
-worker's nanny (see :mod:`vectorid.run.dask`). The serial executor runs the model in one
-child *model process* (a one-worker process executor), so a timeout, a crash (segfault,
+Timeouts. ``timeout`` (study key or ``--timeout``) is the most seconds one trial may take,
+exactly: a batch of ``n`` trials may take ``n × timeout`` seconds (:func:`batch_deadline`),
+counted from the moment its worker starts on it. A batch that runs over has its worker killed
+(``SIGKILL``: it works for a model stuck in compiled code too) and is re-run one trial at a
+time, each in a fresh worker with ``timeout`` seconds; a trial still running then is stored
+as failed, "timed out after X s", with X (its time) as its wall time. A result that comes back
+late (between two looks at the clock) is judged the same way: a batch whose time per trial
+passed the timeout is re-run trial by trial, and a single trial (or a per-trial model's
+trial, timed on its own) that took longer fails with its time. The Dask executor does the
+same through the worker's nanny (see :mod:`vectorid.run.dask`). The serial executor runs the
+model in one child *model process* (a one-worker process executor), so a timeout, a crash (segfault,
 ``os._exit``) or ``sys.exit`` in the model fails that trial only, exactly as with
 ``processes``; only a model that cannot be sent to a child process at all runs in this
 process, with a warning that these protections are off.
@@ -319,6 +323,8 @@ class SuspectTracker:
         out.wall[r] = res.wall[0] if res.wall is not None else 0.0
         if 0 in res.messages:
             out.messages[r] = res.messages[0]
+        out.retried += res.retried
+        out.retry_lost += int(res.status[0] == FAILED)
         split.left -= 1
         if split.left == 0:
             del self._splits[task.key]
@@ -326,17 +332,25 @@ class SuspectTracker:
         return []
 
     def lost(
-        self, task: Task, reason: str, timed_out: bool, retried: bool = False
+        self,
+        task: Task,
+        reason: str,
+        timed_out: bool,
+        retried: bool = False,
+        took: float | None = None,
     ) -> list[tuple[Hashable, EvalResult]]:
         """A task's worker died (``timed_out=False``) or was stopped at its deadline.
 
         ``retried`` says the task was already re-run after a worker death (Dask does that
-        itself), so a single trial fails at once.
+        itself), so a single trial fails at once. ``took``: seconds the task ran (the wall
+        time of a single trial that fails).
         """
         n = len(task.X)
         if task.row is None and n > 1:
             self._splits[task.key] = _Split(n, failed_result(n, self.k, self.q, ""), n)
             self._splits[task.key].result.messages.clear()
+            what = "ran past its time" if timed_out else reason.split(":")[0]
+            self._splits[task.key].result.retried.append(f"{what} (batch of {n} trials)")
             # Suspects run before new batches, so the batch is finished (and stored) soon.
             for r in reversed(range(n)):
                 self.queue.appendleft(Task(task.key, task.X[r : r + 1], r, 0))
@@ -346,7 +360,10 @@ class SuspectTracker:
             return []
         if not timed_out:
             reason += " (twice)" if not retried else " (in every worker that tried it)"
-        return self.done(task, failed_result(1, self.k, self.q, reason))
+        res = failed_result(1, self.k, self.q, reason)
+        if took is not None and res.wall is not None:
+            res.wall[0] = took
+        return self.done(task, res)
 
 
 def describe_exception(exc: BaseException) -> str:
@@ -391,14 +408,43 @@ def crash_reason(exitcode: int | None) -> str:
 
 
 def batch_deadline(n: int, timeout: float) -> float:
-    """Seconds a batch of ``n`` trials may run: ``n × timeout`` plus 10 % and 1 s of grace
-    (so a model that enforces ``timeout`` per trial itself, such as a command-line model,
-    reports its own timeouts first)."""
-    return 1.1 * n * timeout + 1.0
+    """Seconds a batch of ``n`` trials may run: ``n × timeout`` (no grace: ``timeout`` is
+    the most one trial may take)."""
+    return n * timeout
 
 
-def timeout_reason(seconds: float) -> str:
-    return f"timed out: the trial ran longer than the timeout of {seconds:g} s (worker stopped)"
+def timeout_reason(seconds: float, took: float | None = None) -> str:
+    """Why a trial failed for its time: ``took`` seconds (at least) against ``seconds``."""
+    took = seconds if took is None else took
+    return f"timed out after {took:.3g} s: the limit is {seconds:g} s per trial (--timeout)"
+
+
+def judge_time(
+    task: Task, res: EvalResult, timeout: float | None, elapsed: float
+) -> EvalResult | None:
+    """A result that came back after its trials' time ran out, judged as if the clock had
+    been looked at in time (see the module docstring). Returns the result to keep (rows
+    whose own time — for a batch model, its call's time shared equally — passed ``timeout``
+    failed), or None when a batch of several trials ran past ``n × timeout`` and must be
+    re-run trial by trial. ``elapsed`` (this process's clock) is used only when the result
+    holds no wall times."""
+    if timeout is None:
+        return res
+    n = res.n
+    # the worker's own clock (this process may have been busy storing when it came back)
+    wall = res.wall if res.wall is not None else np.full(n, elapsed / max(n, 1))
+    judged = np.array([str(res.messages.get(i, "")).startswith("timed out") for i in range(n)])
+    if n > 1 and float(np.sum(wall[~judged])) > batch_deadline(n, timeout):
+        return None
+    slow = np.flatnonzero((wall > timeout) & (res.status != FAILED))
+    for r in slow:
+        res.status[r] = FAILED
+        res.criteria[r] = np.nan
+        res.functionals[r] = np.nan
+        res.messages[int(r)] = timeout_reason(timeout, float(wall[r]))
+        if res.wall is not None:
+            res.wall[r] = float(wall[r])
+    return res
 
 
 def memory_reason(used: int, limit: int) -> str:
@@ -585,6 +631,7 @@ class _Proc:
         self.ready = False
         self.task: Task | None = None
         self.deadline = float("inf")
+        self.started = 0.0
 
     def kill(self) -> None:
         with contextlib.suppress(Exception):
@@ -709,6 +756,7 @@ class ProcessExecutor(Executor):
                 except OSError:  # died since; the sentinel reports it below
                     pass
                 p.task = task
+                p.started = time.monotonic()
                 p.deadline = (
                     time.monotonic() + batch_deadline(len(task.X), self.timeout)
                     if self.timeout is not None
@@ -754,7 +802,13 @@ class ProcessExecutor(Executor):
                             if kind == "result"
                             else failed_result(len(task.X), k, q, payload)
                         )
-                        finished = tracker.done(task, res)
+                        judged = judge_time(task, res, self.timeout, now - p.started)
+                        if judged is None:  # a batch past its time: re-run trial by trial
+                            finished = tracker.lost(
+                                task, timeout_reason(self.timeout), timed_out=True
+                            )
+                        else:
+                            finished = tracker.done(task, judged)
                 elif not p.proc.is_alive():
                     dead = True
                 if over is not None and p.task is not None and msg is None and not dead:
@@ -771,12 +825,15 @@ class ProcessExecutor(Executor):
                         self._start_failed(p, _exit_text(p.proc.exitcode))
                     self._procs[i] = self._new_proc()
                     if task is not None:
+                        took = now - p.started
                         reason = (
-                            timeout_reason(self.timeout)
+                            timeout_reason(self.timeout, took)
                             if timed_out and self.timeout is not None
                             else crash_reason(p.proc.exitcode)
                         )
-                        finished = tracker.lost(task, reason, timed_out)
+                        finished = tracker.lost(
+                            task, reason, timed_out, took=took if timed_out else None
+                        )
                 yield from finished
 
     def close(self, cancel: bool = False) -> None:

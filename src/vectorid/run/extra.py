@@ -46,11 +46,16 @@ def evaluate_and_store(
     ------
     StoreError
         When the store was opened read-only.
+    InputsChangedError
+        When the model's code or a data file changed since the stored trials were computed.
     """
     if not store.writable:
         raise StoreError(
             f"store {store.path} was opened read-only; open it with write=True to add trials"
         )
+    from ..store.inputs import check_inputs
+
+    check_inputs(store)  # the same check as every run: same model code and data files
     prob = problem if problem is not None else store.spec.problem()
     t0 = time.perf_counter()
     res = prob.evaluate(X)

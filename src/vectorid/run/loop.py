@@ -105,6 +105,10 @@ class RunSummary:
         Group key -> ``(trial id, full message)`` of the first trial of the group.
     notes : list of str
         Things the run decided that the user must know (a target below what is stored, ...).
+    retried : dict
+        Model errors the run recovered from by re-running trials (a batch that raised,
+        returned too few rows, lost its worker or ran past its time): group key ->
+        ``[batches, trials lost, example text]``; :attr:`model_errors` says them.
     """
 
     target: int
@@ -116,6 +120,37 @@ class RunSummary:
     reasons: collections.Counter = field(default_factory=collections.Counter)
     examples: dict[str, tuple[int, str]] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
+    retried: dict[str, list] = field(default_factory=dict)
+
+    def add_retried(self, res: EvalResult) -> None:
+        """Count the model errors a batch recovered from (once per batch and kind; the run
+        loop calls it).
+
+        Parameters
+        ----------
+        res : EvalResult
+            The evaluated batch, with the errors it was re-run after (``res.retried``).
+        """
+        if not res.retried:
+            return
+        lost = int(res.retry_lost)
+        for text in dict.fromkeys(res.retried):
+            key = _reason_key(text)
+            entry = self.retried.setdefault(key, [0, 0, text])
+            entry[0] += 1
+            entry[1] += lost
+
+    @property
+    def model_errors(self) -> list[str]:
+        """One line per kind of model error the run recovered from, e.g. "3 batches raised
+        ValueError: ... ; re-run trial by trial: 0 lost"."""
+        out = []
+        for batches, lost, text in sorted(self.retried.values(), key=lambda e: -e[0]):
+            out.append(
+                f"{batches} batch{'es' if batches > 1 else ''} {text}; re-run trial by "
+                f"trial: {lost} lost"
+            )
+        return out
 
     @property
     def rate(self) -> float:
@@ -155,6 +190,11 @@ class RunSummary:
             f"({self.rate:.0f} trials/s); the study holds {self.total_stored} of {self.target}"
         ]
         lines += [f"note: {n}" for n in self.notes]
+        if self.retried:
+            lines.append(
+                "model errors (the values were re-computed; failed trials are counted below):"
+            )
+            lines += [f"  {m}" for m in self.model_errors]
         if self.failed:
             share = 100.0 * self.failed / max(self.stored, 1)
             lines.append(f"{self.failed} of {self.stored} trials failed ({share:.0f} %):")
@@ -310,6 +350,9 @@ def run_store(
     keep_going: bool = False,
     ranges: Sequence[tuple[int, int, int]] | None = None,
     timeout: float | None = None,
+    budget: int | None = None,
+    population: int | None = None,
+    accept_changes: bool = False,
 ) -> RunSummary:
     """Run (or resume, or extend) the study held by a writable store.
 
@@ -318,7 +361,9 @@ def run_store(
     store : Store
         Opened with ``write=True``.
     trials : int, optional
-        Total number of trials the study should hold (default: the study's ``trials``). A
+        Total number of trials the study should hold (default: the study's ``trials``); for a
+        sequential study (``sampler = "sequential"``, run by
+        :func:`vectorid.run.sequential.run_sequential`) the size of generation 0. A
         larger number than before extends the study along the same sequence; a smaller one
         than is stored computes nothing and keeps every stored trial (the summary says so).
     executor : {"serial", "processes", "dask", "inline"}, optional
@@ -336,6 +381,15 @@ def run_store(
         Only compute the missing trials of these sequence ranges (used by repairs).
     timeout : float, optional
         Most seconds one trial may take (default: the study's ``timeout``).
+    budget, population : int, optional
+        Sequential studies only: most model evaluations and members of D wanted (saved in
+        the study; default: the study's).
+        Most seconds one trial may take (default: the study's ``timeout``; see
+        :mod:`vectorid.run.executors` for how a batch that runs over is split).
+    accept_changes : bool
+        When the data files or the model's code changed since the stored trials were
+        computed, take the change and record it in the store's history instead of stopping
+        (:func:`vectorid.store.inputs.check_inputs`).
 
     Returns
     -------
@@ -349,6 +403,32 @@ def run_store(
         When every trial of the first batches failed (unless ``keep_going``).
     """
     spec = store.spec
+    if spec.sampler != "sequential" and (budget is not None or population is not None):
+        from ..errors import StudyDefinitionError
+
+        raise StudyDefinitionError(
+            "--budget" if budget is not None else "--population",
+            f"budget and population apply to sampler 'sequential', this study's sampler is "
+            f"{spec.sampler!r}",
+            'use --trials for a plain study, or set sampler = "sequential" in a new study',
+        )
+    if spec.sampler == "sequential":
+        from .sequential import run_sequential
+
+        if trials is not None and int(trials) != spec.trials and not store.count_sample():
+            store.set_target(int(trials))  # generation 0's size, before anything is stored
+        return run_sequential(
+            store,
+            budget=budget,
+            population=population,
+            executor=executor,
+            workers=workers,
+            batch_size=batch_size,
+            progress=progress,
+            keep_going=keep_going,
+            ranges=ranges,
+            timeout=timeout,
+        )
     if trials is not None:
         _check_capacity(spec, int(trials))
     notes: list[str] = []
@@ -362,13 +442,18 @@ def run_store(
                 f"and the study's target stays {max(spec.trials, stored_before)}"
             )
             trials = max(spec.trials, stored_before)
-        if trials != spec.trials:
-            store.set_target(trials)
-            spec = store.spec
     target = int(trials if trials is not None else spec.trials)
+    missing = _missing_count(store, target, ranges)
+    if missing or accept_changes:
+        from ..store.inputs import check_inputs
+
+        # the same check on every path into a store, before anything is written to it
+        notes += check_inputs(store, accept_changes=accept_changes)
+    if trials is not None and ranges is None and trials != spec.trials:
+        store.set_target(trials)
+        spec = store.spec
     _check_capacity(spec, target)
     executor_name = executor or spec.executor or "processes"
-    missing = _missing_count(store, target, ranges)
     pool = make_executor(
         executor_name,
         spec,
@@ -406,6 +491,7 @@ def run_store(
             return
         summary.stored += wrote
         summary.add_failures(start + 1, res)
+        summary.add_retried(res)
         if bar is not None:
             bar.update(wrote)
 
@@ -458,8 +544,21 @@ def run_store(
         summary.total_stored = store.count_sample()
         if bar is not None:
             bar.close()
-        store.end_run(run_id, outcome)
+        store.end_run(run_id, outcome, _run_report(summary))
     return summary
+
+
+def _run_report(summary: RunSummary) -> dict:
+    """What the run record keeps of a run: failures and recovered model errors."""
+    return {
+        "stored": summary.stored,
+        "failed": summary.failed,
+        "failures": [
+            {"count": g.count, "example": g.message, "trial": g.trial}
+            for g in summary.failures[:10]
+        ],
+        "model_errors": summary.model_errors,
+    }
 
 
 def _stop_loudly(spec, held, seen: int) -> None:

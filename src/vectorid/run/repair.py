@@ -15,6 +15,15 @@
    the report says so (run the section again).
 
 The result is the store an undamaged run would have written, trial for trial.
+
+Crash-safe: a repair is all or nothing. The replacement trials are computed first, while the
+store is left as it is; then the damaged batches are dropped and the recomputed ones written
+in **one SQLite transaction**. A rebuild is made in a temporary file (recomputed trials
+included) that replaces the store with one atomic rename. A repair killed at any moment
+(``kill -9``, a power cut) leaves either the old store (run ``vectorid repair`` again) or the
+repaired one — never a store with trials missing. Trials of the plan that were missing before
+the repair (an interrupted run) are not the repair's to compute: the report names them, and
+``vectorid run STORE`` computes them.
 """
 
 from __future__ import annotations
@@ -32,7 +41,6 @@ import numpy as np
 from ..errors import StoreDamagedError, StoreError
 from ..store.sqlite import TABLES, DamagedBatch, Store
 from .executors import make_executor
-from .loop import run_store
 
 __all__ = ["RepairReport", "rebuild_file", "repair_store"]
 
@@ -49,6 +57,9 @@ class RepairReport:
     not_recomputed: list[DamagedBatch] = field(default_factory=list)
     backup: Path | None = None
     restored: Path | None = None
+    #: Planned trials no batch holds after the repair (missing before it: an interrupted
+    #: run); ``vectorid run STORE`` computes them.
+    missing: int = 0
 
     def describe(self) -> str:
         lines = []
@@ -67,6 +78,11 @@ class RepairReport:
             lines.append(f"dropped {d.describe()}")
         if self.dropped or self.rebuilt:
             lines.append(f"recomputed {self.recomputed} trials")
+        if self.missing:
+            lines.append(
+                f"{self.missing} planned trials are missing (not damage: an interrupted run); "
+                f"`vectorid run {self.path}` computes them"
+            )
         for d in self.not_recomputed:
             lines.append(
                 f"not recomputed: batch {d.block} of stage {d.stage} (its parameters are "
@@ -85,6 +101,26 @@ def rebuild_file(path: Path) -> tuple[Path, list[str], list[tuple[int, int, int]
         Where the damaged file went, the rows that could not be read, and the sequence
         ranges of batches that could not be copied (to recompute).
     """
+    tmp, lost, lost_ranges = rebuild_copy(path)
+    return swap_in(path, tmp), lost, lost_ranges
+
+
+def swap_in(path: Path, tmp: Path) -> Path:
+    """Replace the store at ``path`` by ``tmp`` (one atomic rename); the old file is kept
+    as ``PATH.damaged``. Returns the backup's path."""
+    backup = path.with_name(path.name + ".damaged")
+    shutil.copy2(path, backup)
+    os.replace(tmp, path)
+    for suffix in ("-wal", "-shm"):
+        if os.path.exists(str(path) + suffix):
+            os.unlink(str(path) + suffix)
+    return backup
+
+
+def rebuild_copy(path: Path) -> tuple[Path, list[str], list[tuple[int, int, int]]]:
+    """Copy every readable row of the store at ``path`` into ``PATH.rebuild`` (the store
+    itself is not touched). Returns the copy's path, the rows that could not be read, and the
+    sequence ranges of batches that could not be copied."""
     from ..store.sqlite import _SCHEMA, APPLICATION_ID, SCHEMA_VERSION
 
     tmp = path.with_name(path.name + ".rebuild")
@@ -144,13 +180,7 @@ def rebuild_file(path: Path) -> tuple[Path, list[str], list[tuple[int, int, int]
     finally:
         src.close()
         dst.close()
-    backup = path.with_name(path.name + ".damaged")
-    shutil.copy2(path, backup)
-    for suffix in ("-wal", "-shm"):
-        if os.path.exists(str(path) + suffix):
-            os.unlink(str(path) + suffix)
-    os.replace(tmp, path)
-    return backup, lost, lost_ranges
+    return tmp, lost, lost_ranges
 
 
 def _lost_range(src: sqlite3.Connection, block: int, out: list[tuple[int, int, int]]) -> None:
@@ -194,7 +224,6 @@ def repair_store(
     """
     path = Path(path)
     report = RepairReport(path)
-    lost_ranges: list[tuple[int, int, int]] = []
     store = Store.open(path, write=True)
     try:
         if study is not None:
@@ -204,73 +233,171 @@ def repair_store(
         sqlite_ok = rep.sqlite == ["ok"] and not any(
             "cannot be read" in p or "SQLite" in p for p in rep.problems
         )
-        if not sqlite_ok:
-            store.close()
-            # hold the lock while the file is swapped
-            from ..store.sqlite import _WriterLock
-
-            lock = _WriterLock(path)
-            lock.acquire()
-            try:
-                report.backup, report.lost_rows, lost_ranges = rebuild_file(path)
-            finally:
-                lock.forget()
-            report.rebuilt = True
-            store = Store.open(path, write=True)
-            rep = store.verify()
-        if rep.problems:
-            raise StoreDamagedError(
-                f"store {path} cannot be repaired here: " + "; ".join(rep.problems)
-            )
-        damaged = list(rep.damaged)
-        kinds = {s.stage: s.kind for s in store.stages()}
-        # read what can be recomputed from stored parameters before dropping anything
-        rerun: list[tuple[DamagedBatch, np.ndarray]] = []
-        for d in damaged:
-            if kinds.get(d.stage) == "sample" or {"header", "size"} & set(d.parts):
-                continue
-            X = _intact_parameters(store, d)
-            if X is None:
-                report.not_recomputed.append(d)
-            else:
-                rerun.append((d, X))
-        blocks = [d.block for d in damaged]
-        if blocks:
-            store.drop_batches(
-                blocks,
-                "repair: dropped damaged batches "
-                + ", ".join(f"{d.block} (trials {d.first_id}–{d.last_id})" for d in damaged),
-            )
-        report.dropped = damaged
-        ranges = [
-            (d.stage, d.seq_start, d.seq_start + d.n)
-            for d in damaged
-            if kinds.get(d.stage) == "sample"
-        ] + [r for r in lost_ranges if kinds.get(r[0]) == "sample"]
-        # a damaged header or size says nothing sure about the range its trials held
-        unknown = any(r[0] == -1 for r in lost_ranges) or any(
-            {"header", "size"} & set(d.parts) for d in damaged
-        )
-        if unknown:
-            report.lost_rows.append(
-                "batches whose sequence range is not known for sure: every trial missing up to "
-                f"the study's target ({store.spec.trials}) is computed"
-            )
-        if ranges or unknown:
-            summary = run_store(
-                store,
-                executor=executor,
-                workers=workers,
-                progress=progress,
-                ranges=None if unknown else ranges,
-                keep_going=True,
-            )
-            report.recomputed += summary.stored
-        if rerun:
-            report.recomputed += _recompute_batches(store, rerun, executor, workers)
+        if sqlite_ok:
+            _repair_batches(store, rep, report, executor, workers, progress)
+            report.missing = store.missing_planned()
+            return report
     finally:
         store.close()
+    # SQLite itself is damaged: rebuild a copy, repair the copy, then swap it in (one
+    # rename), all while holding the lock on the store
+    from ..store.sqlite import _WriterLock
+
+    lock = _WriterLock(path)
+    lock.acquire()
+    try:
+        tmp, report.lost_rows, lost_ranges = rebuild_copy(path)
+        copy = Store.open(tmp, write=True)
+        try:
+            rep = copy.verify()
+            _repair_batches(copy, rep, report, executor, workers, progress, lost_ranges)
+            report.missing = copy.missing_planned()
+        finally:
+            copy.close()
+        report.backup = swap_in(path, tmp)
+        report.rebuilt = True
+    finally:
+        lock.forget()
     return report
+
+
+def _repair_batches(
+    store: Store,
+    rep,
+    report: RepairReport,
+    executor: str | None,
+    workers: int | None,
+    progress: bool | TextIO,
+    lost_ranges: Sequence[tuple[int, int, int]] = (),
+) -> None:
+    """Recompute the damaged batches of ``store`` (and the ``lost_ranges`` a rebuild could
+    not copy), then drop and replace them in one transaction."""
+    if rep.problems:
+        raise StoreDamagedError(
+            f"store {report.path} cannot be repaired here: " + "; ".join(rep.problems)
+        )
+    damaged = list(rep.damaged)
+    if not damaged and not lost_ranges:
+        return
+    kinds = {s.stage: s.kind for s in store.stages()}
+    # Other stages' trials come back from their stored parameters when those are intact.
+    rerun: dict[tuple[int, int], np.ndarray] = {}
+    for d in damaged:
+        if kinds.get(d.stage) == "sample" or {"header", "size"} & set(d.parts):
+            continue
+        X = _intact_parameters(store, d)
+        if X is None:
+            report.not_recomputed.append(d)
+        else:
+            rerun[(d.stage, d.seq_start)] = X
+    # Sample trials: exactly those the plan loses when the damaged batches go (a damaged
+    # header says nothing sure about its range: what the others do not hold is computed).
+    keep = {d.block for d in damaged}
+    lost = _plan_gaps(store, exclude=keep)
+    untrusted = {
+        d.block for d in damaged if {"header", "size"} & set(d.parts) or d.stage not in kinds
+    }
+    if untrusted:  # the range such a batch held is not known: every gap of the plan
+        ranges = lost
+    else:
+        ranges = _subtract(lost, _plan_gaps(store, exclude=set()))
+    ranges += [r for r in lost_ranges if kinds.get(r[0]) == "sample"]
+    if any(r[0] == -1 for r in lost_ranges):
+        report.lost_rows.append(
+            "batches whose sequence range is not known: the trials the plan misses are "
+            "named below; `vectorid run STORE` computes them"
+        )
+    spec = store.spec
+    if ranges or rerun:
+        from ..store.inputs import check_inputs
+
+        check_inputs(store)  # recomputed trials must come from the same model and data
+    sampler = spec.sampler_for()
+    spaces = {s.stage: s.space for s in store.stages()}
+    size = spec.batch_size or 256
+    work: dict[tuple[int, int], np.ndarray] = dict(rerun)
+    for stage, a, b in ranges:
+        for s0 in range(a, b, size):
+            n = min(size, b - s0)
+            work[(stage, s0)] = spaces[stage].scale(sampler.points(s0, n))
+    results = _evaluate(spec, work, executor, workers)
+    why = "repair: replaced damaged batches " + ", ".join(
+        f"{d.block} (trials {d.first_id}–{d.last_id})" for d in damaged
+    )
+    hook = os.environ.get("VECTORID_TEST_REPAIR_PAUSE")
+    if hook:  # tests: a moment to kill the repair between computing and committing
+        import time
+
+        time.sleep(float(hook))
+    report.recomputed += store.replace_batches(
+        [d.block for d in damaged],
+        [(stage, start, work[(stage, start)], res) for (stage, start), res in results.items()],
+        why,
+    )
+    report.dropped = damaged
+
+
+def _plan_gaps(store: Store, exclude: set[int]) -> list[tuple[int, int, int]]:
+    """``(stage, start, end)`` of the plan that no batch holds, batches ``exclude`` left out."""
+    target = int(store.spec.trials)
+    rows = store._query("SELECT block, stage, seq_start, n FROM blocks")
+    held: dict[int, list[tuple[int, int]]] = {}
+    for block, stage, start, n in rows:
+        if block in exclude or not all(isinstance(v, int) for v in (stage, start, n)):
+            continue
+        held.setdefault(stage, []).append((start, start + n))
+    sample = [s for s in store.stages() if s.kind == "sample"]
+    out = []
+    for i, st in enumerate(sample):
+        end = min(sample[i + 1].start_seq if i + 1 < len(sample) else target, target)
+        pos = st.start_seq
+        for a, b in sorted(held.get(st.stage, [])):
+            if b <= pos:
+                continue
+            if a >= end:
+                break
+            if a > pos:
+                out.append((st.stage, pos, min(a, end)))
+            pos = max(pos, b)
+        if pos < end:
+            out.append((st.stage, pos, end))
+    return out
+
+
+def _subtract(
+    a: list[tuple[int, int, int]], b: list[tuple[int, int, int]]
+) -> list[tuple[int, int, int]]:
+    """Ranges of ``a`` not in ``b`` (same stage)."""
+    out = []
+    for stage, x0, x1 in a:
+        pieces = [(x0, x1)]
+        for s2, y0, y1 in b:
+            if s2 != stage:
+                continue
+            nxt = []
+            for p0, p1 in pieces:
+                if y1 <= p0 or y0 >= p1:
+                    nxt.append((p0, p1))
+                    continue
+                if p0 < y0:
+                    nxt.append((p0, y0))
+                if y1 < p1:
+                    nxt.append((y1, p1))
+            pieces = nxt
+        out += [(stage, p0, p1) for p0, p1 in pieces if p1 > p0]
+    return out
+
+
+def _evaluate(spec, work: dict, executor: str | None, workers: int | None) -> dict:
+    if not work:
+        return {}
+    pool = make_executor(executor or spec.executor or "serial", spec, workers)
+    out = {}
+    with pool:
+        pool.start()
+        for key, res in pool.map_unordered(list(work.items())):
+            out[key] = res
+    return out
 
 
 def _restore_definition(store: Store, study: Path) -> None:
@@ -312,21 +439,3 @@ def _intact_parameters(store: Store, d: DamagedBatch) -> np.ndarray | None:
     if x.size != d.n * p:
         return None
     return x.reshape(d.n, p).copy()
-
-
-def _recompute_batches(
-    store: Store,
-    rerun: Sequence[tuple[DamagedBatch, np.ndarray]],
-    executor: str | None,
-    workers: int | None,
-) -> int:
-    pool = make_executor(executor or "serial", store.spec, workers)
-    done = 0
-    with pool:
-        keyed = {(d.stage, d.seq_start): X for d, X in rerun}
-        for (stage, start), res in pool.map_unordered(list(keyed.items())):
-            X = keyed[(stage, start)]
-            done += store.write_batch(
-                stage, start, X, res.criteria, res.functionals, res.status, res.wall, res.messages
-            )
-    return done

@@ -45,6 +45,8 @@ TAKEN_STUDY = {
     "workers": "a run setting",
     "scheduler": "a run setting",
     "timeout": "a run setting for trials still to compute",
+    "budget": "a run setting (sequential sampler): stored trials stay",
+    "population": "the target of later generations (sequential sampler); stored trials stay",
     "store": "where the store is",
 }
 TAKEN_VARIABLE = {"unit": "a label", "description": "a label", "nominal": "a reference value"}
@@ -83,6 +85,8 @@ class Difference:
     given: Any
     taken: bool
     why: str
+    #: A file's content changed (not the definition): ``--accept-changes`` may take it.
+    content: bool = False
 
     def describe(self) -> str:
         old, new = _show(self.stored), _show(self.given)
@@ -173,8 +177,8 @@ def compare(
     out = Agreement(hashes=data_file_hashes(given))
     diffs = out.differences
 
-    def add(path: str, x: Any, y: Any, taken: bool, why: str) -> None:
-        diffs.append(Difference(path, x, y, taken, why))
+    def add(path: str, x: Any, y: Any, taken: bool, why: str, content: bool = False) -> None:
+        diffs.append(Difference(path, x, y, taken, why, content))
 
     # [study]
     sa, sb = a.get("study", {}), b.get("study", {})
@@ -275,6 +279,7 @@ def compare(
                 shown_new,
                 False,
                 f"the file's content differs from {checked_against}",
+                content=True,
             )
         elif old_path != new_path:
             add(name, shown_old, shown_new, True, "the same file content")

@@ -1,6 +1,6 @@
 """The embedded study store: one SQLite file per study.
 
-Layout (schema version 2; ``PRAGMA application_id`` marks the file as a vectorid store):
+Layout (schema version 3; ``PRAGMA application_id`` marks the file as a vectorid store):
 
 ``meta(key, value)``
     ``schema_version``, ``vectorid_version``, ``created``, ``study`` (the study definition
@@ -28,10 +28,18 @@ Layout (schema version 2; ``PRAGMA application_id`` marks the file as a vectorid
     The reason of every failed trial.
 ``runs(run, started, finished, pid, host, executor, workers, target, outcome)``
     A log of run sessions (interrupted ones and repairs included).
+``generations(gen, seq_start, n, created, proposal, x, centres, log_mix, chol, checksum)``
+    Schema 3, the sequential sampler (:mod:`vectorid.run.sequential`): generation ``gen``
+    holds the stage-0 sequence indices ``seq_start .. seq_start + n - 1``; ``proposal`` is
+    JSON (kind, the tolerance it aimed at, the kernel's in-box mass and draws), ``x`` the
+    proposed points (n, p) written *before* they are evaluated (so a resumed run evaluates
+    exactly the missing ones), ``centres``/``log_mix``/``chol`` the kernel's parameters, from
+    which every trial's importance weight is recomputed. Empty for a plain Sobol study.
 
 Schema 1 (before checksums) is still read; its batches count as *unverified*, and the first
-writer (any run, or ``vectorid repair``) upgrades the file to schema 2, computing checksums of
-the batches it holds after checking their sizes, and says so.
+writer (any run, or ``vectorid repair``) upgrades the file, computing checksums of the batches
+it holds after checking their sizes, and says so. Schema 2 (before generations) is read as
+is; the first writer adds the empty ``generations`` table (schema 3).
 
 Exactly-once: a batch whose sequence range overlaps a stored range of the same stage is
 not stored again (it is counted as a duplicate), so a batch computed twice (a retried task,
@@ -77,6 +85,7 @@ from ..spec import StudySpec
 __all__ = [
     "SCHEMA_VERSION",
     "DamagedBatch",
+    "Generation",
     "Stage",
     "Store",
     "Trials",
@@ -84,7 +93,7 @@ __all__ = [
     "batch_checksum",
 ]
 
-SCHEMA_VERSION = 2
+SCHEMA_VERSION = 3
 APPLICATION_ID = 0x56494431  # "VID1"
 #: Tables every store holds.
 TABLES = ("meta", "stages", "blocks", "failures", "runs")
@@ -129,6 +138,22 @@ CREATE TABLE runs (
     workers INTEGER,
     target INTEGER,
     outcome TEXT
+);
+"""
+
+#: The sequential sampler's generations (schema 3; created on upgrade of older stores).
+_GENERATIONS = """
+CREATE TABLE IF NOT EXISTS generations (
+    gen INTEGER PRIMARY KEY,
+    seq_start INTEGER NOT NULL,
+    n INTEGER NOT NULL,
+    created REAL NOT NULL,
+    proposal TEXT NOT NULL,
+    x BLOB NOT NULL,
+    centres BLOB NOT NULL,
+    log_mix BLOB NOT NULL,
+    chol BLOB NOT NULL,
+    checksum TEXT NOT NULL
 );
 """
 
@@ -241,6 +266,11 @@ class Trials:
         a sound store; see :meth:`Store.verify`).
     unverified : int
         Batches loaded without a checksum to verify (a schema-1 store opened read-only).
+    log_weight : callable or None
+        Sequential stores only: ``log_weight(X)`` gives the importance weights (log) of
+        parameter vectors ``X`` (n, p) against the box over every stored generation (see
+        :mod:`vectorid.sequential.weights`); densities of a subset such as D use them.
+        None for a plain study (every trial weighs the same).
     """
 
     id: np.ndarray
@@ -254,6 +284,7 @@ class Trials:
     messages: dict[tuple[int, int], str] = field(default_factory=dict)
     damaged: tuple[DamagedBatch, ...] = ()
     unverified: int = 0
+    log_weight: Any = field(default=None, compare=False, repr=False)
 
     def __len__(self) -> int:
         return int(self.id.shape[0])
@@ -283,6 +314,7 @@ class Trials:
             {k: v for k, v in self.messages.items() if k in keep},
             self.damaged,
             self.unverified,
+            self.log_weight,
         )
 
     def message(self, i: int) -> str:
@@ -509,6 +541,9 @@ class VerifyReport:
         Batches and trials stored (damaged ones included).
     unverified : int
         Batches without a checksum (schema 1).
+    planned, missing : int
+        Trials the study's plan holds (sample stages up to its target) and how many of them
+        no batch holds (an interrupted run or repair).
     notes : list of str
         Things that are not damage (overlapping batches are impossible; orphan failure rows).
     """
@@ -521,12 +556,19 @@ class VerifyReport:
     batches: int = 0
     trials: int = 0
     unverified: int = 0
+    planned: int = 0
+    missing: int = 0
     notes: list[str] = field(default_factory=list)
 
     @property
     def ok(self) -> bool:
         """True when nothing is damaged."""
         return self.sqlite == ["ok"] and not self.problems and not self.damaged
+
+    @property
+    def sound(self) -> bool:
+        """True when nothing is damaged and every planned trial is stored."""
+        return self.ok and not self.missing
 
     def describe(self) -> str:
         lines = [f"store      {self.path}  (schema {self.schema})"]
@@ -546,11 +588,22 @@ class VerifyReport:
             lines.append(f"damaged    {p}")
         for d in self.damaged:
             lines.append(f"damaged    {d.describe()}")
+        if self.planned:
+            lines.append(
+                f"plan       {self.planned - self.missing} of {self.planned} planned trials "
+                f"stored" + (f", {self.missing} missing" if self.missing else "")
+            )
         for n in self.notes:
             lines.append(f"note       {n}")
-        if self.ok:
+        if self.sound:
             extra = " (batches without checksum: schema 1)" if self.unverified else ""
             lines.append("verdict    sound" + extra)
+        elif self.ok:
+            lines.append(
+                f"verdict    INCOMPLETE: {self.missing} of the {self.planned} planned trials "
+                f"are missing (an interrupted run or repair); `vectorid run {self.path}` "
+                "computes them"
+            )
         else:
             lines.append(
                 f"verdict    DAMAGED: `vectorid repair {self.path}` drops the damaged batches "
@@ -640,11 +693,12 @@ class Store:
             con.execute("PRAGMA journal_mode=DELETE")
             con.execute("PRAGMA page_size = 65536")
             con.execute("VACUUM")
-            con.execute("PRAGMA journal_mode=WAL")
+            # written in rollback-journal mode (a megabyte less of log), then WAL below
             with con:
                 con.execute(f"PRAGMA application_id = {APPLICATION_ID}")
                 con.execute(f"PRAGMA user_version = {SCHEMA_VERSION}")
                 con.executescript(_SCHEMA)
+                con.executescript(_GENERATIONS)
             from .. import __version__
 
             study = json.dumps(spec.to_dict())
@@ -670,6 +724,7 @@ class Store:
                 con.execute(
                     "INSERT INTO meta VALUES (?, ?)", _stage_checksum_row(0, "sample", 0, box)
                 )
+            con.execute("PRAGMA journal_mode=WAL")
         except BaseException as exc:
             if con is not None:
                 con.close()
@@ -682,6 +737,7 @@ class Store:
             raise
         store = cls(path, con, lock)
         store._spec = spec
+        store._trim_wal()  # creating wrote a megabyte of log: fold it in
         return store
 
     @classmethod
@@ -812,35 +868,20 @@ class Store:
         return app, version
 
     def _upgrade(self, version: int) -> None:
-        """Schema 1 -> 2: add the checksum column and seal the batches held (after checking
-        that their sizes fit the study)."""
-        spec = self.spec
-        widths = self._widths(spec)
+        """Bring an older store to the current schema: schema 1 -> 2 adds the checksum
+        column and seals the batches held (after checking that their sizes fit the study);
+        2 -> 3 adds the (empty) generations table of the sequential sampler."""
         sealed = bad = 0
         with self._tx() as con:
-            cols = {r[1] for r in con.execute("PRAGMA table_info(blocks)")}
-            if "checksum" not in cols:
-                con.execute("ALTER TABLE blocks ADD COLUMN checksum TEXT")
-            rows = con.execute(
-                "SELECT block, stage, seq_start, n, x, f, g, status, wall FROM blocks"
-            ).fetchall()
-            for block, stage, start, n, *blobs in rows:
-                if _size_problem(n, blobs, widths) is not None:
-                    bad += 1  # left without checksum: it shows as damaged on every load
-                    continue
-                con.execute(
-                    "UPDATE blocks SET checksum = ? WHERE block = ?",
-                    (batch_checksum(stage, start, n, blobs), block),
-                )
-                sealed += 1
-            for st, kind, start, box in con.execute(
-                "SELECT stage, kind, start_seq, box FROM stages"
-            ).fetchall():
-                con.execute(
-                    "INSERT OR REPLACE INTO meta VALUES (?, ?)",
-                    _stage_checksum_row(st, kind, start, box),
-                )
+            if version < 2:
+                sealed, bad = self._add_checksums(con)
+            con.execute(_GENERATIONS)
             study = con.execute("SELECT value FROM meta WHERE key = 'study'").fetchone()[0]
+            what = (
+                f"checksums added to {sealed} batches written without one"
+                if version < 2
+                else "generations table added"
+            )
             con.executemany(
                 "INSERT OR REPLACE INTO meta VALUES (?, ?)",
                 [
@@ -849,12 +890,13 @@ class Store:
                     (
                         "upgraded",
                         f"schema {version} -> {SCHEMA_VERSION} on "
-                        f"{time.strftime('%Y-%m-%d %H:%M:%S')}: checksums added to {sealed} "
-                        "batches written without one",
+                        f"{time.strftime('%Y-%m-%d %H:%M:%S')}: {what}",
                     ),
                 ],
             )
             con.execute(f"PRAGMA user_version = {SCHEMA_VERSION}")
+        if version >= 2:
+            return  # nothing a person needs to know: no stored number changed
         warnings.warn(
             VectoridWarning(
                 f"store {self.path} upgraded from schema {version} to {SCHEMA_VERSION}: "
@@ -864,6 +906,34 @@ class Store:
             ),
             stacklevel=3,
         )
+
+    def _add_checksums(self, con: sqlite3.Connection) -> tuple[int, int]:
+        """Schema 1 -> 2 inside the upgrade's transaction: (batches sealed, batches bad)."""
+        widths = self._widths(self.spec)
+        sealed = bad = 0
+        cols = {r[1] for r in con.execute("PRAGMA table_info(blocks)")}
+        if "checksum" not in cols:
+            con.execute("ALTER TABLE blocks ADD COLUMN checksum TEXT")
+        rows = con.execute(
+            "SELECT block, stage, seq_start, n, x, f, g, status, wall FROM blocks"
+        ).fetchall()
+        for block, stage, start, n, *blobs in rows:
+            if _size_problem(n, blobs, widths) is not None:
+                bad += 1  # left without checksum: it shows as damaged on every load
+                continue
+            con.execute(
+                "UPDATE blocks SET checksum = ? WHERE block = ?",
+                (batch_checksum(stage, start, n, blobs), block),
+            )
+            sealed += 1
+        for st, kind, start, box in con.execute(
+            "SELECT stage, kind, start_seq, box FROM stages"
+        ).fetchall():
+            con.execute(
+                "INSERT OR REPLACE INTO meta VALUES (?, ?)",
+                _stage_checksum_row(st, kind, start, box),
+            )
+        return sealed, bad
 
     def close(self) -> None:
         """Close the connection and release the writer lock."""
@@ -999,6 +1069,13 @@ class Store:
     def meta(self) -> dict[str, str]:
         return dict(self._query("SELECT key, value FROM meta"))
 
+    def set_meta(self, rows: Mapping[str, str]) -> None:
+        """Set meta keys (text values) in one transaction."""
+        self._require_write()
+        with self._tx() as con:
+            con.executemany("INSERT OR REPLACE INTO meta VALUES (?, ?)", list(rows.items()))
+        self._trim_wal()
+
     def _write_study(self, spec_dict: Mapping[str, Any], base_dir: str | None = None) -> None:
         text = json.dumps(spec_dict)
         rows = [("study", text), ("study_checksum", f"{zlib.crc32(text.encode()):08x}")]
@@ -1036,6 +1113,16 @@ class Store:
         self._require_write()
         spec = self.spec.to_dict()
         spec["study"]["trials"] = int(trials)
+        self._write_study(spec)
+
+    def set_sequential(self, budget: int | None = None, population: int | None = None) -> None:
+        """Record a sequential study's ``budget`` and/or ``population`` (run settings)."""
+        self._require_write()
+        spec = self.spec.to_dict()
+        for key, value in (("budget", budget), ("population", population)):
+            if value is not None:
+                spec["study"][key] = int(value)
+        StudySpec.from_dict(spec, base_dir=self.spec.base_dir)  # validate before writing
         self._write_study(spec)
 
     def set_limits(
@@ -1201,6 +1288,20 @@ class Store:
             out.append((pos, end))
         return out
 
+    def missing_planned(self, target: int | None = None) -> int:
+        """Trials of the plan (sample stages up to the study's target) that no stored batch
+        holds: an interrupted run or repair leaves some; ``vectorid run STORE`` computes
+        them. Damaged batches count as held (``verify`` names them)."""
+        target = int(self.spec.trials if target is None else target)
+        sample = [s for s in self.stages() if s.kind == "sample"]
+        out = 0
+        for i, stage in enumerate(sample):
+            end = sample[i + 1].start_seq if i + 1 < len(sample) else target
+            end = min(end, target)
+            if end > stage.start_seq:
+                out += sum(b - a for a, b in self.missing(stage.stage, stage.start_seq, end))
+        return out
+
     def write_batch(
         self,
         stage: int,
@@ -1220,36 +1321,86 @@ class Store:
             Number of trials stored: ``len(X)``, or 0 when the range was stored already.
         """
         self._require_write()
-        n = int(X.shape[0])
-        if n == 0:
+        if int(X.shape[0]) == 0:
             return 0
-        blobs = [
-            _blob(X, "<f8"),
-            _blob(criteria, "<f8"),
-            _blob(functionals, "<f8"),
-            _blob(status, "i1"),
-            _blob(wall, "<f8"),
-        ]
-        checksum = batch_checksum(stage, seq_start, n, blobs)
         with self._tx() as con:
-            overlap = con.execute(
-                "SELECT 1 FROM blocks WHERE stage = ? AND seq_start < ? AND seq_start + n > ? "
-                "LIMIT 1",
-                (stage, seq_start + n, seq_start),
-            ).fetchone()
-            if overlap:
-                return 0
-            con.execute(
-                "INSERT INTO blocks (stage, seq_start, n, created, x, f, g, status, wall, "
-                "checksum) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
-                (stage, seq_start, n, time.time(), *blobs, checksum),
+            n = _insert_batch(
+                con, stage, seq_start, X, criteria, functionals, status, wall, messages
             )
-            if messages:
-                con.executemany(
-                    "INSERT OR REPLACE INTO failures VALUES (?, ?, ?)",
-                    [(stage, seq_start + int(i), m) for i, m in messages.items()],
-                )
+        if n:
+            self._trim_wal()
         return n
+
+    def replace_batches(
+        self, drop: Sequence[int], batches: Sequence[tuple[int, int, np.ndarray, Any]], why: str
+    ) -> int:
+        """Drop the batches ``drop`` and store ``batches`` (``(stage, seq_start, X,
+        EvalResult)``) in **one** transaction, logged in the run log: a process killed at any
+        moment leaves the store as it was before or as it is after (a crash-safe repair).
+        Returns the number of trials stored."""
+        self._require_write()
+        stored = 0
+        with self._tx() as con:
+            for block in drop:
+                row = con.execute(
+                    "SELECT stage, seq_start, n FROM blocks WHERE block = ?", (block,)
+                ).fetchone()
+                if row is None:
+                    continue
+                con.execute("DELETE FROM blocks WHERE block = ?", (block,))
+                stage, start, n = row
+                if all(isinstance(v, int) for v in row):
+                    con.execute(
+                        "DELETE FROM failures WHERE stage = ? AND seq >= ? AND seq < ? AND NOT "
+                        "EXISTS (SELECT 1 FROM blocks b WHERE b.stage = failures.stage AND "
+                        "failures.seq >= b.seq_start AND failures.seq < b.seq_start + b.n)",
+                        (stage, start, start + n),
+                    )
+            for stage, start, X, res in batches:
+                stored += _insert_batch(
+                    con,
+                    stage,
+                    start,
+                    X,
+                    res.criteria,
+                    res.functionals,
+                    res.status,
+                    res.wall if res.wall is not None else np.zeros(len(X)),
+                    res.messages,
+                )
+            con.execute(
+                "INSERT INTO runs (started, finished, pid, host, executor, workers, target, "
+                "outcome) VALUES (?, ?, ?, ?, 'repair', 0, NULL, ?)",
+                (time.time(), time.time(), os.getpid(), socket.gethostname(), why),
+            )
+        self._trim_wal()
+        return stored
+
+    #: The write-ahead log is folded into the store once it passes this share of the store's
+    #: size (and this many bytes at least), so that the files on disk stay within about 2x
+    #: the store's size during a run.
+    WAL_SHARE = 0.5
+    WAL_FLOOR = 1 << 18
+
+    def _trim_wal(self) -> None:
+        """Fold the write-ahead log into the store and truncate it when it has grown past
+        :data:`WAL_SHARE` of the store, if no reader holds an old snapshot (then it waits for
+        a later batch: a reader is never blocked, nor is the run)."""
+        try:
+            wal = os.path.getsize(f"{self.path}-wal")
+            main = os.path.getsize(self.path)
+        except OSError:
+            return
+        if wal <= max(self.WAL_SHARE * main, self.WAL_FLOOR):
+            return
+        try:
+            self._con.execute("PRAGMA busy_timeout = 0")
+            self._con.execute("PRAGMA wal_checkpoint(TRUNCATE)").fetchall()
+        except sqlite3.Error:
+            pass
+        finally:
+            with _suppress_sqlite():
+                self._con.execute("PRAGMA busy_timeout = 30000")
 
     def count(self, stage: int | None = None) -> int:
         """Number of stored trials (of one stage, or all; damaged batches included)."""
@@ -1349,6 +1500,9 @@ class Store:
         """
         with self.snapshot():
             trials = self._load(stages, kinds)
+            gens = self.generations() if "sample" in kinds else []
+        if gens:
+            trials.log_weight = _weigher(self.spec, gens)
         if trials.damaged:
             self._warn(_damage_warning(self.path, trials.damaged))
         if trials.unverified:
@@ -1523,6 +1677,11 @@ class Store:
                 )
         except StoreError as exc:
             rep.problems.append(f"the failure reasons cannot be read ({exc})")
+        try:
+            rep.planned = int(spec.trials)
+            rep.missing = self.missing_planned()
+        except StoreError as exc:
+            rep.problems.append(f"the plan cannot be read ({exc})")
         for stage, rs in ranges.items():
             rs.sort()
             for (_, a1), (b0, b1) in itertools.pairwise(rs):
@@ -1605,20 +1764,239 @@ class Store:
             )
             return int(cur.lastrowid)
 
-    def end_run(self, run: int, outcome: str) -> None:
+    def end_run(self, run: int, outcome: str, report: Mapping[str, Any] | None = None) -> None:
+        """Close a run record; ``report`` (failures, recovered model errors) is kept with
+        it (meta key ``run_report:RUN``) and shown by :meth:`runs`."""
         with self._tx() as con:
             con.execute(
                 "UPDATE runs SET finished = ?, outcome = ? WHERE run = ?",
                 (time.time(), outcome, run),
             )
+            if report:
+                con.execute(
+                    "INSERT OR REPLACE INTO meta VALUES (?, ?)",
+                    (f"run_report:{int(run)}", json.dumps(dict(report))),
+                )
 
     def runs(self) -> list[dict[str, Any]]:
+        """The run log, oldest first; a run's ``report`` (failures and the model errors it
+        recovered from) is None where none was kept."""
         try:
             cur = self._con.execute("SELECT * FROM runs ORDER BY run")
             names = [d[0] for d in cur.description]
-            return [dict(zip(names, row)) for row in cur.fetchall()]
+            out = [dict(zip(names, row)) for row in cur.fetchall()]
+            reports = dict(
+                self._con.execute(
+                    "SELECT key, value FROM meta WHERE key LIKE 'run_report:%'"
+                ).fetchall()
+            )
         except sqlite3.Error as exc:
             raise _sqlite_damage(self.path, exc) from None
+        for r in out:
+            try:
+                r["report"] = json.loads(reports.get(f"run_report:{r['run']}", "null"))
+            except ValueError:
+                r["report"] = None
+        return out
+
+    # -- generations (sequential sampler) --------------------------------------------------
+
+    def _has_generations(self) -> bool:
+        rows = self._query("SELECT 1 FROM sqlite_master WHERE type='table' AND name='generations'")
+        return bool(rows)
+
+    def add_generation(
+        self,
+        gen: int,
+        seq_start: int,
+        X: np.ndarray,
+        proposal: Mapping[str, Any],
+        centres: np.ndarray,
+        log_mix: np.ndarray,
+        chol: np.ndarray,
+    ) -> None:
+        """Record generation ``gen`` of a sequential study before its trials are evaluated.
+
+        Parameters
+        ----------
+        gen, seq_start : int
+            Generation number and the first stage-0 sequence index of its trials.
+        X : (n, p) float array
+            The proposed parameter vectors, in the study's units.
+        proposal : mapping
+            JSON-able description (kind, tolerance, in-box mass, draws, ...).
+        centres, log_mix, chol : float arrays
+            The kernel's parameters (unit coordinates).
+
+        Raises
+        ------
+        StoreError
+            When generation ``gen`` is recorded already, or does not follow the last one.
+        """
+        self._require_write()
+        n = int(X.shape[0])
+        text = json.dumps(dict(proposal))
+        blobs = [_blob(X, "<f8"), _blob(centres, "<f8"), _blob(log_mix, "<f8"), _blob(chol, "<f8")]
+        checksum = _generation_checksum(gen, seq_start, n, text, blobs)
+        with self._tx() as con:
+            con.execute(_GENERATIONS)
+            last = con.execute("SELECT max(gen) FROM generations").fetchone()[0]
+            want = 0 if last is None else last + 1
+            if gen != want:
+                raise StoreError(
+                    f"store {self.path}: generation {gen} cannot follow generation {last}; "
+                    "another process may be running this study"
+                )
+            con.execute(
+                "INSERT INTO generations VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                (gen, seq_start, n, time.time(), text, *blobs, checksum),
+            )
+
+    def generations(self) -> list[Generation]:
+        """The sequential sampler's generations, in order (empty for a plain study).
+
+        Raises
+        ------
+        StoreDamagedError
+            When a generation's record does not match its checksum.
+        """
+        if not self._has_generations():
+            return []
+        p = len(self.spec.space)
+        out = []
+        for gen, start, n, created, text, x, c, lm, ch, checksum in self._query(
+            "SELECT gen, seq_start, n, created, proposal, x, centres, log_mix, chol, checksum "
+            "FROM generations ORDER BY gen"
+        ):
+            blobs = [x, c, lm, ch]
+            if checksum != _generation_checksum(gen, start, n, text, blobs):
+                raise StoreDamagedError(
+                    f"store {self.path} is damaged: generation {gen} of the sequential sampler "
+                    f"does not match its checksum; `vectorid verify {self.path}` shows what is "
+                    "readable"
+                )
+            out.append(
+                Generation(
+                    gen=int(gen),
+                    seq_start=int(start),
+                    n=int(n),
+                    created=float(created),
+                    proposal=json.loads(text),
+                    X=np.frombuffer(x, "<f8").reshape(int(n), p).astype(float),
+                    centres=np.frombuffer(c, "<f8").reshape(-1, p).astype(float),
+                    log_mix=np.frombuffer(lm, "<f8").astype(float),
+                    chol=np.frombuffer(ch, "<f8").reshape(p, p).astype(float),
+                )
+            )
+        return out
+
+
+def _insert_batch(
+    con: sqlite3.Connection,
+    stage: int,
+    seq_start: int,
+    X: np.ndarray,
+    criteria: np.ndarray,
+    functionals: np.ndarray,
+    status: np.ndarray,
+    wall: np.ndarray,
+    messages: Mapping[int, str] | None,
+) -> int:
+    """Insert one batch inside the caller's transaction; 0 when its range is held."""
+    n = int(X.shape[0])
+    if n == 0:
+        return 0
+    blobs = [
+        _blob(X, "<f8"),
+        _blob(criteria, "<f8"),
+        _blob(functionals, "<f8"),
+        _blob(status, "i1"),
+        _blob(wall, "<f8"),
+    ]
+    checksum = batch_checksum(stage, seq_start, n, blobs)
+    overlap = con.execute(
+        "SELECT 1 FROM blocks WHERE stage = ? AND seq_start < ? AND seq_start + n > ? LIMIT 1",
+        (stage, seq_start + n, seq_start),
+    ).fetchone()
+    if overlap:
+        return 0
+    con.execute(
+        "INSERT INTO blocks (stage, seq_start, n, created, x, f, g, status, wall, "
+        "checksum) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+        (stage, seq_start, n, time.time(), *blobs, checksum),
+    )
+    if messages:
+        con.executemany(
+            "INSERT OR REPLACE INTO failures VALUES (?, ?, ?)",
+            [(stage, seq_start + int(i), m) for i, m in messages.items()],
+        )
+    return n
+
+
+@contextmanager
+def _suppress_sqlite() -> Iterator[None]:
+    try:
+        yield
+    except sqlite3.Error:
+        pass
+
+
+@dataclass(frozen=True)
+class Generation:
+    """One generation of a sequential study, as stored (see the module docstring).
+
+    Attributes
+    ----------
+    gen, seq_start, n : int
+        Generation number; its trials are the stage-0 sequence indices
+        ``seq_start .. seq_start + n - 1``.
+    created : float
+        Unix time it was recorded.
+    proposal : dict
+        ``kind`` (``"sobol"`` or ``"mixture"``), ``tolerance`` (criterion -> limit aimed
+        at), ``log_mass`` and ``draws`` of the kernel, ...
+    X : (n, p) float array
+        The proposed vectors (empty for generation 0: the Sobol points of its indices).
+    centres, log_mix, chol : float arrays
+        The kernel's parameters in unit coordinates.
+    """
+
+    gen: int
+    seq_start: int
+    n: int
+    created: float
+    proposal: dict[str, Any]
+    X: np.ndarray
+    centres: np.ndarray
+    log_mix: np.ndarray
+    chol: np.ndarray
+
+
+def _weigher(spec: StudySpec, gens: Sequence[Generation]) -> Any:
+    """``X -> log importance weights`` over a sequential store's generations."""
+    from ..sequential.kernel import Proposal
+    from ..sequential.weights import log_weights
+
+    p = len(spec.space)
+    lows, widths = spec.space.lows, spec.space.highs - spec.space.lows
+    props = [
+        Proposal.uniform(p)
+        if g.proposal.get("kind") == "sobol"
+        else Proposal("mixture", g.centres, g.log_mix, g.chol, float(g.proposal["log_mass"]))
+        for g in gens
+    ]
+    counts = [g.n for g in gens]
+
+    def log_weight(X: np.ndarray) -> np.ndarray:
+        return log_weights((np.asarray(X, dtype=float) - lows) / widths, props, counts)
+
+    return log_weight
+
+
+def _generation_checksum(gen: int, start: int, n: int, text: str, blobs: Sequence[bytes]) -> str:
+    parts = [zlib.crc32(f"{int(gen)}:{int(start)}:{int(n)}:".encode() + text.encode())]
+    parts += [zlib.crc32(b) for b in blobs]
+    return "crc32:" + ",".join(f"{c:08x}" for c in parts)
 
 
 def _size_problem(n: Any, blobs: Sequence[Any], widths: Mapping[str, int]) -> str | None:

@@ -577,6 +577,7 @@ def _history(page: _Page, store: Store) -> None:
             [str(h["stage"]), str(h["start_seq"]), str(h["n"]), _e(h["note"]), _e(changed or "-")]
         )
     page.add(_table(["sample stage", "from seq", "trials", "note", "box changes"], rows, left=0))
+    _inputs_history(page, store)
     aux = [s for s in store.stages() if s.kind != "sample"]
     if aux:
         page.add("<h3>Auxiliary stages (not in the sample statistics)</h3>")
@@ -587,6 +588,42 @@ def _history(page: _Page, store: Store) -> None:
                 left=0,
             )
         )
+
+
+def _inputs_history(page: _Page, store: Store) -> None:
+    """Changes of the model code or data files taken into the store (``--accept-changes``),
+    and model errors the runs recovered from (see :mod:`vectorid.store.inputs`)."""
+    import time
+
+    from ..store.inputs import history as inputs_history
+
+    entries = inputs_history(store)
+    if entries:
+        page.add("<h3>Changes of the model code and data files taken into the store</h3>")
+        page.add(
+            _table(
+                ["when", "what", "old sha256", "new sha256", "note"],
+                [
+                    [
+                        time.strftime("%Y-%m-%d %H:%M:%S", time.localtime(e.get("at") or 0)),
+                        _e(e.get("what")),
+                        _e((e.get("old") or "-")[:12]),
+                        _e((e.get("new") or "-")[:12]),
+                        _e(e.get("note")),
+                    ]
+                    for e in entries
+                ],
+                left=0,
+            )
+        )
+    errors = [
+        (r["run"], line)
+        for r in store.runs()
+        for line in ((r.get("report") or {}).get("model_errors") or [])
+    ]
+    if errors:
+        page.add("<h3>Model errors the runs recovered from</h3>")
+        page.add(_table(["run", "what happened"], [[str(n), _e(t)] for n, t in errors], left=0))
 
 
 def build_report(

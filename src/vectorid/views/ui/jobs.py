@@ -185,7 +185,8 @@ def run_job(kind: str, store_path: str, params: Mapping[str, Any]) -> str:
             workers=params.get("workers"),
             progress=False,
         )
-        return note + summary.describe().splitlines()[0]
+        errors = "".join(f"; model error: {m}" for m in summary.model_errors)
+        return note + summary.describe().splitlines()[0] + errors
 
 
 def _one_job(kind: str, store_path: str, params: dict[str, Any]) -> tuple[str, str]:
