@@ -7,12 +7,10 @@ Usage::
 
 ``DATA_DIR`` is the shared data folder (default ``../shared/data`` beside the checkout): the
 Prometheus TeleMega log (``prometheus-2022/``) and the nine flights of ``rocketpy-descents/``.
-Each flight is identified by :func:`vectorid.identify.descent_study.identify_descent` with the
+Each flight is identified by :func:`vectorid.descent.identify_descent` with the
 mass, drag areas, triggers and pad elevations its README states (RocketPy's values; the
-TeleMega flight's from the data README). Where a flight's README shows that the log needs
-something the stated parameters do not say (a corrupt last row, an ejection disturbance that
-lasts longer than the default settling time), the setting and its reason are in ``FLIGHTS``
-below and in the table's notes.
+TeleMega flight's from the data README), and nothing else: no window, settling time or end
+picked by hand (the phases, the touchdown, the spikes left out come from the data).
 
 The main's drag area follows RocketPy's convention (``replaces``: the stated ``cd_s`` of a main
 is the whole drag area under it) for the RocketPy flights, and ``adds`` for Prometheus (the
@@ -31,15 +29,18 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from vectorid.descent import INCH, Canopy, DescentPlan, identify_descent
 from vectorid.errors import VectoridError
-from vectorid.identify.descent import INCH
-from vectorid.identify.descent_study import Canopy, DescentPlan, identify_descent
 
 HERE = Path(__file__).resolve().parent
 DEFAULT_DATA = HERE.parent.parent / "shared" / "data"
 RP = "rocketpy-descents"
 
-#: flight name -> (file relative to the data folder, plan keywords, note on the settings)
+#: flight name -> (file relative to the data folder, plan keywords, note on the settings).
+#: Only what each flight's README states: the mass, the canopies, the triggers (with their lag),
+#: the pad elevation, and how to read the file (its columns where the header has several
+#: candidates, a unit its header does not state, the lines that hold the flight). No window,
+#: settling time or end is picked by hand: the phases come from the data.
 FLIGHTS: dict[str, tuple[str, dict[str, Any], str]] = {
     "Prometheus (TeleMega)": (
         "prometheus-2022/2022-06-24-serial-6583-flight-0003-TeleMega.csv",
@@ -48,78 +49,49 @@ FLIGHTS: dict[str, tuple[str, dict[str, Any], str]] = {
             "drogue": Canopy(diameter=24 * INCH, cd=1.6),
             "main": Canopy(diameter=72 * INCH, cd=2.2),
             "convention": "adds",
-            "drogue_settle": 17.0,
         },
-        "drogue and main events from the log; pad altitude from the pad pressure; the drag "
-        "area the GPS descent rate implies is 14 % low for 17 s after the drogue event (the "
-        "deployment transient, examples/telemega_drogue.py): drogue window from drogue + 17 s",
+        "AltusMetrum CSV: format, drogue and main events, pad altitude (pad pressure) from the log",
     ),
     "Bella Lui": (
         f"{RP}/EPFL_Bella_Lui/bella_lui_flight_data_filtered.csv",
-        {
-            "mapping": {"time": "time aprox (s)", "altitude": {"column": "z (m)", "unit": "m"}},
-            "mass": 18.227,
-            "drogue": Canopy(cds=0.7854),
-            "pad_altitude": 407.0,
-            "drogue_settle": 6.0,
-        },
-        "drogue opens 4 s after apogee (README): window from apogee + 6 s",
+        {"mass": 18.227, "drogue": Canopy(cds=0.7854), "pad_altitude": 407.0},
+        "columns and units read from the header",
     ),
     "NDRT 2020": (
         f"{RP}/NDRT_2020/ndrt_2020_flight_data.csv",
         {
-            "mapping": {
-                "time": "Time (s)",
-                "altitude": {"column": "Altitude (Ft-AGL)", "unit": "ft"},
-            },
             "mass": 20.846,
             "drogue": Canopy(cds=0.4378),
             "main": Canopy(cds=16.05),
             "convention": "replaces",
             "main_at": "550ft",
-            "main_lag": 3.0,
+            "main_lag": 1.0,
             "pad_altitude": 206.0,
         },
-        "altitude in feet; main at the stated 550 ft trigger; it opens about 3 s after its "
-        "ejection (README), not the stated 1 s: main_lag 3 s",
+        "altitude in feet, read from the header 'Altitude (Ft-AGL)'; main at the stated 550 ft",
     ),
     "Andromeda": (
         f"{RP}/andromeda/flight_data.csv",
         {
-            "mapping": {"time": "t(s)", "altitude": {"column": "alt(m)", "unit": "m"}},
+            "columns": {"time": "t(s)", "altitude": "alt(m)"},
             "mass": 20.9767,
             "drogue": Canopy(cds=0.84665922014),
             "main": Canopy(cds=8.362919643856031),
             "convention": "replaces",
             "main_at": "500m",
             "pad_altitude": 160.0,
-            "end": 321.85,
-            "windows": {"drogue": [40.0, 321.85]},
         },
-        "last two rows corrupt (README): log cut at 321.85 s; the descent rate steps at 36.1 s "
-        "(README): drogue-phase window from 40 s",
+        "the header has alt(ft) and alt(m): columns given; the corrupt last two rows are left "
+        "out as spikes",
     ),
     "Camões": (
         f"{RP}/camoes/flight_data.csv",
-        {
-            "mapping": {
-                "time": "ts",
-                "altitude": {"column": "filtered_altitude_AGL", "unit": "m"},
-            },
-            "mass": 22.8,
-            "drogue": Canopy(cds=0.33),
-            "pad_altitude": 107.0,
-            "windows": {"drogue": [40.0, "touchdown-1"]},
-        },
-        "deployment disturbances to 39.2 s (README): window from 40 s",
+        {"mass": 22.8, "drogue": Canopy(cds=0.33), "pad_altitude": 107.0},
+        "columns read from the header (units not stated there: m, s)",
     ),
     "Genesis": (
         f"{RP}/genesis/flight_data_faraday.csv",
         {
-            "mapping": {
-                "time": "ts",
-                "altitude": {"column": "filtered_altitude_AGL", "unit": "m"},
-            },
             "mass": 9.214,
             "drogue": Canopy(cds=0.285005285533666),
             "main": Canopy(cds=1.1),
@@ -127,66 +99,43 @@ FLIGHTS: dict[str, tuple[str, dict[str, Any], str]] = {
             "main_at": "870m",
             "main_lag": 1.0,
             "pad_altitude": 160.0,
-            "windows": {"drogue": [30.0, 99.5]},
         },
-        "main at the stated 870 m trigger + 1 s lag; disturbances 25.3-29.3 s and from 100.0 s "
-        "(README): drogue window 30-99.5 s",
+        "main at the stated 870 m trigger + 1 s lag",
     ),
     "Hedy": (
         f"{RP}/hedy/cats_tust/filteredDataInfo.csv",
         {
-            "mapping": {
-                "time": "ts",
-                "altitude": {"column": "filteredAltitudeAGL", "unit": "m"},
-            },
             "mass": 17.2,
             "drogue": Canopy(cds=0.5336875),
             "main": Canopy(cds=6.911503837897546),
             "convention": "replaces",
-            "main_at": 204.0,
-            "main_settle": 4.0,
+            "main_at": "450m",
+            "main_lag": 4.0,
             "pad_altitude": 160.0,
-            "windows": {"drogue": [42.0, 203.0]},
         },
-        "disturbances to 41.5 s (README); nothing happens at the stated 450 m trigger, the one "
-        "change of descent rate is at 204 s (README): main from it",
+        "main at the stated 450 m trigger + 4 s lag",
     ),
     "Juno III": (
         f"{RP}/juno3/cots_GNSS.csv",
         {
-            "mapping": {
-                "time": "time",
-                "altitude": {"column": "ALT", "unit": "ft"},
-                "first_line": 46,
-                "max_gap": 4.0,
-            },
+            "columns": {"time": "time", "altitude": "ALT"},
+            "altitude_unit": "ft",
+            "read": {"first_line": 46, "max_gap": 4.0},
             "mass": 24.05,
             "drogue": Canopy(cds=0.885),
             "altitude_reference": "msl",
         },
-        "GNSS altitude above sea level in feet, about 1 Hz with holes of 3 s (max_gap 4 s); "
-        "the file repeats a pre-launch buffer six times (README): read from line 46",
+        "GNSS altitude above sea level in feet (README; the header says no unit), about 1 Hz "
+        "with holes of 3 s; the file repeats a pre-launch buffer six times: read from line 46",
     ),
     "Lince": (
         f"{RP}/lince/main_data.csv",
-        {
-            "mapping": {
-                "time": "ts",
-                "altitude": {"column": "filtered_altitude_AGL", "unit": "m"},
-            },
-            "mass": 10.3521352,
-            "main": Canopy(cds=3.9),
-            "pad_altitude": 158.0,
-            "main_settle": 10.0,
-        },
-        "one canopy (the main) from apogee; mass after payload separation; ejection "
-        "disturbance to 29.7 s (README) and the descent rate settles at 35 s: window from "
-        "apogee + 10 s",
+        {"mass": 10.3521352, "main": Canopy(cds=3.9), "pad_altitude": 158.0},
+        "one canopy (the main) from apogee; mass after payload separation",
     ),
     "Valkyrie": (
         f"{RP}/valkyrie/flightInfo_merged.csv",
         {
-            "mapping": {"time": "time", "altitude": {"column": "altitude", "unit": "m"}},
             "mass": 5.65 + 0.6449,
             "drogue": Canopy(cds=0.258940616),
             "main": Canopy(cds=5.786483801),
@@ -237,6 +186,10 @@ def table(results: dict[str, Any]) -> str:
                 ident = f"none (best fit {p.best_cds:.4g})"
                 rng = "D empty"
                 rms = f"{p.best_alt_rms_m:.1f} (best fit)"
+            elif p.cds_range is not None:  # the drag area changes along the descent
+                ident = "varies"
+                rng = f"{p.cds_range[0]:.4g}-{p.cds_range[1]:.4g}"
+                rms = "-"
             elif p.cds_feasible is not None:
                 ident = p.status
                 rng = f"{p.cds_feasible[0]:.4g}-{p.cds_feasible[1]:.4g}"

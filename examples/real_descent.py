@@ -12,7 +12,7 @@ without motor + 2.981 kg motor casing = 16.881 kg) descends under a 24-in drogue
 with the drogue still attached: the main's drag *adds* to the drogue's (``convention =
 "adds"``).
 
-This is ``vectorid descent`` (:func:`vectorid.identify.descent_study.identify_descent`) on that
+This is ``vectorid descent`` (:func:`vectorid.descent.identify_descent`) on that
 log: the drogue phase runs from 17 s after the log's ``drogue`` event (the deployment
 transient: the drag area the GPS descent rate implies is 14 % low before, see
 ``examples/telemega_drogue.py``) to 1 s before its ``main`` event, the main phase from 6 s
@@ -45,9 +45,8 @@ import math
 import sys
 from pathlib import Path
 
+from vectorid.descent import INCH, Canopy, DescentPlan, DescentResult, identify_descent
 from vectorid.errors import VectoridError
-from vectorid.identify.descent import INCH
-from vectorid.identify.descent_study import Canopy, DescentPlan, DescentResult, identify_descent
 
 MASS = 13.9 + 2.981  # kg after burn-out (data README)
 DROGUE = Canopy(diameter=24 * INCH, cd=1.6)

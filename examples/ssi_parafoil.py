@@ -25,7 +25,7 @@ drop's barometer and GPS noise estimated from its data (``noise = "estimate"``),
 floors of a perfect model under it, and a discrepancy allowance for the wind the model flies
 as uniform — from the ETH authors' low-level gust model (no wind model is stated for these
 drops; it is a stand-in, named as such), over the height each drop descends. The study runs
-through the parafoil demo's stage driver (``vectorid.demo_parafoil.run_stage``): where D under
+through the parafoil demo's stage driver (``vectorid.identify.stages.run_stage``): where D under
 these limits holds too few trials, they are relaxed by the smallest common factor that fills it
 (saved as a stand-in), and the factor is printed. It prints the identifiability verdicts
 (``vectorid.analysis.identifiability``) and which quantities the data determine and which
@@ -156,7 +156,7 @@ UNITS = {"payload_mass": "kg", "CD0": "-"}
 def run(model: TwoDrops, store: Path, trials: int, limits: dict | None, name: str = "ssi"):
     """One PSI study of the two drops with double tuning, under ``limits`` (criterion ->
     (limit, note) from the noise floors), through the demo's stage driver."""
-    from vectorid.demo_parafoil import run_stage
+    from vectorid.identify.stages import run_stage
 
     global _CURRENT
     _CURRENT = model
@@ -235,7 +235,7 @@ def identify(folder: str | Path, out: str | Path, trials: int = 2048) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from vectorid.demo_parafoil import print_stage_limits, print_verdicts
+    from vectorid.identify.stages import print_stage_limits, print_verdicts
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("data", nargs="?", default=str(DEFAULT_DATA), help="the ssi-parafoil folder")

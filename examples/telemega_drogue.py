@@ -12,9 +12,9 @@ log alone, what that residual is made of:
 1. **The barometer's own error.** The white plus Gauss–Markov noise of the barometric heights
    (:func:`vectorid.identify.noise.estimate_correlated`), and how much of their variation
    faster than 20 s the same log's GPS heights share
-   (:func:`vectorid.identify.descent.fast_variation`): real motion shows in both.
+   (:func:`vectorid.descent.fast_variation`): real motion shows in both.
 2. **What no constant drag area can follow.** The smallest altitude RMS of any descent whose
-   rate never increases (:func:`vectorid.identify.descent.monotone_rate_bound`: a constant
+   rate never increases (:func:`vectorid.descent.monotone_rate_bound`: a constant
    drag area in still air, in any atmosphere), against the barometric and the GPS heights, for
    windows starting 5 to 20 s after the drogue event.
 3. **The deployment transient.** The drag area the GPS descent rate implies in 5-s windows
@@ -23,7 +23,7 @@ log alone, what that residual is made of:
 4. **The day's atmosphere**, from the log: GPS height against log pressure (hypsometric
    equation, T = -(g/R) dz/d ln p, a temperature linear in height), its lapse rate and
    T/T_ISA.
-5. **Constant-drag fits.** The point mass of :class:`~vectorid.identify.descent.RocketDescentCdS`
+5. **Constant-drag fits.** The point mass of :class:`~vectorid.descent.RocketDescentCdS`
    at its steady rate, over a scan of drag areas with the best constant altitude offset: in
    ISA against the barometric heights, and in the log's atmosphere against the barometric
    and the GPS heights; and how far the GPS descent rate strays from the best constant-drag
@@ -42,8 +42,8 @@ from pathlib import Path
 
 import numpy as np
 
+from vectorid.descent import RocketDescentCdS, fast_variation, monotone_rate_bound
 from vectorid.identify import load_telemega
-from vectorid.identify.descent import RocketDescentCdS, fast_variation, monotone_rate_bound
 from vectorid.identify.noise import estimate_correlated
 from vectorid.models.atmosphere import G0, ISA, R_AIR
 from vectorid.models.base import InitialState

@@ -11,16 +11,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from vectorid import Study
 from vectorid.analysis.identifiability import ParameterVerdict
 from vectorid.cli import main
-from vectorid.demo_parafoil import (
-    DEMO_DATA,
-    DEMO_DISCREPANCY,
-    print_verdicts,
-    relaxed_limits,
-    stage_toml,
-)
+from vectorid.demo_parafoil import DEMO_DATA, DEMO_DISCREPANCY, stage_toml
+from vectorid.identify.stages import print_verdicts
 from vectorid.spec import load_study
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -37,7 +31,8 @@ def _generator():
 
 def test_parafoil_demo_end_to_end_reduced(tmp_path, capsys):
     out = tmp_path / "demo"
-    code = main(["demo", "parafoil", "--out", str(out), "--trials", "256", "--quiet"])
+    code = main(["demo", "parafoil", "--out", str(out), "--trials", "256", "--budget", "1500",
+                 "--population", "20", "--quiet"])  # fmt: skip
     text = capsys.readouterr().out
     assert code == 0
     for needle in (
@@ -46,7 +41,10 @@ def test_parafoil_demo_end_to_end_reduced(tmp_path, capsys):
         "criteria constraints: noise floor (joint 95 %) + allowance",
         "discrepancy position_h 26 m",
         "D under them:",
-        "Stage 2: all 33 gains (256 trials)",
+        "Stage 2: all 33 gains (sequential sampler, 256 Sobol trials first, budget 1,500)",
+        "sequential sampler: D ",  # reached or not, said plainly with the ESS
+        "effective sample size",
+        "truth inside the feasible range of",
         "Quasi-optimal sets (seed 000 Fig. 12)",
         "Correlation and sensitivity over stage 2 (seed 000 Fig. 14)",
         "reduced set:",
@@ -72,7 +70,9 @@ def test_parafoil_demo_end_to_end_reduced(tmp_path, capsys):
         assert (out / f"parafoil-{name}.db").exists() and (out / f"parafoil-{name}.toml").exists()
         assert (out / f"parafoil-{name}.html").exists() == (name in ("stage2", "stage3"))
     spec3 = load_study(out / "parafoil-stage3.toml")
-    assert 0 < len(spec3.space.names) < 33  # the reduced set
+    # the reduced set: fewer gains where stage 2's D does not depend on some (a small budget
+    # may leave all 33)
+    assert 0 < len(spec3.space.names) <= 33
     fixed = spec3.extra["identification"].get("parameters", {})
     assert set(fixed).isdisjoint(spec3.space.names) and len(fixed) + len(spec3.space.names) == 33
     # the stages after the first carry stage 1's noise floors, with their source
@@ -87,7 +87,11 @@ def test_parafoil_demo_end_to_end_reduced(tmp_path, capsys):
                 assert stage["truth_in_range"][v["name"]], v["name"]
     assert main(["pareto", str(out / "parafoil-stage2.db"), "--json"]) == 0
     doc = json.loads(capsys.readouterr().out)
-    assert doc["n"] == 256 and {c["name"] for c in doc["criteria"]} >= {"pos_h", "peak_yaw"}
+    assert 256 <= doc["n"] <= 1500 and {c["name"] for c in doc["criteria"]} >= {"pos_h", "peak_yaw"}
+    # a relaxation is only ever the named last resort, never silent
+    for line in text.splitlines():
+        if "limits relaxed x" in line:
+            assert "last resort: D at the stated limits was not reached" in line, line
 
 
 def test_stage_files_state_the_noise_and_the_allowance():
@@ -138,26 +142,6 @@ def test_embedded_data_are_the_seeded_generators_output(tmp_path):
         "white": gen.GPS_POSITION_WHITE,
     }
     assert truth["sensor_noise"]["rates"] == gen.IMU_RATES_SIGMA
-
-
-def test_relaxed_limits_are_the_smallest_common_factor_that_fills_d(tmp_path):
-    from tests.analysis_helpers import make_store
-
-    with Study.open(make_store(tmp_path, trials=1000)) as st:
-        a = st.analysis()
-        limits = {"f1": 2.0, "f2": 4.0}
-        assert st.analysis(limits).n_feasible < 50
-        f, relaxed = relaxed_limits(a, limits, share=0.05, min_count=10)
-        k = max(10, int(np.ceil(0.05 * st.analysis({}).n_feasible)))  # the constraints hold
-        assert f > 1 and relaxed == pytest.approx({"f1": 2.0 * f, "f2": 4.0 * f})
-        assert st.analysis(relaxed).n_feasible >= k
-        tighter = {n: v * (f - 0.011) / f for n, v in relaxed.items()}
-        assert st.analysis(tighter).n_feasible < k  # the smallest such factor (to 0.01)
-        # D under the limits lies inside D under the relaxed ones (an outer bound)
-        inner, outer = st.analysis(limits).feasible, st.analysis(relaxed).feasible
-        assert np.all(outer[inner])
-        # enough trials already: no relaxation
-        assert relaxed_limits(a, {"f1": 1e6, "f2": 1e6}, share=0.05, min_count=10)[0] == 1.0
 
 
 def test_print_verdicts_shows_a_value_only_where_the_gain_is_identified(capsys):

@@ -235,10 +235,18 @@ def _parser() -> argparse.ArgumentParser:
         type=positive_int,
         default=None,
         help="trials per identification step in its refined box (default 2048; parafoil: "
-        "stage-2 trials, default 16384)",
+        "stage 2's first generation of Sobol trials, default 4096)",
     )
     d.add_argument("--analytic", action="store_true", help="the analytic Binh–Korn demo instead")
     d.add_argument("--quiet", action="store_true", help="no progress bar")
+    d.add_argument(
+        "--budget", type=positive_int, default=250_000,
+        help="parafoil: stage 2's sequential sampler, most model evaluations (default 250000)",
+    )  # fmt: skip
+    d.add_argument(
+        "--population", type=positive_int, default=200,
+        help="parafoil: members of D wanted per stage (default 200)",
+    )  # fmt: skip
     for module in _extensions():
         module.add_parsers(sub)
     _group_verbs(p, sub)
@@ -977,8 +985,9 @@ def _cmd_demo(args: argparse.Namespace) -> int:
         from .demo_parafoil import run_parafoil_demo
 
         return run_parafoil_demo(
-            Path(args.out), trials=args.trials or 16_384, progress=not args.quiet
-        )
+            Path(args.out), trials=args.trials or 4096, progress=not args.quiet,
+            budget=args.budget, population=args.population,
+        )  # fmt: skip
     return run_demo(
         Path(args.out), trials=args.trials or 2048, progress=not args.quiet, analytic=args.analytic
     )

@@ -2,6 +2,7 @@
 
     vectorid descent LOG --mass KG [--columns time=COL,altitude=COL[,event=COL]]
                      [--time-unit s|ms] [--altitude-unit m|ft] [--altitude-reference pad|msl]
+                     [--strict-data]
                      [--pad-altitude M] [--first-line N] [--last-line N] [--max-gap S]
                      [--drogue-cds M2 | --drogue-diameter LEN [--drogue-cd CD] | --drogue]
                      [--main-cds M2 | --main-diameter LEN [--main-cd CD] | --main]
@@ -15,7 +16,8 @@
 
 Identifies the drag area C_D S of each parachute of a rocket's recovery descent from an
 altimeter log (and C_D where a canopy's diameter is given), phase by phase, with a verdict per
-phase; see :mod:`vectorid.identify.descent_study`.
+phase; see :mod:`vectorid.descent` and docs/descent.md. The log's format is read from its
+content; units are read from its header or stated with a unit, never guessed.
 """
 
 from __future__ import annotations
@@ -64,16 +66,36 @@ def add_parsers(sub: Any) -> None:
         "Pareto ranges and a verdict against the stated values. Touchdown is read from the "
         "data. Each phase is a study store in --out.",
     )
-    d.add_argument("log", help="the altimeter log (CSV, Parquet, TeleMega CSV, ULog)")
-    d.add_argument("--format", choices=["csv", "parquet", "telemega", "ulog"])
+    d.add_argument(
+        "log", help="the altimeter log (CSV, AltusMetrum CSV, Parquet, ULog: read from its content)"
+    )
+    d.add_argument(
+        "--format",
+        choices=["csv", "parquet", "altusmetrum", "telemega", "ulog"],
+        help="only to overrule what the content says (telemega = altusmetrum)",
+    )
     d.add_argument(
         "--columns",
         metavar="time=COL,altitude=COL[,event=COL]",
         help="column names of the time, the altitude and (optional) a flight-state column "
-        "whose changes are events (needed for CSV and Parquet; a TeleMega log is recognised)",
+        "whose changes are events (a generic CSV; default: from its header when it has one "
+        "time-like and one altitude-like column; an AltusMetrum log states its own)",
     )
-    d.add_argument("--time-unit", default="s", help="s (default), ms, us, ns, min, iso")
-    d.add_argument("--altitude-unit", default="m", help="m (default), ft, km")
+    d.add_argument(
+        "--time-unit",
+        help="unit of a generic CSV's time column when its name states none: s (default), "
+        "ms, us, ns, min",
+    )
+    d.add_argument(
+        "--altitude-unit",
+        help="unit of a generic CSV's altitude column when its name states none: m "
+        "(default), ft, km (an error where the header or the format states the unit)",
+    )
+    d.add_argument(
+        "--strict-data",
+        action="store_true",
+        help="stop at a single-sample spike in the log instead of leaving it out",
+    )
     d.add_argument(
         "--altitude-reference",
         choices=["pad", "msl"],
@@ -112,9 +134,10 @@ def add_parsers(sub: Any) -> None:
     )
     d.add_argument(
         "--main-at",
-        metavar="EVENT|TIME|HEIGHT|detect",
-        help="when the main is triggered: an event of the log (default 'main'), a time in s, "
-        "a height above the pad (870m, 550ft), or 'detect' (the change of descent rate)",
+        metavar="EVENT|HEIGHT|TIMEs|detect",
+        help="when the main is triggered: an event of the log (default 'main'), a height "
+        "above the pad with its unit (870m, 550ft), a time with its unit (204s), or 'detect' "
+        "(the change of descent rate); never a bare number",
     )
     d.add_argument("--main-lag", type=_number, default=0.0, metavar="S", help="trigger to open, s")
     d.add_argument(
@@ -191,7 +214,7 @@ def add_parsers(sub: Any) -> None:
 
 
 def _canopy(args: argparse.Namespace, c: str):
-    from .identify.descent_study import Canopy, parse_length
+    from .descent import Canopy, parse_length
 
     cds = getattr(args, f"{c}_cds")
     diam = getattr(args, f"{c}_diameter")
@@ -209,25 +232,10 @@ def _canopy(args: argparse.Namespace, c: str):
     return Canopy(cds=cds, diameter=d, cd=cd)
 
 
-def _mapping(args: argparse.Namespace) -> dict[str, Any] | None:
+def _columns(args: argparse.Namespace) -> dict[str, str] | None:
     from .errors import StudyDefinitionError
 
-    extra = {
-        k: v
-        for k, v in (
-            ("first_line", args.first_line),
-            ("last_line", args.last_line),
-            ("max_gap", args.max_gap),
-        )
-        if v is not None
-    }
     if args.columns is None:
-        if extra:
-            raise StudyDefinitionError(
-                "--columns",
-                "--first-line, --last-line and --max-gap apply to a CSV read by its columns",
-                "give --columns time=COL,altitude=COL",
-            )
         return None
     cols: dict[str, str] = {}
     for part in args.columns.split(","):
@@ -245,15 +253,7 @@ def _mapping(args: argparse.Namespace) -> dict[str, Any] | None:
             raise StudyDefinitionError(
                 "--columns", f"no {key} column given", f"add {key}=COLUMN to --columns"
             )
-    mapping: dict[str, Any] = {
-        "time": cols["time"],
-        "time_unit": args.time_unit,
-        "altitude": {"column": cols["altitude"], "unit": args.altitude_unit},
-        **extra,
-    }
-    if "event" in cols:
-        mapping["event_column"] = cols["event"]
-    return mapping
+    return cols
 
 
 def _noise(text: str) -> float | str:
@@ -274,8 +274,8 @@ def _noise(text: str) -> float | str:
 
 def _cmd_descent(args: argparse.Namespace) -> int:
     from .cli import _print_json
+    from .descent import DescentPlan, identify_descent
     from .errors import StudyDefinitionError, VectoridError
-    from .identify.descent_study import DescentPlan, identify_descent
 
     windows = {}
     for c in ("drogue", "main"):
@@ -289,10 +289,22 @@ def _cmd_descent(args: argparse.Namespace) -> int:
         main=_canopy(args, "main"),
         convention=args.convention,
         format=args.format,
-        mapping=_mapping(args),
+        columns=_columns(args),
+        time_unit=args.time_unit,
+        altitude_unit=args.altitude_unit,
+        read={
+            k: v
+            for k, v in (
+                ("first_line", args.first_line),
+                ("last_line", args.last_line),
+                ("max_gap", args.max_gap),
+            )
+            if v is not None
+        },
+        strict_data=args.strict_data,
         pad_altitude=args.pad_altitude,
         altitude_reference=args.altitude_reference,
-        main_at=None if args.main_at is None else _time_or_event(args.main_at),
+        main_at=args.main_at,
         main_lag=args.main_lag,
         start=args.start,
         end=args.end,

@@ -15,24 +15,26 @@ joint stiffness, sonde errors), read from 50 twins of the generator by
 ``scripts/parafoil_discrepancy.py``. The spectral pseudo-criteria are grounded the same way:
 their floor is the Monte Carlo's (how the noise moves a whitened-spectrum peak), their
 allowance the twins' (how far the gust-excited peaks of the truth and of the model at the true
-gains lie apart), in Hz. Under these limits D is the set of vectors the data cannot tell from
-the truth; where a stage's trials are too sparse to hold enough of it, the limits are relaxed
-by the smallest common factor that does (:func:`relaxed_limits`, saved as a stand-in with the
-factor in its note), so the ranges read are outer bounds. Every chosen vector is printed
-through the identifiability verdicts (:func:`vectorid.analysis.identifiability`): a value
-only for an identified gain, otherwise its range.
+gains lie apart), in Hz. Under these limits D is the set of vectors the data cannot tell
+from the truth. Every stage runs the sequential sampler (:mod:`vectorid.run.sequential`):
+Sobol trials first, then generations that move into D at the stated limits until it holds the
+population wanted with as large an effective sample size, or the budget is spent. Only a stage
+that does not get there relaxes its limits, as the named last resort
+(:func:`vectorid.analysis.relaxation.relax_study`: "limits relaxed xf — last resort: D at the
+stated limits was not reached"; the ranges read are then outer bounds). Every chosen vector is
+printed through the identifiability verdicts (:func:`vectorid.analysis.identifiability`): a
+value only for an identified gain, otherwise its range.
 
 The demo runs the seed's workflow on SQLite stores:
 
 1. **Stage 1** — a few gains (the seed's sets 1–5: control effectiveness, lift slope, drag,
    rigging, turn-control and yaw-damping gains) on the eight adequacy criteria of §VII
    (horizontal and vertical trajectory closeness, heading, speed and turn-rate profiles, the
-   roll, pitch and yaw spectral peaks), with double tuning: a coarse run, the box narrowed
-   where the coarse run identifies a gain, the main run.
-2. **Stage 2** — all 33 gains of Figure 12: the stage-1 gains in their narrowed box, the
-   others in [0.2, 2] (additive ones in their boxes), 16,384 trials by default; then the
-   one-gain sections through the generator's truth (:func:`truth_sections`: what the data
-   hold about each gain if the others were known).
+   roll, pitch and yaw spectral peaks), the other gains at nominal.
+2. **Stage 2** — all 33 gains of Figure 12 in their full boxes ([0.2, 2]; additive ones in
+   theirs), at most ``budget`` evaluations; then the one-gain sections through the
+   generator's truth (:func:`vectorid.analysis.sections.sections_through`: what the data hold
+   about each gain if the others were known).
 3. The **"quasi-optimal sets" table of Figure 12**: Set 0 (nominal), the stage-1 vector and
    the lowest-cost Pareto vectors of stage 2 side by side with their cost.
 4. **Figure 14 turned into a proposal**: which gains the feasible set does not depend on (fix
@@ -57,25 +59,18 @@ import sys
 import textwrap
 import time
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from .analysis.identifiability import VERDICTS
+from .analysis.relaxation import MIN_D
+from .analysis.sections import sections_through
+from .identify.spectral import rate_peaks
+from .identify.stages import Stage, print_stage_limits, print_verdicts, run_stage
 
-__all__ = [
-    "DEMO_DATA",
-    "DEMO_DISCREPANCY",
-    "print_stage_limits",
-    "print_verdicts",
-    "relaxed_limits",
-    "run_parafoil_demo",
-    "run_stage",
-    "stage_toml",
-    "truth_sections",
-]
+__all__ = ["DEMO_DATA", "DEMO_DISCREPANCY", "run_parafoil_demo", "stage_toml"]
 
 DEMO_DATA = Path(__file__).resolve().parent / "data" / "demo_parafoil"
 
@@ -382,48 +377,6 @@ HINTS = {
 }
 
 
-def print_verdicts(
-    verdicts: Sequence[Any],
-    chosen: Mapping[str, float],
-    *,
-    truth: Mapping[str, float] | None = None,
-    units: Mapping[str, str] | None = None,
-    indent: str = "  ",
-) -> dict[str, bool | None]:
-    """Print a chosen vector the way every chosen vector is printed: per variable its meaning,
-    unit and identifiability verdict (:func:`vectorid.analysis.identifiability`), the chosen
-    value only where the verdict is "identified" (else the feasible range), the constraints
-    that cut its range and, with ``truth``, whether the truth lies in the feasible range.
-
-    Returns name -> truth inside the feasible range (None without truth or for an empty D).
-    """
-    units = dict(units or {})
-    w = max(9, *(len(v.name) for v in verdicts))
-    wm = max(7, *(len(v.meaning) for v in verdicts))
-    head = f"{'parameter':<{w}} {'meaning':<{wm}} {'unit':<7} {'verdict':<14} "
-    head += f"{'value or range':<30}"
-    if truth is not None:
-        head += f" {'truth':>8} {'in range':<8}"
-    print(indent + head + " cut by")
-    inside: dict[str, bool | None] = {}
-    for v in verdicts:
-        u = units.get(v.name, v.unit or "-")
-        value = chosen.get(v.name)
-        span = "-" if v.feasible is None else f"[{v.feasible[0]:.4g}, {v.feasible[1]:.4g}]"
-        text = f"{value:.4g} in {span}" if v.identified and value is not None else span
-        line = f"{v.name:<{w}} {v.meaning:<{wm}} {u:<7} {v.verdict:<14} {text:<30}"
-        ok = None
-        if truth is not None:
-            tv = truth.get(v.name, np.nan)
-            if v.feasible is not None:
-                ok = bool(v.feasible[0] <= tv <= v.feasible[1])
-            mark = "-" if ok is None else ("yes" if ok else "NO")
-            line += f" {tv:8.4g} {mark:<8}"
-        inside[v.name] = ok
-        print(indent + line + " " + (", ".join(v.constrained_by) or "-"))
-    return inside
-
-
 def _legend(model) -> None:
     print("Parameters (seed 000 Fig. 12: gains c1..c33 on the Set-0 coefficients):")
     for i, p in enumerate(model.parameters, start=1):
@@ -516,170 +469,6 @@ def _report(r, report: bool) -> None:
         print(f"  (no HTML report: {exc})")
 
 
-# -- a stage: noise-grounded limits, relaxed only as far as the sampling needs ------------------
-
-#: D must hold at least this share of the successful trials (and MIN_D) for its ranges to
-#: mean something; where the noise-grounded limits leave fewer, they are relaxed.
-RELAX_SHARE = 0.02
-MIN_D = 50
-
-
-def relaxed_limits(
-    a, limits: Mapping[str, float], *, share: float = RELAX_SHARE, min_count: int = MIN_D
-) -> tuple[float, dict[str, float]]:
-    """The smallest common factor f >= 1 on every limit at which the feasible set holds
-    ``max(min_count, share * successful trials)`` trials, and the limits times f.
-
-    With limits at the noise floor plus the discrepancy allowance, D is the set of vectors
-    the data cannot tell from the truth; when it is so small that the trials miss it, its
-    ranges cannot be read. Limits relaxed by f >= 1 keep every vector of that set, so the
-    ranges over D at f are *outer bounds* of the data's (and f says how far the sampling is
-    from resolving them); f = 1 where D already holds enough trials. Criteria constraints
-    only (functional constraints are kept as they are); ``min`` sense."""
-    names = [c for c in a.crit_names if c in limits]
-    if not names:
-        return 1.0, {}
-    cols = [a.crit_names.index(c) for c in names]
-    L = np.array([float(limits[c]) for c in names])
-    m = a.ok.copy()
-    for b in a.active_bounds():  # functional constraints stay in force
-        if b.name in a.con_names:
-            m &= a._bound_mask(b.name, b.side)
-    F = a.trials.F[m][:, cols]
-    if not len(F):
-        return math.inf, {c: math.inf for c in names}
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = np.nanmax(F / L[None, :], axis=1)
-    k = min(max(int(min_count), math.ceil(share * len(F))), len(F))
-    f = float(np.sort(ratio)[k - 1])
-    f = 1.0 if f <= 1.0 else float(math.ceil(f * 100.0) / 100.0)
-    return f, {c: f * float(limits[c]) for c in names}
-
-
-@dataclass
-class Stage:
-    """One stage of the demo: the step result (store, analysis under the limits in force,
-    verdicts, chosen vector), the noise-grounded limits and the relaxation factor."""
-
-    result: Any
-    noise_limits: dict[str, float]
-    noise_notes: dict[str, str]
-    factor: float
-    n_noise_feasible: int
-    proposals: list = field(default_factory=list)
-
-
-def run_stage(
-    spec,
-    store: Path,
-    *,
-    coarse: int,
-    trials: int,
-    reference: Mapping[str, tuple[float, float]] | None = None,
-    progress: bool = False,
-    name: str = "stage",
-    meanings: Mapping[str, str] | None = None,
-    hints: Mapping[str, str] | None = None,
-) -> Stage:
-    """Run one stage: ``coarse`` trials in the study box, the box narrowed where the coarse
-    run identifies a gain (:func:`vectorid.identify.twostep.noise_refine`), then ``trials``
-    more. Limits: the study's noise floors plus allowance; where D under them holds too few
-    trials, the smallest common relaxation (:func:`relaxed_limits`) is saved with the study
-    as a stand-in (source ``quantile``, the note saying so and giving the noise-grounded
-    value). Verdicts: :func:`vectorid.analysis.identifiability`, with the stages' boxes and
-    the boxes the gains were first given (``reference``); ``meanings`` and ``hints`` (default:
-    the 33 gains') say what each variable is and what would identify it. The examples on real
-    parafoils run their studies through it too (one mechanism)."""
-    from .analysis.choice import suggest_choice
-    from .analysis.identifiability import identifiability
-    from .identify.twostep import StepResult, noise_refine
-    from .run.extra import apply_refine
-    from .study import Study
-
-    t0 = time.perf_counter()
-    proposals = []
-    notes: list[str] = []
-    Path(store).unlink(missing_ok=True)  # a stage starts afresh (its limits are recomputed)
-    with Study.create(spec, store) as study:
-        held = study.spec  # with the noise floors computed at creation (or given)
-        noise = {c.name: float(c.limit) for c in held.criteria if c.limit is not None}
-        notes0 = {c.name: c.limit_note for c in held.criteria if c.limit is not None}
-
-        def relax(a):
-            a0 = study.analysis(noise)
-            f, lim = relaxed_limits(a0, noise)
-            if f > 1.0:
-                n_ok = int(a0.ok.sum())
-                k = min(max(MIN_D, math.ceil(RELAX_SHARE * n_ok)), n_ok)
-                src = {
-                    c: (
-                        "quantile",
-                        f"stand-in: noise-grounded limit {noise[c]:.4g} ({notes0[c]}) x {f:g}, "
-                        f"the smallest common factor at which D holds {k} of {n_ok} trials "
-                        f"(under the noise-grounded limits: {a0.n_feasible})",
-                    )
-                    for c in lim
-                }
-                study.store.set_limits(lim, sources=src)
-            else:
-                study.store.set_limits(noise, sources={c: ("noise", notes0[c]) for c in noise})
-            return f, a0.n_feasible
-
-        # the study's own executor ("inline" for the examples' stateful models), else serial
-        executor = study.spec.executor or "serial"
-        if coarse > 0 and len([s for s in study.store.stages() if s.kind == "sample"]) == 1:
-            study.run(trials=coarse, executor=executor, progress=progress)
-            relax(None)
-            a = study.analysis()
-            if a.n_feasible >= 5:
-                proposal = noise_refine(a, study.store.stages(), reference)
-                apply_refine(study.store, proposal)
-                proposals.append(proposal)
-        study.run(trials=coarse + trials, executor=executor, progress=progress)
-        f, n_noise = relax(None)
-        a = study.analysis()
-        spec_now = study.spec
-        limits = {c.name: c.limit for c in spec_now.criteria if c.limit is not None}
-        sources = {
-            c.name: (c.source, c.limit_note) for c in spec_now.criteria if c.limit is not None
-        }
-        stages = study.store.stages()
-        final = noise_refine(a, stages, reference).new if a.n_feasible else spec_now.space
-        if not a.n_feasible:
-            notes.append(a.diagnose_empty().describe().replace("\n", " "))
-        cid = suggest_choice(a)
-        chosen, crit = {}, {}
-        if cid is not None:
-            i = int(np.flatnonzero(a.trials.id == cid)[0])
-            chosen = {n: float(v) for n, v in zip(a.spec.space.names, a.trials.X[i])}
-            crit = {n: float(v) for n, v in zip(a.crit_names, a.trials.F[i])}
-        verdicts = identifiability(
-            a,
-            meanings=SHORT if meanings is None else meanings,
-            hints=HINTS if hints is None else hints,
-            stages=stages,
-            reference=reference,
-        )
-    result = StepResult(
-        name=name,
-        store=Path(store),
-        spec=spec_now,
-        analysis=a,
-        limits=limits,
-        proposal=proposals[0] if proposals else None,
-        final_box=final,
-        chosen_id=cid,
-        chosen=chosen,
-        criteria=crit,
-        trials=a.n,
-        elapsed=time.perf_counter() - t0,
-        sources=sources,
-        verdicts=verdicts,
-        notes=notes,
-    )
-    return Stage(result, noise, notes0, f, n_noise, proposals)
-
-
 # -- the demo -----------------------------------------------------------------------------------
 
 
@@ -706,45 +495,6 @@ def _step_header(r, what: str) -> None:
     )
 
 
-def _allowance_of(note: str) -> str:
-    """The discrepancy part of a noise-floor note, in words ("" when none)."""
-    note = note.removesuffix("; computed for stage 1")
-    if "; discrepancy " in note:
-        return "discrepancy " + note.split("; discrepancy ", 1)[1].split(";")[0]
-    if note.endswith(" discrepancy") and " + " in note:
-        return "discrepancy " + note.rsplit(" + ", 1)[1].removesuffix(" discrepancy")
-    return ""
-
-
-def print_stage_limits(st: Stage, indent: str = "  ") -> None:
-    """Print a stage's noise-grounded criteria constraints with their units and allowances,
-    how many trials meet them, and the relaxation the sampling needed (if any)."""
-    r = st.result
-    units = {c.name: c.unit for c in r.spec.criteria}
-    print(f"{indent}criteria constraints: noise floor (joint 95 %) + allowance")
-    heads = []
-    for name, lim in st.noise_limits.items():
-        note = st.noise_notes.get(name, "")
-        print(
-            f"{indent}  {name:<10} <= {lim:<10.4g} {units.get(name, ''):<6} {_allowance_of(note)}"
-        )
-        head = note.split(";")[0].split(" + ")[0]
-        if head and head not in heads:
-            heads.append(head)
-    for h in heads:
-        print(f"{indent}  ({h})")
-    n_ok = int(r.analysis.ok.sum())
-    enough = "" if st.factor > 1 else " (enough to read ranges from)"
-    print(f"{indent}D under them: {st.n_noise_feasible} of {n_ok} successful trials{enough}")
-    if st.factor > 1:
-        print(
-            f"{indent}too few to read ranges from: relaxed by x{st.factor:g}, the smallest common "
-            f"factor at which D\n{indent}holds {r.analysis.n_feasible} trials (a stand-in, saved "
-            "as such): every vector the data admit is kept,\n"
-            f"{indent}so the ranges below are outer bounds of theirs"
-        )
-
-
 def _truth_in_d(st: Stage, ident, true: Mapping[str, float]) -> tuple[bool, str]:
     """Whether the generator's truth (the stage's variables at their true values, the other
     gains as the stage fixes them) meets the noise-grounded limits, in words."""
@@ -758,7 +508,6 @@ def _truth_in_d(st: Stage, ident, true: Mapping[str, float]) -> tuple[bool, str]
         c, q = max(ratios.items(), key=lambda kv: kv[1])
         return True, f"meets every noise-grounded limit (closest {c} at {q:.2f}x its limit)"
     text = ", ".join(f"{c} {q:.2f}x its limit" for c, q in over.items())
-    inside = "inside" if max(over.values()) <= st.factor else "outside"
     pn = list(ident.model.parameter_names)
     held = [
         f"{n} at {ident.base[pn.index(n)]:.3g} (truth {true[n]:.3g})"
@@ -766,6 +515,9 @@ def _truth_in_d(st: Stage, ident, true: Mapping[str, float]) -> tuple[bool, str]
         if n not in names and n in true and not math.isclose(ident.base[pn.index(n)], true[n])
     ]
     why = f"; the stage holds {', '.join(held)}" if held else ""
+    if st.factor <= 1:
+        return False, f"exceeds the noise-grounded limits ({text}){why}"
+    inside = "inside" if max(over.values()) <= st.factor else "outside"
     return False, (
         f"exceeds the noise-grounded limits ({text}){why}; {inside} the relaxed ones "
         f"(x{st.factor:g})"
@@ -806,50 +558,6 @@ def _print_stage(st: Stage, ident, true, *, title: str) -> dict:
     return {"truth_in_d": inside_d, "inside": inside, "missed": missed}
 
 
-def truth_sections(
-    ident,
-    x_true: np.ndarray,
-    limits: Mapping[str, float],
-    boxes: Mapping[str, tuple[float, float]],
-    points: int = 25,
-) -> dict[str, tuple[float, float] | None]:
-    """Per design variable of ``ident`` (``x_true``: their true values, in its order): the
-    interval around the true value, along the one-gain section through the truth (the others
-    at their true values, the gain on ``points`` values over its box and as many within 6 % of
-    the box around the truth), where every criterion
-    meets ``limits``; None where the truth itself does not. A twin's privilege (a real drop
-    has no truth to section through): what the data hold about each gain *if the others were
-    known*, an inner bound of what they determine jointly."""
-    names = list(ident.variables)
-    L = np.array([float(limits.get(c.name, np.inf)) for c in ident.criteria])
-    batches, where = [], []
-    for j, n in enumerate(names):
-        lo, hi = boxes[n]
-        near = np.clip(x_true[j] + 0.06 * (hi - lo) * np.linspace(-1, 1, points), lo, hi)
-        g = np.unique(np.concatenate([np.linspace(lo, hi, points), near, [x_true[j]]]))
-        X = np.tile(x_true, (g.size, 1))
-        X[:, j] = g
-        batches.append(X)
-        where.append((n, g, int(np.searchsorted(g, x_true[j]))))
-    F, _ = ident.evaluate(np.vstack(batches))
-    ok = np.all(F <= L[None, :], axis=1)
-    out: dict[str, tuple[float, float] | None] = {}
-    start = 0
-    for n, g, k in where:
-        m = ok[start : start + g.size]
-        start += g.size
-        if not m[k]:
-            out[n] = None
-            continue
-        a, b = k, k
-        while a > 0 and m[a - 1]:
-            a -= 1
-        while b < g.size - 1 and m[b + 1]:
-            b += 1
-        out[n] = (float(g[a]), float(g[b]))
-    return out
-
-
 def _print_sections(sec: Mapping[str, tuple[float, float] | None], boxes) -> None:
     """The sections through the truth, grouped by the share of its box a gain keeps."""
     print(
@@ -879,34 +587,29 @@ def _print_sections(sec: Mapping[str, tuple[float, float] | None], boxes) -> Non
                             subsequent_indent="      "))  # fmt: skip
 
 
-def _spectral_peaks(ident, x: np.ndarray) -> dict[str, tuple[float, float]]:
-    """Whitened-spectrum peak frequency (Hz) and prominence of p, q, r of one vector."""
-    from .identify.spectral import peak_prominence, spectral_peak
-
-    d = ident.drops[0]
-    res = ident.simulate(np.atleast_2d(x), d)
-    return _peaks_of(res.rates[0], 1.0 / OUTPUT_DT, spectral_peak, peak_prominence)
+def _model_peaks(ident, x: np.ndarray) -> dict[str, tuple[float, float]]:
+    """Spectral peaks (Hz, prominence) of the payload rates one vector flies on the drop."""
+    res = ident.simulate(np.atleast_2d(x), ident.drops[0])
+    return rate_peaks(res.rates[0], 1.0 / OUTPUT_DT, BANDS)
 
 
-def _peaks_of(rates, fs, spectral_peak, peak_prominence) -> dict[str, tuple[float, float]]:
-    out = {}
-    for j, kind in enumerate(("roll", "pitch", "yaw")):
-        band = BANDS[kind]
-        s = rates[:, j]
-        out[kind] = (
-            float(spectral_peak(s, fs, band=band, whiten=True)),
-            float(peak_prominence(s, fs, band=band, whiten=True)),
-        )
-    return out
+def _sections(ident, true: Mapping[str, float], limits, boxes) -> dict:
+    """One-gain sections through the generator's truth (a twin's privilege)."""
+    names = list(ident.variables)
+    x = np.array([true[n] for n in names])
+    crit = [c.name for c in ident.criteria]
+    return sections_through(ident.evaluate, x, names, crit, limits, boxes)
 
 
 def run_parafoil_demo(
     out: Path,
     *,
-    trials: int = 16_384,
+    trials: int = 4096,
     stage1_trials: int | None = None,
     stage3_trials: int | None = None,
     progress: bool = True,
+    budget: int = 250_000,
+    population: int = 200,
     report: bool = True,
 ) -> int:
     """Run the parafoil demo into folder ``out`` and print its results (module docstring).
@@ -916,17 +619,20 @@ def run_parafoil_demo(
     out : Path
         Folder for the data copy, study files, stores and reports.
     trials : int
-        Stage-2 trials (all 33 gains); the seed's study needs at least 16,384.
+        Stage 2's first generation: Sobol trials over the 33 gains' box.
     stage1_trials : int, optional
-        Stage-1 trials in the refined box (default ``trials // 8``, at most 2048; the coarse
-        run adds a quarter of it).
+        Stage 1's first generation (default ``trials // 8``, at least 64, at most 2048).
     stage3_trials : int, optional
-        Trials of stage 3 in its refined box (default ``trials // 4``; its coarse run adds a
-        quarter of it). The 6-DoF comparison runs the same schedule.
+        Stage 3's first generation (default ``trials // 4``); the 6-DoF comparison too.
     progress : bool
         Progress bars.
     report : bool
         Write the HTML reports of stages 2 and 3 (the others: ``vectorid report STORE``).
+    budget : int
+        Stage 2's most model evaluations (stage 1: a tenth, stage 3: half; the 6-DoF model:
+        what stage 3 used).
+    population : int
+        Members of D wanted per stage (with an effective sample size as large).
 
     Returns
     -------
@@ -947,7 +653,8 @@ def run_parafoil_demo(
     if stage1_trials is None:
         stage1_trials = min(2048, max(64, trials // 8))
     stage3_trials = max(64, trials // 4) if stage3_trials is None else int(stage3_trials)
-    coarse3 = max(16, stage3_trials // 4)
+    budget1, budget3 = max(stage1_trials, budget // 10), max(stage3_trials, budget // 2)
+    seq = {"sampler": "sequential", "population": population}
     model = models.get("parafoil8dof", **MODEL_OPTIONS)
     names = list(model.parameter_names)
     full_boxes = {n: _box(model, n) for n in names}
@@ -989,9 +696,9 @@ def run_parafoil_demo(
         encoding="utf-8",
     )  # fmt: skip
     spec1 = load_study(f1)
-    coarse = max(64, stage1_trials // 4)
-    st1 = run_stage(spec1, out / "parafoil-stage1.db", trials=stage1_trials, coarse=coarse,
-                    progress=progress, name="stage 1")  # fmt: skip
+    st1 = run_stage(spec1, out / "parafoil-stage1.db", trials=stage1_trials, budget=budget1,
+                    progress=progress, name="stage 1", meanings=SHORT, hints=HINTS,
+                    **seq)  # fmt: skip
     r1 = st1.result
     ident1 = Identification.from_spec(r1.spec)
     # the noise floors are computed once (stage 1's reference vector: the nominal gains) and
@@ -1001,31 +708,39 @@ def run_parafoil_demo(
     }
     s1 = _print_stage(
         st1, ident1, true,
-        title=f"Stage 1: {', '.join(STAGE1)} ({coarse} coarse + {stage1_trials} trials)",
+        title=f"Stage 1: {', '.join(STAGE1)} (sequential sampler, budget {budget1:,})",
     )  # fmt: skip
     if report:
         print(f"  (report: vectorid report {r1.store})")
     sys.stdout.flush()
 
     # ---- stage 2: all 33 gains ----------------------------------------------------------
-    box1 = {v.name: (float(v.low), float(v.high)) for v in r1.final_box}
-    v2 = [(n, *box1.get(n, _box(model, n))) for n in names]
-    ref2 = {n: full_boxes[n] for n in box1 if box1[n] != full_boxes[n]}
+    # every gain in its full box: the sequential sampler finds D there (stage 1's narrowed box
+    # held the other gains at nominal, so it is no bound for the 33 together)
+    v2 = [(n, *full_boxes[n]) for n in names]
+    ref2: dict[str, tuple[float, float]] = {}
     f2 = out / "parafoil-stage2.toml"
     f2.write_text(
         stage_toml("parafoil-stage2", v2, truth=truth, trials=trials, reference=ref2,
                    limits_from=floors,
-                   comment="stage 2, all 33 gains (stage-1 gains in their narrowed box)"),
+                   comment="stage 2, all 33 gains in their full boxes"),
         encoding="utf-8",
     )  # fmt: skip
     spec2 = load_study(f2)
-    st2 = run_stage(spec2, out / "parafoil-stage2.db", trials=trials, coarse=0, reference=ref2,
-                    progress=progress, name="stage 2")  # fmt: skip
+    st2 = run_stage(spec2, out / "parafoil-stage2.db", trials=trials, reference=ref2,
+                    progress=progress, name="stage 2", meanings=SHORT, hints=HINTS,
+                    budget=budget, **seq)  # fmt: skip
     r2 = st2.result
     a2 = r2.analysis
     ident8 = Identification.from_spec(r2.spec)
-    s2 = _print_stage(st2, ident8, true, title=f"Stage 2: all 33 gains ({trials} trials)")
-    sec = truth_sections(ident8, np.array([true[n] for n in names]), st2.noise_limits, full_boxes)
+    s2 = _print_stage(st2, ident8, true, title=f"Stage 2: all 33 gains (sequential sampler, "
+                      f"{trials} Sobol trials first, budget {budget:,})")  # fmt: skip
+    ins = s2["inside"]
+    n_in = sum(bool(v) for v in ins.values())
+    misses = [k for k, v in ins.items() if not v]
+    print(f"  truth inside the feasible range of {n_in} of {len(ins)} gains"
+          + (f" (misses: {', '.join(misses)})" if misses else ""))
+    sec = _sections(ident8, true, st2.noise_limits, full_boxes)
     _print_sections(sec, full_boxes)
     pure = a2.pure
     scale = np.nanmedian(a2.trials.F[a2.ok][:, pure], axis=0)
@@ -1168,15 +883,16 @@ def run_parafoil_demo(
         encoding="utf-8",
     )  # fmt: skip
     spec3 = load_study(f3)
-    st3 = run_stage(spec3, out / "parafoil-stage3.db", trials=stage3_trials, coarse=coarse3,
-                    reference=ref3, progress=progress, name="stage 3")  # fmt: skip
+    st3 = run_stage(spec3, out / "parafoil-stage3.db", trials=stage3_trials, budget=budget3,
+                    reference=ref3, progress=progress, name="stage 3", meanings=SHORT,
+                    hints=HINTS, **seq)  # fmt: skip
     r3 = st3.result
     a3 = r3.analysis
     ident3 = Identification.from_spec(r3.spec)
     s3 = _print_stage(
         st3, ident3, true,
-        title=f"Stage 3: the reduced set, {len(v3)} gains ({coarse3} coarse + {stage3_trials} "
-        "trials, double tuning)",
+        title=f"Stage 3: the reduced set, {len(v3)} gains (sequential sampler, budget "
+        f"{budget3:,})",
     )  # fmt: skip
     cost3 = _cost(a3.trials.F, a3.pure, scale)
     print(
@@ -1212,12 +928,16 @@ def run_parafoil_demo(
     )  # fmt: skip
     spec6 = load_study(f6)
     models.get("parafoil6dof").compile()  # first use: said before the progress bar
-    st6 = run_stage(spec6, out / "parafoil-6dof.db", trials=stage3_trials, coarse=coarse3,
-                    reference=ref3, progress=progress, name="6-DoF")  # fmt: skip
+    budget6 = st3.sequential.evaluations if st3.sequential is not None else budget3
+    st6 = run_stage(spec6, out / "parafoil-6dof.db", trials=stage3_trials, budget=budget6,
+                    reference=ref3, progress=progress, name="6-DoF", meanings=SHORT,
+                    hints=HINTS, **seq)  # fmt: skip
     r6 = st6.result
     _step_header(
-        r6, f"6-DoF model, the reduced set, stage 3's schedule ({coarse3} + {stage3_trials} trials)"
+        r6, f"6-DoF model, the reduced set, the evaluations stage 3 needed ({budget6:,})"
     )
+    if st6.sequential is not None:
+        print(f"  sequential sampler: {st6.sequential.verdict()}")
     a6 = r6.analysis
     print(
         "  criteria constraints: the 8-DoF's noise-grounded ones (the same data, noise and "
@@ -1231,15 +951,12 @@ def run_parafoil_demo(
         table6, variables=names, criteria=r6.spec.criterion_names, base_dir=r6.spec.base_dir,
         default_model="parafoil6dof",
     )  # fmt: skip
-    from .identify.spectral import peak_prominence, spectral_peak
-
-    meas = _peaks_of(ident8.drops[0].measured("rates"), 1.0 / OUTPUT_DT, spectral_peak,
-                     peak_prominence)  # fmt: skip
-    p8 = _spectral_peaks(ident8, x3c) if np.all(np.isfinite(x3c)) else None
+    meas = rate_peaks(ident8.drops[0].measured("rates"), 1.0 / OUTPUT_DT, BANDS)
+    p8 = _model_peaks(ident8, x3c) if np.all(np.isfinite(x3c)) else None
     x6c = Identification.from_spec(r6.spec).parameters(
         np.array([[r6.chosen.get(v[0], np.nan) for v in v3]])
     )[0]
-    p6 = _spectral_peaks(ident6, x6c) if np.all(np.isfinite(x6c)) else None
+    p6 = _model_peaks(ident6, x6c) if np.all(np.isfinite(x6c)) else None
     n6 = min(len(a6.trials.F[a6.ok]), len(a3.trials.F[a3.ok]))
     print(
         f"  best criteria over the first {n6} successful trials of each (same schedule), and how "

@@ -68,3 +68,27 @@ def test_section_input_errors(store):
     with Study.open(store, write=True) as st:
         with pytest.raises(StudyDefinitionError, match="no stored trial"):
             run_section(st.store, 10**6, "x1")
+
+
+def test_sections_through_a_point_are_the_intervals_inside_the_limits():
+    from vectorid.analysis.sections import sections_through
+
+    def evaluate(X):  # f = |x - 1| + |y - 2|, g = |y - 2|
+        F = np.column_stack([np.abs(X[:, 0] - 1) + np.abs(X[:, 1] - 2), np.abs(X[:, 1] - 2)])
+        return F, np.zeros((len(X), 0))
+
+    boxes = {"x": (0.0, 4.0), "y": (0.0, 4.0)}
+    sec = sections_through(evaluate, [1.0, 2.0], ["x", "y"], ["f", "g"], {"f": 0.5}, boxes,
+                           points=41)  # fmt: skip
+    assert sec["x"] == pytest.approx((0.5, 1.5), abs=0.1)
+    assert sec["y"] == pytest.approx((1.5, 2.5), abs=0.1)
+    assert sec["x"][0] <= 1.0 <= sec["x"][1]
+    # a second limit cuts y only
+    sec = sections_through(evaluate, [1.0, 2.0], ["x", "y"], ["f", "g"],
+                           {"f": 0.5, "g": 0.2}, boxes, points=41)  # fmt: skip
+    assert sec["y"][1] - sec["y"][0] < 0.5 and sec["x"] == pytest.approx((0.5, 1.5), abs=0.1)
+    # a point outside the limits: no interval
+    assert sections_through(evaluate, [3.0, 2.0], ["x", "y"], ["f", "g"], {"f": 0.5},
+                            boxes)["x"] is None  # fmt: skip
+    with pytest.raises(StudyDefinitionError):
+        sections_through(evaluate, [1.0], ["x", "y"], ["f", "g"], {"f": 0.5}, boxes)

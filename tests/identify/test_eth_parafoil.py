@@ -40,9 +40,15 @@ def test_stated_set_as_model_options_reproduces_the_stated_apparent_masses():
 @pytest.mark.skipif(not (DATA / "flight1_states.csv").exists(), reason=f"no data at {DATA}")
 def test_eth_flights_glide_and_turn_control(tmp_path):
     eth = _example("eth_parafoil")
-    r = eth.identify(DATA, tmp_path, trials=512)
+    r = eth.identify(DATA, tmp_path, trials=512, budget=3000)
     a = r["step"].analysis
-    assert a.n == 512 + 128 and a.n_pareto >= 1
+    assert 512 <= a.n <= 3000 and a.n_pareto >= 1
+    # the sequential sampler says how far it got; where no trial met the limits, a local
+    # search from the best trials says by how much the model misses them
+    seq = r["stage"].sequential
+    assert seq is not None and seq.evaluations == a.n
+    if seq.members == 0:
+        assert seq.search is not None and seq.search.factor > 0
     calm, wind, ident = (r[k] for k in ("rms_stated_calm", "rms_stated_wind", "rms_identified"))
     assert set(calm) == set(eth.FLIGHTS)
     for table in (calm, wind, ident):
@@ -63,8 +69,10 @@ def test_eth_flights_glide_and_turn_control(tmp_path):
     assert all(note.startswith("noise floor") for note in st.noise_notes.values())
     assert all(0 < r["allowance"][f]["position_h"] < 10 for f in eth.FLIGHTS)
     src = {k: v[0] for k, v in r["step"].sources.items()}
-    if st.factor > 1:
+    if st.factor > 1:  # only where the sampler did not converge: the named last resort
+        assert not seq.converged
         assert set(src.values()) == {"quantile"} and a.n_feasible >= 50
+        assert all("last resort" in n for _, n in r["step"].sources.values())
         assert all(f"x {st.factor:g}" in n for _, n in r["step"].sources.values())
     else:
         assert set(src.values()) == {"noise"}

@@ -307,7 +307,7 @@ def test_real_telemega_flight():
 
 def test_not_a_telemega_file(tmp_path):
     path = write(tmp_path / "x.csv", table())
-    with pytest.raises(FlightDataError, match="not a TeleMega CSV"):
+    with pytest.raises(FlightDataError, match="not a TeleMega or other AltusMetrum CSV"):
         load_telemega(path)
 
 

@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from vectorid import Study
+from vectorid.descent import RocketDescent
 from vectorid.errors import StudyDefinitionError
 from vectorid.identify import Identification
-from vectorid.identify.descent import RocketDescent
 from vectorid.identify.flight import Channel, FlightData
 from vectorid.identify.noise import (
     ComponentNoise,

@@ -177,3 +177,19 @@ def test_batched_welch_equals_scipy(detrend, T, seg, nfft):
     _, ref = signal.welch(x, fs=FS, window="hann", nperseg=seg, noverlap=seg // 2, nfft=nfft,
                           detrend=detrend, axis=-1)  # fmt: skip
     np.testing.assert_allclose(_welch(x, FS, seg, nfft, detrend), ref, rtol=1e-12, atol=1e-15)
+
+
+def test_rate_peaks_per_column_and_band():
+    from vectorid.identify.spectral import rate_peaks
+
+    fs = 10.0
+    t = np.arange(0, 200, 1 / fs)
+    rng = np.random.default_rng(3)
+    R = np.column_stack([np.sin(2 * np.pi * 0.2 * t), np.sin(2 * np.pi * 0.8 * t)])
+    R += 0.05 * rng.standard_normal(R.shape)
+    peaks = rate_peaks(R, fs, {"roll": (0.05, 0.5), "pitch": (0.25, 1.5)})
+    assert peaks["roll"][0] == pytest.approx(0.2, abs=0.02)
+    assert peaks["pitch"][0] == pytest.approx(0.8, abs=0.03)
+    assert peaks["roll"][1] > 10 and peaks["pitch"][1] > 10
+    with pytest.raises(ValueError, match="one column per band"):
+        rate_peaks(R[:, 0], fs, {"roll": (0.05, 0.5)})

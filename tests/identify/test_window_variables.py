@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from vectorid.descent import RocketDescent
 from vectorid.errors import StudyDefinitionError
 from vectorid.identify import Identification
-from vectorid.identify.descent import RocketDescent
 from vectorid.models import ControlSchedule, InitialState
 from vectorid.spec import StudySpec
 from vectorid.study import Study

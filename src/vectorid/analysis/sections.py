@@ -10,12 +10,16 @@ so the section can be read back.
 The grid is ``points`` evenly spaced values over ``[low, high]`` plus the chosen trial's own
 value when it lies inside, so the section passes through the trial (integer variables: the
 integers of the range, evenly thinned to ``points``; choice variables: the values in range).
+
+:func:`sections_through` sections through any point (on a twin: the truth) with an evaluator
+of the user's, and returns per variable the interval around the point that stays inside the
+criteria constraints: what the data hold about each variable *if the others were known*.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -25,7 +29,7 @@ from ..space import Choice, Integer, Space
 from ..store.sqlite import Store
 from ._stages import find_trial, load_all, parse_note
 
-__all__ = ["Section", "check_range", "load_sections", "section_points"]
+__all__ = ["Section", "check_range", "load_sections", "section_points", "sections_through"]
 
 
 @dataclass
@@ -211,4 +215,93 @@ def load_sections(store: Store) -> list[Section]:
                 },
             )
         )
+    return out
+
+
+def sections_through(
+    evaluate: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
+    x0: Sequence[float] | np.ndarray,
+    names: Sequence[str],
+    crit_names: Sequence[str],
+    limits: Mapping[str, float],
+    boxes: Mapping[str, tuple[float, float]],
+    *,
+    points: int = 25,
+    near: float = 0.06,
+) -> dict[str, tuple[float, float] | None]:
+    """One-variable sections through a point, read as intervals inside the criteria limits.
+
+    Per variable, the others stay at ``x0`` and the variable takes ``points`` evenly spaced
+    values over its box, as many again within ``near`` (share of the box) on each side of
+    its value in ``x0``, and that value itself; all sections are evaluated in one batch. The
+    interval is the connected run of values around ``x0`` where every limited criterion meets
+    its limit (a failed trial, NaN, meets none). On a twin, through the truth, it is what the
+    data hold about each variable *if the others were known*: an inner bound of what they
+    determine jointly (a real flight has no truth to section through).
+
+    Parameters
+    ----------
+    evaluate : callable
+        ``X (n, p) -> (F (n, k), G (n, q))``, the batch model protocol (e.g.
+        :meth:`vectorid.identify.Identification.evaluate`).
+    x0 : (p,) float
+        The point, in the variables' units, in the order of ``names``.
+    names : sequence of str
+        The variables (columns of ``X``).
+    crit_names : sequence of str
+        The criteria (columns of ``F``).
+    limits : mapping
+        Criterion name -> limit Φ** (its unit; a criterion without one is not limited).
+    boxes : mapping
+        Variable name -> (low, high), in its unit.
+    points : int
+        Values over the box (>= 2).
+    near : float
+        Half-width of the refined grid around ``x0``, as a share of the box.
+
+    Returns
+    -------
+    dict
+        Variable name -> (low, high) of the interval, in its unit; None where ``x0`` itself
+        exceeds a limit.
+    """
+    if points < 2:
+        raise StudyDefinitionError(
+            "points", f"a section needs at least 2 points, got {points}", "use points=25"
+        )
+    names = list(names)
+    x0 = np.asarray(x0, dtype=float)
+    if x0.shape != (len(names),):
+        raise StudyDefinitionError(
+            "x0",
+            f"expected {len(names)} values (one per variable), got shape {x0.shape}",
+            "give the point in the order of names",
+        )
+    L = np.array([float(limits.get(c, np.inf)) for c in crit_names])
+    batches, where = [], []
+    for j, n in enumerate(names):
+        lo, hi = (float(v) for v in boxes[n])
+        fine = np.clip(x0[j] + near * (hi - lo) * np.linspace(-1, 1, points), lo, hi)
+        g = np.unique(np.concatenate([np.linspace(lo, hi, points), fine, [x0[j]]]))
+        X = np.tile(x0, (g.size, 1))
+        X[:, j] = g
+        batches.append(X)
+        where.append((n, g, int(np.searchsorted(g, x0[j]))))
+    F = np.asarray(evaluate(np.vstack(batches))[0], dtype=float)
+    with np.errstate(invalid="ignore"):
+        ok = np.all(F <= L[None, :], axis=1)
+    out: dict[str, tuple[float, float] | None] = {}
+    start = 0
+    for n, g, k in where:
+        m = ok[start : start + g.size]
+        start += g.size
+        if not m[k]:
+            out[n] = None
+            continue
+        a, b = k, k
+        while a > 0 and m[a - 1]:
+            a -= 1
+        while b < g.size - 1 and m[b + 1]:
+            b += 1
+        out[n] = (float(g[a]), float(g[b]))
     return out

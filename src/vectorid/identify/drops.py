@@ -42,6 +42,7 @@ _DROP_KEYS = {
     "origin_altitude": "altitude of the NED origin, m",
     "interpolation": "control interpolation: previous | linear",
     "noise": "this drop's measurement noise (overrides [identification] noise key by key)",
+    "channels": "the channels compared with the model (default: every standard channel)",
 }
 _OFFSET = re.compile(r"^\s*(.+?)\s*([+-])\s*(\d+(?:\.\d*)?|\.\d+)\s*$")
 
@@ -276,6 +277,14 @@ def build_drop(
     t0, t1 = resolve_time(flight, window[0]), resolve_time(flight, window[1])
     std = [c for c in ("position", "velocity", "euler", "rates", "altitude", "controls")]
     chans = [c for c in flight.channels if c in std or c in model.output_names]
+    only = table.get("channels")
+    if only is not None:
+        if isinstance(only, str) or not isinstance(only, Sequence):
+            raise _err(f"{where}.channels", f"expected a list of names, got {only!r}")
+        for c in only:
+            if c not in chans:
+                raise _err(f"{where}.channels", f"no channel {c!r}", suggest(str(c), chans))
+        chans = [c for c in chans if c in only]
     if not chans:
         raise _err(
             f"{where}",

@@ -193,12 +193,16 @@ class FlightData:
         Event name -> time, s (e.g. ``"canopy_deployed"``, ``"drogue"``, ``"main"``).
     origin : (float, float, float) or None
         Latitude (deg), longitude (deg) and altitude (m) of the NED origin.
+    notes : list of str
+        What the loader did to the data that a person should know (samples left out as
+        spikes, with their times).
     """
 
     name: str
     channels: dict[str, Channel]
     events: dict[str, float] = field(default_factory=dict)
     origin: tuple[float, float, float] | None = None
+    notes: list[str] = field(default_factory=list)
 
     def __post_init__(self) -> None:
         for key, ch in self.channels.items():

@@ -162,7 +162,7 @@ def window_variable(name: str) -> tuple[str, str | None] | None:
 
 
 if "rocket-descent" not in models.available():
-    models.register("rocket-descent", "vectorid.identify.descent:RocketDescent")
+    models.register("rocket-descent", "vectorid.descent.model:RocketDescent")
 
 _TABLE_KEYS = {
     "model": "model registry name (default: study.model)",

@@ -40,6 +40,7 @@ from numpy.typing import NDArray
 
 from vectorid.errors import suggest
 from vectorid.identify.flight import STANDARD_CHANNELS, Channel, FlightData, FlightDataError
+from vectorid.identify.outliers import drop_spikes
 
 __all__ = [
     "DEFAULT_MAX_GAP",
@@ -94,6 +95,7 @@ _TOP_KEYS = {
     "event_names",
     "duplicates",
     "check_units",
+    "spikes",
     "channels",
     "first_line",
     "last_line",
@@ -182,7 +184,9 @@ def _dedupe_names(names: Sequence[str]) -> list[str]:
     return out
 
 
-def _read_csv(path: Path, delimiter: str | None = None, comment: str | None = None) -> _Table:
+def _read_csv(
+    path: Path, delimiter: str | None = None, comment: str | None = None, skip: int = 0
+) -> _Table:
     source = str(path)
     try:
         text = path.read_text(encoding="utf-8-sig", errors="strict")
@@ -191,8 +195,9 @@ def _read_csv(path: Path, delimiter: str | None = None, comment: str | None = No
     except UnicodeDecodeError as exc:
         raise FlightDataError(f"{source}: not a UTF-8 text file ({exc}); is it a CSV?") from None
     lines = text.splitlines()
-    # header: first non-empty line; a leading '#' on it is stripped (TeleMega style)
-    k = 0
+    # header: first non-empty line (after `skip` lines); a leading '#' on it is stripped
+    # (AltusMetrum style)
+    k = skip
     while k < len(lines) and (
         not lines[k].strip()
         or (comment and lines[k].lstrip().startswith(comment) and "," not in lines[k])
@@ -511,6 +516,12 @@ def check_units(fd: FlightData, source: str = "", units: Mapping[str, str] | Non
             k, T, _ = fit
             if abs(k - 1) < 0.25:
                 continue
+            if k == 0 or not math.isfinite(k):
+                raise FlightDataError(
+                    f"{pre}{key} does not change over {T:g}-s windows while {what} does: the "
+                    f"{key} column holds no {'speed' if key == 'velocity' else 'height'}; "
+                    f"check the column mapped to {key}{off}"
+                )
             f_map = UNITS[kind].get(mapped, 1.0)
             actual = _unit_named(kind, f_map / abs(k))
             if actual is not None and actual != mapped:
@@ -975,6 +986,7 @@ def _build(table: _Table, mapping: Mapping[str, Any], name: str | None) -> Fligh
     fd = FlightData(
         str(mapping.get("name") or name or Path(table.source).stem), channels, events, origin
     )
+    fd = drop_spikes(fd, table.source, str(mapping.get("spikes", "drop")))
     if mapping.get("check_units", True):
         units = {
             key: str(_as_dict(key, mapping[key]).get("unit", default))
@@ -1034,8 +1046,19 @@ def load_parquet(path: str | os.PathLike[str], mapping: Mapping[str, Any]) -> Fl
 _TELEMEGA_STATES = ("boost", "fast", "coast", "drogue", "main", "landed")
 
 
-def load_telemega(path: str | os.PathLike[str], *, max_gap: float = 3.0) -> FlightData:
-    """Load the CSV written by an Altus Metrum TeleMega (AltOS ``ao-dumpflight``/AltosUI export).
+def load_telemega(
+    path: str | os.PathLike[str], *, max_gap: float = 3.0, spikes: str = "drop"
+) -> FlightData:
+    """Load the CSV written by an Altus Metrum flight computer (TeleMega, TeleMetrum, EasyMega,
+    EasyMini, ...: AltosUI's CSV export), with or without a UTF-8 byte-order mark and comment
+    lines before the header.
+
+    The columns present depend on the device (AltosUI writes the groups it has data for): the
+    barometric ``height`` is always there; GPS columns (``latitude``, ``longitude``, the
+    second ``altitude``) only for a device with GPS (TeleMega, TeleMetrum), gyro columns
+    (``gyro_roll``/``gyro_pitch``/``gyro_yaw`` or ``gyro_x``/``gyro_y``/``gyro_z``) only for one
+    with an IMU, the speed as ``speed`` or ``baro_speed``; ``state_name`` when the device kept
+    a flight state.
 
     Channels: ``position`` (GPS latitude/longitude/altitude -> NED about the first valid fix,
     the pad; one sample per new fix, ~1 Hz), ``altitude`` (barometric height above the pad, m,
@@ -1060,17 +1083,21 @@ def load_telemega(path: str | os.PathLike[str], *, max_gap: float = 3.0) -> Flig
         The TeleMega CSV.
     max_gap : float
         Longest stretch without valid data inside a channel, s (GPS fixes come at ~1 Hz).
+    spikes : {"drop", "note", "keep", "strict"}
+        Single-sample spikes of every channel (:func:`vectorid.identify.outliers.drop_spikes`):
+        left out and named in ``notes`` (default), kept, or an error.
     """
     p = Path(path)
-    table = _read_csv(p)
-    need = ["time", "state_name", "height", "latitude", "longitude", "altitude.1"]
+    head = altusmetrum_header(p)
+    table = _read_csv(p, skip=0 if head is None else head)
+    need = ["time", "height"]
     for c in need:
         if c not in table.names:
             raise FlightDataError(
-                f"{p}: not a TeleMega CSV: column {c!r} is missing (the GPS altitude is the "
-                f"second 'altitude' column); {suggest(c, table.names)}. Use load_csv with a "
-                "mapping for other formats"
+                f"{p}: not a TeleMega or other AltusMetrum CSV: column {c!r} is missing; "
+                f"{suggest(c, table.names)}. Use load_csv with a mapping for other formats"
             )
+    has_gps = all(c in table.names for c in ("latitude", "longitude", "altitude.1"))
     t_all = table.numeric("time", "time")
     # exact duplicates of whole rows
     raw = [table.raw(c, "") for c in table.names]
@@ -1114,7 +1141,58 @@ def load_telemega(path: str | os.PathLike[str], *, max_gap: float = 3.0) -> Flig
         return Channel(name, tv, vv, comps, unit)
 
     channels["altitude"] = baro_chan("altitude", "height", ("altitude",), "m")
-    # GPS fixes
+    origin = None
+    if has_gps:
+        origin = _altusmetrum_gps(p, table, t, num, channels, max_gap)
+    for gyro in (("gyro_roll", "gyro_pitch", "gyro_yaw"), ("gyro_x", "gyro_y", "gyro_z")):
+        if all(c in table.names for c in gyro):
+            channels["rates"] = chan("rates", list(gyro), ("p", "q", "r"), "rad/s", math.pi / 180.0)
+            break
+    speed = next((c for c in ("speed", "baro_speed") if c in table.names), "speed")
+    extras = [
+        ("vertical_speed", speed, "m/s"),
+        ("acceleration", "acceleration", "m/s^2"),
+        ("pressure", "pressure", "Pa"),
+        ("temperature", "temperature", "degC"),
+    ]
+    for name, col, unit in extras:
+        if col in table.names and np.sum(np.isfinite(num(col))) >= 2:
+            if name == "pressure":
+                channels[name] = baro_chan(name, col, (name,), unit)
+            else:
+                channels[name] = chan(name, [col], (name,), unit)
+    events: dict[str, float] = {}
+    if "state_name" in table.names:
+        states = table.strings("state_name", "events")
+        prev = None
+        for r, tr in zip(rows, t):
+            st = states[r]
+            if st != prev and st:
+                events.setdefault(st, float(tr))
+            prev = st
+    unknown = [e for e in events if e not in _TELEMEGA_STATES and e not in ("pad", "idle")]
+    if unknown:
+        warnings.warn(f"{p}: unexpected flight states {unknown}; kept as events", stacklevel=2)
+    h = channels["altitude"]
+    # the apogee of the heights' running median: a single corrupt sample is not the apogee
+    from scipy.ndimage import median_filter
+
+    hm = median_filter(h.values[:, 0], size=min(5, h.t.size) | 1, mode="nearest")
+    events["apogee"] = float(h.t[int(np.argmax(hm))])
+    fd = drop_spikes(FlightData(p.stem, channels, events, origin), str(p), spikes)
+    if "pressure" in fd.channels:  # one barometer: a spike of either is left out of both
+        a, b = fd.channels["altitude"], fd.channels["pressure"]
+        both = np.intersect1d(a.t, b.t)
+        for c in (a, b):
+            if c.t.size != both.size:
+                k = np.isin(c.t, both)
+                fd.channels[c.name] = Channel(c.name, c.t[k], c.values[k], c.components, c.unit)
+    check_units(fd, str(p))
+    return fd
+
+
+def _altusmetrum_gps(p, table, t, num, channels, max_gap):
+    """The GPS channels of an AltusMetrum CSV (``position``, ``gps_altitude``); the origin."""
     lat, lon, alt = num("latitude"), num("longitude"), num("altitude.1")
     ok = np.isfinite(lat) & np.isfinite(lon) & np.isfinite(alt) & ~((lat == 0) & (lon == 0))
     if "locked" in table.names:
@@ -1128,8 +1206,9 @@ def load_telemega(path: str | os.PathLike[str], *, max_gap: float = 3.0) -> Flig
     fix = np.flatnonzero(ok & new)
     if fix.size < 2:
         raise FlightDataError(
-            f"{p}: fewer than 2 valid GPS fixes (locked, >= 4 satellites); the position channel "
-            "needs GPS — use load_csv without 'position' if the log has none"
+            f"{p}: fewer than 2 valid GPS fixes (locked, >= 4 satellites) in the GPS columns; "
+            "delete the GPS columns (latitude, longitude, the second altitude) to read the log "
+            "without them"
         )
     gaps = np.diff(t[fix])
     if np.any(gaps > max_gap):
@@ -1144,39 +1223,7 @@ def load_telemega(path: str | os.PathLike[str], *, max_gap: float = 3.0) -> Flig
         ("north", "east", "down"), "m",
     )  # fmt: skip
     channels["gps_altitude"] = Channel("gps_altitude", t[fix], alt[fix], ("altitude",), "m")
-    if all(c in table.names for c in ("gyro_roll", "gyro_pitch", "gyro_yaw")):
-        channels["rates"] = chan(
-            "rates", ["gyro_roll", "gyro_pitch", "gyro_yaw"], ("p", "q", "r"), "rad/s",
-            math.pi / 180.0,
-        )  # fmt: skip
-    extras = [
-        ("vertical_speed", "speed", "m/s"),
-        ("acceleration", "acceleration", "m/s^2"),
-        ("pressure", "pressure", "Pa"),
-        ("temperature", "temperature", "degC"),
-    ]
-    for name, col, unit in extras:
-        if col in table.names and np.sum(np.isfinite(num(col))) >= 2:
-            if name == "pressure":
-                channels[name] = baro_chan(name, col, (name,), unit)
-            else:
-                channels[name] = chan(name, [col], (name,), unit)
-    events: dict[str, float] = {}
-    states = table.strings("state_name", "events")
-    prev = None
-    for r, tr in zip(rows, t):
-        s = states[r]
-        if s != prev and s:
-            events.setdefault(s, float(tr))
-        prev = s
-    unknown = [s for s in events if s not in _TELEMEGA_STATES and s not in ("pad", "idle")]
-    if unknown:
-        warnings.warn(f"{p}: unexpected TeleMega states {unknown}; kept as events", stacklevel=2)
-    h = channels["altitude"]
-    events["apogee"] = float(h.t[int(np.argmax(h.values[:, 0]))])
-    fd = FlightData(p.stem, channels, events, origin)
-    check_units(fd, str(p))
-    return fd
+    return origin
 
 
 def _quat_to_euler(q: Array) -> Array:
@@ -1321,16 +1368,36 @@ def load_ulog(path: str | os.PathLike[str], *, max_gap: float = DEFAULT_MAX_GAP)
     return fd
 
 
-_FORMATS = ("csv", "parquet", "telemega", "ulog")
+_FORMATS = ("csv", "parquet", "telemega", "altusmetrum", "ulog")
+
+
+def altusmetrum_header(path: str | os.PathLike[str]) -> int | None:
+    """Line index (0-based) of the header of an AltusMetrum CSV, None if the file is not one.
+
+    Recognised from the content, not the name: a header line (after an optional UTF-8 BOM,
+    blank lines and ``#`` comment lines) whose columns begin ``version,serial,flight,call,time``
+    (with or without a leading ``#``) and include ``height``: every AltusMetrum device's CSV
+    export (TeleMega, TeleMetrum, EasyMega, EasyMini, TeleMini, ...).
+    """
+    try:
+        with Path(path).open(encoding="utf-8-sig", errors="replace") as fh:
+            lines = [fh.readline() for _ in range(64)]
+    except OSError:
+        return None
+    for k, line in enumerate(lines):
+        text = line.strip().lstrip("\ufeff")
+        if not text:
+            continue
+        cols = [c.strip().lower() for c in text.lstrip("#").split(",")]
+        if cols[:5] == ["version", "serial", "flight", "call", "time"] and "height" in cols:
+            return k
+        if not text.startswith("#"):
+            return None
+    return None
 
 
 def _is_telemega(path: Path) -> bool:
-    try:
-        with path.open(encoding="utf-8", errors="replace") as fh:
-            head = fh.readline()
-    except OSError:
-        return False
-    return head.startswith("#version") and "state_name" in head and "gyro_roll" in head
+    return altusmetrum_header(path) is not None
 
 
 def load_flight(
@@ -1367,8 +1434,8 @@ def load_flight(
             )
     if fmt not in _FORMATS:
         raise FlightDataError(f"unknown format {fmt!r}; {suggest(fmt, _FORMATS)}")
-    if fmt == "telemega":
-        return load_telemega(p)
+    if fmt in ("telemega", "altusmetrum"):
+        return load_telemega(p, spikes=str((mapping or {}).get("spikes", "drop")))
     if fmt == "ulog":
         return load_ulog(p)
     if mapping is None:

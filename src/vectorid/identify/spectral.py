@@ -36,6 +36,8 @@ NaN.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import signal
@@ -47,6 +49,7 @@ __all__ = [
     "eigenfrequencies",
     "peak_prominence",
     "psd",
+    "rate_peaks",
     "resample_uniform",
     "segment_length",
     "spectral_peak",
@@ -511,3 +514,46 @@ def eigenfrequencies(
         res[i, : len(freqs)] = freqs
     out[ok] = res
     return out[0] if single else out
+
+
+def rate_peaks(
+    rates: ArrayLike,
+    fs: float,
+    bands: Mapping[str, tuple[float, float]],
+    *,
+    whiten: bool = True,
+) -> dict[str, tuple[float, float]]:
+    """Spectral peak (frequency, prominence) of each column of a rate history in its band.
+
+    Parameters
+    ----------
+    rates : array_like, shape (T, m)
+        Uniformly sampled signals, one per column (e.g. roll, pitch and yaw rates, rad/s).
+    fs : float
+        Sampling frequency, Hz.
+    bands : mapping
+        Column name -> band (low, high) in Hz, in column order: the first name is column 0.
+    whiten : bool
+        Whiten the spectrum before searching (:func:`psd`), so that a mode stands out of the
+        low-frequency manoeuvres.
+
+    Returns
+    -------
+    dict
+        Name -> (peak frequency in Hz, prominence: largest PSD in the band over its median,
+        dimensionless, >= 1); NaN for a column with no power or NaN.
+    """
+    R = np.asarray(rates, dtype=float)
+    if R.ndim != 2 or R.shape[1] < len(bands):
+        raise ValueError(
+            f"rates: expected a (T, {len(bands)}) array (one column per band), got shape "
+            f"{R.shape}; pass the rate history with time down the rows"
+        )
+    out = {}
+    for j, (name, band) in enumerate(bands.items()):
+        s = R[:, j]
+        out[name] = (
+            float(spectral_peak(s, fs, band=band, whiten=whiten)),
+            float(peak_prominence(s, fs, band=band, whiten=whiten)),
+        )
+    return out

@@ -70,8 +70,8 @@ _REGISTRY: dict[str, str] = {
     "parachute6dof": "vectorid.models.parachute6dof:Parachute6DoF",
     "parafoil8dof": "vectorid.models.parafoil8dof:Parafoil8DoF",
     "parafoil6dof": "vectorid.models.parafoil6dof:Parafoil6DoF",
-    "rocket-descent": "vectorid.identify.descent:RocketDescent",
-    "rocket-descent-cds": "vectorid.identify.descent:RocketDescentCdS",
+    "rocket-descent": "vectorid.descent.model:RocketDescent",
+    "rocket-descent-cds": "vectorid.descent.model:RocketDescentCdS",
 }
 
 

@@ -40,6 +40,7 @@ from dataclasses import dataclass, field
 from typing import Any, TextIO
 
 import numpy as np
+from scipy.special import logsumexp
 
 from ..errors import StudyDefinitionError
 from ..problem import FAILED, OK, EvalResult
@@ -340,11 +341,69 @@ def assess(store: Store, trials: Trials | None = None, limits=None) -> Sequentia
     members = a.feasible & (generation >= 0)
     log_w = np.full(len(trials), np.nan)
     if members.any():
-        log_w[members] = log_weights(_unit(spec.space, trials.X[members]), proposals, counts)
+        log_w[members] = _cached_log_weights(store, spec, trials, generation, proposals,
+                                             counts, members)  # fmt: skip
     ess = kish_ess(log_w[members])
     return SequentialState(
         proposals, counts, generation, constrained, phi, floor, usable, members, log_w, ess
     )
+
+
+#: Log proposal densities of stored trials, one block per (proposal, generation of trials);
+#: kept for the last store only. Trials and proposals never change once stored, so a block
+#: is computed once instead of once per generation (the weights are recomputed every
+#: generation over every earlier proposal).
+_DENSITY_BLOCKS: dict[str, Any] = {"store": None, "blocks": {}}
+
+
+def _cached_log_weights(
+    store: Store,
+    spec,
+    trials: Trials,
+    generation: np.ndarray,
+    proposals: Sequence[Proposal],
+    counts: Sequence[int],
+    mask: np.ndarray,
+) -> np.ndarray:
+    """:func:`~vectorid.sequential.weights.log_weights` of ``trials[mask]``, each proposal's
+    density evaluated once per block of one generation's trials.
+
+    A block always holds the same rows (all stored trials of that generation), so an
+    interrupted and resumed run computes the same numbers, bit for bit, as an uninterrupted
+    one.
+    """
+    ident = (str(store.path), store.meta().get("created"))
+    if _DENSITY_BLOCKS["store"] != ident:
+        _DENSITY_BLOCKS["store"] = ident
+        _DENSITY_BLOCKS["blocks"] = {}
+    blocks: dict[tuple, np.ndarray] = _DENSITY_BLOCKS["blocks"]
+    rows = np.flatnonzero(mask)
+    total = float(sum(counts))
+    if not len(rows) or total <= 0:
+        return np.zeros(len(rows))
+    gen_rows = generation[rows]
+    hs = np.unique(gen_rows)
+    members_of = {int(h): np.flatnonzero(generation == h) for h in hs}
+    # position of each selected row inside its generation's block
+    where = np.empty(len(rows), dtype=np.int64)
+    for h, block_rows in members_of.items():
+        sel = gen_rows == h
+        where[sel] = np.searchsorted(block_rows, rows[sel])
+    terms = []
+    for g, (prop, n) in enumerate(zip(proposals, counts)):
+        if n <= 0:
+            continue
+        col = np.empty(len(rows))
+        for h, block_rows in members_of.items():
+            key = (g, prop.log_mass, h, len(block_rows), hash(trials.seq[block_rows].tobytes()))
+            dens = blocks.get(key)
+            if dens is None:
+                dens = prop.logpdf(_unit(spec.space, trials.X[block_rows]))
+                blocks[key] = dens
+            sel = gen_rows == h
+            col[sel] = dens[where[sel]]
+        terms.append(col + math.log(n / total))
+    return -logsumexp(np.vstack(terms), axis=0)
 
 
 def trial_log_weights(store: Store, trials: Trials, mask: np.ndarray) -> np.ndarray:
@@ -410,7 +469,8 @@ def _propose(store: Store, spec, state: SequentialState, gens, n: int, trials: T
     with np.errstate(invalid="ignore"):
         centres = state.usable & np.all(phi <= eps, axis=1)
     U = _unit(spec.space, trials.X[centres])
-    log_w = log_weights(U, state.proposals, state.counts)
+    log_w = _cached_log_weights(store, spec, trials, state.generation, state.proposals,
+                                state.counts, centres)  # fmt: skip
     scale = SCALE
     kernel = fit_proposal(U, log_w, rng, scale=scale)
     try:

@@ -59,7 +59,13 @@ def test_drag_coefficients_with_their_spread(result):
         # corrected for the hot day, within 15 % of the nominal C_D (the drogue's includes
         # the body's drag; the main's is its own, the drogue staying attached)
         assert abs(p.cd / k / nominal - 1) <= 0.15, (name, p.cd / k)
-        assert p.summary.startswith("agrees")
+        # "agrees" only when the stated value lies inside the printed (feasible) range;
+        # otherwise the verdict says the tolerance holds but the data exclude the stated value
+        inside = flo / k <= nominal <= fhi / k
+        if inside:
+            assert p.summary.startswith("agrees"), p.summary
+        else:
+            assert "within ±15 %" in p.summary and "outside the feasible range" in p.summary
 
 
 def test_drogue_phase_residual_is_explained(result):

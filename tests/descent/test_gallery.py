@@ -50,6 +50,13 @@ def _agrees_within_15(p) -> bool:
     return p.compared_cds is not None and abs(p.compared_cds / p.stated_cds - 1) <= 0.15
 
 
+def _stated_inside(p) -> bool:
+    """The stated drag area lies inside the printed (feasible) range."""
+    k = p.height_ratio or 1.0
+    lo, hi = p.cds_feasible
+    return lo / k <= p.stated_cds <= hi / k
+
+
 @pytest.mark.parametrize("name", list(GALLERY.FLIGHTS))
 def test_every_phase_agrees_or_says_why_not(results, name):
     r = _get(results, name)
@@ -62,7 +69,8 @@ def test_every_phase_agrees_or_says_why_not(results, name):
             assert p.identifiability["verdict"] == p.status
             assert {c["limit_source"] for c in p.limits.criteria} == {"noise"}
         if p.summary.startswith("agrees"):
-            assert p.status == "identified" and _agrees_within_15(p)
+            # "agrees" only when the stated value lies inside the printed range
+            assert p.status == "identified" and _agrees_within_15(p) and _stated_inside(p)
             lo, hi = p.cds_feasible
             assert lo <= p.cds <= hi
         else:
@@ -76,14 +84,19 @@ def test_every_phase_agrees_or_says_why_not(results, name):
                     "never reached",
                     "bound the drag area only",
                     "do not exclude the stated",
+                    "the data exclude the stated value",
+                    "drag area changes along the descent",
                 )
             ), p.verdict
 
 
-def test_prometheus_both_canopies_agree(results):
+def test_prometheus_within_15_percent_and_honest_about_the_range(results):
     r = _get(results, "Prometheus (TeleMega)")
     for p in r.phases:
-        assert p.summary.startswith("agrees"), p.verdict
+        assert _agrees_within_15(p), p.verdict
+        # said to agree only when the stated value is inside the printed range
+        if p.cds_feasible is not None and not _stated_inside(p):
+            assert not p.summary.startswith("agrees"), p.verdict
     assert r.phase("main").alt_rms_m <= 5.0
     # the drogue phase cannot meet 5 m, and its summary says why
     d = r.phase("drogue")
@@ -92,19 +105,22 @@ def test_prometheus_both_canopies_agree(results):
 
 
 @pytest.mark.parametrize("name", ["Bella Lui", "Juno III"])
-def test_drogue_only_flights_agree(results, name):
+def test_drogue_only_flights_within_15_percent(results, name):
     p = _get(results, name).phase("drogue")
-    assert p.summary.startswith("agrees"), p.verdict
+    assert _agrees_within_15(p), p.verdict
+    assert p.summary.startswith("agrees") or "within ±15 %" in p.summary, p.summary
 
 
 @pytest.mark.parametrize(("name", "low"), [("Camões", 1.5), ("NDRT 2020", 1.2)])
 def test_drogues_slower_than_stated(results, name, low):
     # the READMEs: these drogues descend slower than their stated C_D S predicts
     p = _get(results, name).phase("drogue")
-    assert p.status == "identified"
-    assert p.cds / p.stated_cds > low
+    assert p.compared_cds / p.stated_cds > low
     assert "does not fit the stated drag area" in p.verdict
     assert p.stated_alt_rms_m > p.limits.alt_rms
+    # the direct check: the descent rate over every sub-window implies more than stated
+    if p.drag_along is not None:
+        assert min(p.drag_along["cds"]) > 1.1 * p.stated_cds
 
 
 @pytest.mark.parametrize("name", ["Valkyrie", "Hedy"])

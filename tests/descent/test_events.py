@@ -10,8 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from vectorid.identify import load_csv, load_telemega
-from vectorid.identify.descent import (
+from vectorid.descent import (
     INCH,
     RocketDescent,
     RocketDescentCdS,
@@ -21,6 +20,7 @@ from vectorid.identify.descent import (
     detect_touchdown,
     monotone_rate_bound,
 )
+from vectorid.identify import load_csv, load_telemega
 from vectorid.models.atmosphere import ISA
 from vectorid.models.base import InitialState
 from vectorid.models.controls import ControlSchedule

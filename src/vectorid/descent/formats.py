@@ -1,0 +1,268 @@
+"""What kind of log a descent's file is, read from its content, and the units its header states.
+
+- An AltusMetrum CSV (TeleMega, TeleMetrum, EasyMega, EasyMini, ...; with or without a UTF-8
+  BOM) is recognised by its header (:func:`vectorid.identify.loaders.altusmetrum_header`): it
+  states its own columns and units, so options that map columns or set units do not apply to
+  it and are refused.
+- A PX4 ULog by its extension (``.ulg``) and a Parquet file by ``.parquet``/``.pq``.
+- Any other text file is a generic CSV: its time and altitude columns come from ``--columns``
+  or, when the header has exactly one time-like and one altitude-like column, from the header
+  (said in a note); a unit in a column's name (``Altitude (Ft-AGL)``, ``alt(m)``,
+  ``height_ft``, ``t [ms]``) is read, and an option that contradicts it is an error.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from vectorid.errors import StudyDefinitionError
+
+__all__ = ["LENGTH_UNITS", "TIME_UNITS", "LogFormat", "column_unit", "detect_format"]
+
+#: Length units a column name or an option may state, as the loaders spell them.
+LENGTH_UNITS = {
+    "m": "m", "meter": "m", "meters": "m", "metre": "m", "metres": "m",
+    "ft": "ft", "feet": "ft", "foot": "ft",
+    "km": "km",
+}  # fmt: skip
+#: Time units a column name or an option may state.
+TIME_UNITS = {
+    "s": "s", "sec": "s", "secs": "s", "second": "s", "seconds": "s",
+    "ms": "ms", "millis": "ms", "milliseconds": "ms",
+    "us": "us", "µs": "us", "ns": "ns", "min": "min", "minutes": "min",
+}  # fmt: skip
+_TIME_NAME = re.compile(r"^(t|ts|time|timestamp|time_s|elapsed)\b", re.IGNORECASE)
+_ALT_NAME = re.compile(r"(alt|height|^z$|^h$|^z\b|^h\b)", re.IGNORECASE)
+
+
+def _err(where: str, problem: str, fix: str = "") -> StudyDefinitionError:
+    return StudyDefinitionError(where, problem, fix)
+
+
+def _split_name(name: str) -> tuple[str, str | None]:
+    """A column name's base and the text of its unit part (in () or [], or a _unit suffix)."""
+    m = re.match(r"^\s*(.*?)\s*[\(\[]([^\)\]]*)[\)\]]\s*$", name)
+    if m:
+        return m.group(1), m.group(2)
+    m = re.match(r"^(.*?)[_ ]([A-Za-zµ]+)$", name.strip())
+    if m and (m.group(2).lower() in LENGTH_UNITS or m.group(2).lower() in TIME_UNITS):
+        return m.group(1), m.group(2)
+    return name.strip(), None
+
+
+def column_unit(name: str, kind: str) -> str | None:
+    """The unit a column's name states (``"ft"``, ``"m"``, ``"s"``, ...), None if it states none.
+
+    Parameters
+    ----------
+    name : str
+        Column name, e.g. ``"Altitude (Ft-AGL)"``, ``"alt(m)"``, ``"height_ft"``.
+    kind : {"length", "time"}
+
+    Raises
+    ------
+    StudyDefinitionError
+        When the name states a unit of the other kind, or two different ones.
+    """
+    _, text = _split_name(name)
+    if text is None:
+        return None
+    table = LENGTH_UNITS if kind == "length" else TIME_UNITS
+    words = [w for w in re.split(r"[^A-Za-zµ0-9/]+", text.lower()) if w]
+    found = {table[w] for w in words if w in table}
+    if len(found) > 1:
+        raise _err(
+            "columns", f"column {name!r} names two units ({', '.join(sorted(found))})",
+            "rename the column or say its unit with --altitude-unit/--time-unit",
+        )  # fmt: skip
+    return found.pop() if found else None
+
+
+@dataclass
+class LogFormat:
+    """The format of a log and what its content states.
+
+    Attributes
+    ----------
+    format : str
+        ``"altusmetrum"``, ``"csv"``, ``"parquet"`` or ``"ulog"``.
+    mapping : dict or None
+        The CSV/Parquet mapping with every unit resolved (None for self-describing formats).
+    notes : list of str
+        What was read from the content (columns chosen, units read from the header).
+    """
+
+    format: str
+    mapping: dict[str, Any] | None = None
+    notes: list[str] = field(default_factory=list)
+
+
+def _header(path: Path) -> list[str]:
+    import csv
+
+    with path.open(encoding="utf-8-sig", errors="replace") as fh:
+        for line in fh:
+            if line.strip() and not line.lstrip().startswith("#"):
+                try:
+                    delim = csv.Sniffer().sniff(line, delimiters=",;\t").delimiter
+                except csv.Error:
+                    delim = ","
+                return [c.strip() for c in next(csv.reader([line], delimiter=delim))]
+    return []
+
+
+def detect_format(
+    path: str | Path,
+    *,
+    format: str | None = None,
+    columns: dict[str, str] | None = None,
+    time_unit: str | None = None,
+    altitude_unit: str | None = None,
+    extra: dict[str, Any] | None = None,
+) -> LogFormat:
+    """The format of a descent log and its resolved mapping (see the module docstring).
+
+    Parameters
+    ----------
+    path : path
+    format : str, optional
+        As the user stated it (``telemega`` is taken as ``altusmetrum``); checked against the
+        content.
+    columns : dict, optional
+        ``{"time": COL, "altitude": COL[, "event": COL]}`` as the user gave them.
+    time_unit, altitude_unit : str, optional
+        As the user gave them (None: not given).
+    extra : dict, optional
+        Further mapping keys the user gave (``first_line``, ``last_line``, ``max_gap``).
+
+    Raises
+    ------
+    StudyDefinitionError
+        An option that does not apply to the format, a unit that is not one, a unit that
+        contradicts the header, columns that cannot be chosen from the header.
+    """
+    from vectorid.identify.loaders import altusmetrum_header
+
+    p = Path(path)
+    extra = dict(extra or {})
+    if altitude_unit is not None and altitude_unit.strip().lower() not in LENGTH_UNITS:
+        raise _err(
+            "--altitude-unit", f"{altitude_unit!r} is not a unit of length",
+            "write m, ft or km",
+        )  # fmt: skip
+    if time_unit is not None and time_unit.strip().lower() not in TIME_UNITS:
+        raise _err(
+            "--time-unit", f"{time_unit!r} is not a unit of time for a descent log",
+            "write s, ms, us, ns or min (a column of ISO dates: convert it to seconds)",
+        )  # fmt: skip
+    fmt = {"telemega": "altusmetrum"}.get(format or "", format)
+    ext = p.suffix.lower()
+    if fmt is None:
+        if ext in (".ulg", ".ulog"):
+            fmt = "ulog"
+        elif ext in (".parquet", ".pq"):
+            fmt = "parquet"
+        elif altusmetrum_header(p) is not None:
+            fmt = "altusmetrum"
+        else:
+            fmt = "csv"
+    elif fmt == "altusmetrum" and altusmetrum_header(p) is None:
+        raise _err(
+            "--format",
+            f"{p.name} is not an AltusMetrum CSV (its header does not begin "
+            "version,serial,flight,call,time)",
+            "leave --format out: the format is read from the file",
+        )
+    if fmt in ("altusmetrum", "ulog"):
+        given = [
+            name
+            for name, v in (
+                ("--columns", columns),
+                ("--time-unit", time_unit),
+                ("--altitude-unit", altitude_unit),
+                ("--first-line", extra.get("first_line")),
+                ("--last-line", extra.get("last_line")),
+                ("--max-gap", extra.get("max_gap")),
+            )
+            if v is not None
+        ]
+        if given:
+            what = "an AltusMetrum CSV" if fmt == "altusmetrum" else "a PX4 ULog"
+            raise _err(
+                given[0], f"{p.name} is {what}, which states its own columns and units: "
+                f"{', '.join(given)} do{'es' if len(given) == 1 else ''} not apply to it",
+                f"leave {' and '.join(given)} out",
+            )  # fmt: skip
+        return LogFormat(fmt, None, [])
+    notes: list[str] = []
+    names = _header(p) if fmt == "csv" else []
+    cols = dict(columns or {})
+    if fmt == "csv" and ("time" not in cols or "altitude" not in cols):
+        for key, pat in (("time", _TIME_NAME), ("altitude", _ALT_NAME)):
+            if key in cols:
+                continue
+            cand = [n for n in names if pat.search(_split_name(n)[0])]
+            if key == "time":
+                cand = [n for n in cand if _plain_unit(n, "time")]
+            if len(cand) != 1:
+                found = f"candidates: {', '.join(map(repr, cand))}" if cand else "none found"
+                raise _err(
+                    "--columns", f"cannot tell the {key} column of {p.name} from its header "
+                    f"({found}; columns: {', '.join(map(repr, names))})",
+                    "give --columns time=COL,altitude=COL",
+                )  # fmt: skip
+            cols[key] = cand[0]
+        notes.append(
+            f"columns read from the header: time {cols['time']!r}, altitude {cols['altitude']!r} "
+            "(--columns chooses others)"
+        )
+    if "time" not in cols or "altitude" not in cols:
+        raise _err("--columns", f"a {fmt} log needs its time and altitude columns",
+                   "give --columns time=COL,altitude=COL")  # fmt: skip
+    units: dict[str, str] = {}
+    for key, kind, given_unit, opt, default in (
+        ("time", "time", time_unit, "--time-unit", "s"),
+        ("altitude", "length", altitude_unit, "--altitude-unit", "m"),
+    ):
+        table = TIME_UNITS if kind == "time" else LENGTH_UNITS
+        stated = column_unit(cols[key], kind)
+        given_u = None if given_unit is None else table[given_unit.strip().lower()]
+        if stated is not None and given_u is not None and stated != given_u:
+            raise _err(
+                opt, f"the column {cols[key]!r} states {stated}, {opt} says {given_u}",
+                f"leave {opt} out (the header's unit is read) or fix the column's name",
+            )  # fmt: skip
+        if stated is not None:
+            units[key] = stated
+            notes.append(f"{key} unit {stated}, read from the column name {cols[key]!r}")
+        elif given_u is not None:
+            units[key] = given_u
+        else:
+            units[key] = default
+            notes.append(
+                f"{key} unit {default}: the column name {cols[key]!r} states none and {opt} "
+                "was not given (the plausibility checks catch a wrong unit)"
+            )
+    mapping: dict[str, Any] = {
+        "time": cols["time"],
+        "time_unit": units["time"],
+        "altitude": {"column": cols["altitude"], "unit": units["altitude"]},
+        **{k: v for k, v in extra.items() if v is not None},
+    }
+    if "event" in cols:
+        mapping["event_column"] = cols["event"]
+    return LogFormat(fmt, mapping, notes)
+
+
+def _plain_unit(name: str, kind: str) -> bool:
+    """A column whose unit part, if any, is a unit of ``kind`` (``time(not s)`` is not)."""
+    _, text = _split_name(name)
+    if text is None:
+        return True
+    try:
+        return column_unit(name, kind) is not None and not re.search(r"\bnot\b", text.lower())
+    except StudyDefinitionError:
+        return False

@@ -1,0 +1,338 @@
+"""Identify the drag areas of a rocket's recovery descent from an altimeter log.
+
+A descent under one or two parachutes (a drogue from apogee, a main later; or one canopy) is
+cut into phases from the data: the apogee and the touchdown are read from the altitude (not
+from a logger's "landed" state), the main's opening from an event of the log, a stated
+trigger height or time, or the change of descent rate in the data. Each phase is one
+identification step of the PSI method (:func:`vectorid.identify.twostep.run_step`) on the
+point-mass model ``"rocket-descent-cds"`` (:class:`~vectorid.descent.RocketDescentCdS`,
+started at each trial's own steady descent rate): one design variable, the drag area C_D S of
+the canopy that phase is flown under (m²), sampled by LP_tau in a box of a factor 1.5 either
+way of what the phase's mean descent rate implies, with double tuning; two pure criteria, the
+altitude residual ``alt_sq`` (∫(h - ĥ)² dt) and the vertical-speed residual ``vz_abs``
+(∫|h' - ĥ'| dt). Their constraints Φ** are the study's noise floors
+(:mod:`vectorid.identify.noise`, ``limits = "noise"``): the altitude noise estimated from the
+phase's data by the documented estimator (or stated), plus a model-discrepancy allowance
+(:func:`discrepancy`, stated by the plan and justified in docs/identify.md). Under a main whose
+drag adds to the drogue's (``convention = "adds"``) the main's step takes the drogue's drag
+area in the drogue step's feasible range as a second variable (a chained step).
+
+Every phase ends with the identifiability verdict of its drag area
+(:func:`vectorid.analysis.identifiability.identifiability`: identified, weak, not identified;
+a value only when identified) with its feasible and Pareto ranges, and the descent's own
+explanation beside it: compared with the stated drag area, within ±15 % or why not (the main
+did not open; the drag area is the other canopy's; the descent rate does not fit the stated
+value; the trigger height is never reached), which constraint empties D, and, where the
+residual exceeds the noise floor, how close any constant-drag descent can come at all
+(:func:`~vectorid.descent.monotone_rate_bound`) and, in a log with GPS heights, how
+much of the barometric residual the GPS does not see.
+
+Each step is a study in its own store (``OUT/NAME-PHASE.db``): ``vectorid info``, ``table``,
+``pareto``, ``identifiability`` and ``ui`` work on it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import replace
+from pathlib import Path
+from typing import Any, TextIO
+
+import numpy as np
+
+from vectorid.descent.checks import check_descent
+from vectorid.descent.events import detect_apogee, detect_touchdown
+from vectorid.descent.phases import _main_trigger, _pad_msl, _Phase, _resolve
+from vectorid.descent.plan import DescentPlan, _err
+from vectorid.descent.result import DescentResult, PhaseResult
+from vectorid.descent.sensors import _height_ratio
+from vectorid.descent.step import _run_phase
+from vectorid.descent.verdicts import verdict
+
+__all__ = ["identify_descent"]
+
+
+def _load(plan: DescentPlan):
+    """The log, read as its content says: ``(path, flight, plan with the resolved format and
+    mapping, the altitude's unit as read (None: stated by the format), notes)``."""
+    from vectorid.descent.formats import column_unit, detect_format
+    from vectorid.identify.loaders import load_flight
+
+    path = Path(plan.file)
+    if not path.exists():
+        raise _err("file", f"no such file: {path}", "check the path of the altimeter log")
+    path = path.resolve()
+    notes: list[str] = []
+    if plan.mapping is not None:
+        mapping: dict[str, Any] | None = dict(plan.mapping)
+        fmt = plan.format
+        alt = mapping.get("altitude")
+        if isinstance(alt, Mapping) and "column" in alt:
+            stated = column_unit(str(alt["column"]), "length")
+            unit = str(alt.get("unit", "m"))
+            if stated is not None and stated != unit:
+                raise _err(
+                    "mapping.altitude.unit",
+                    f"the column {alt['column']!r} states {stated}, the mapping says {unit}",
+                    f"set unit = {stated!r} (or fix the column's name)",
+                )
+    else:
+        lf = detect_format(
+            path,
+            format=plan.format,
+            columns=None if plan.columns is None else dict(plan.columns),
+            time_unit=plan.time_unit,
+            altitude_unit=plan.altitude_unit,
+            extra=dict(plan.read),
+        )
+        fmt, mapping, notes = lf.format, lf.mapping, list(lf.notes)
+    # spikes are left out and named once, in the result's notes (not as warnings)
+    spikes = "strict" if plan.strict_data else "note"
+    if mapping is None and fmt in ("altusmetrum", "telemega"):
+        mapping = {}
+    if mapping is not None:
+        mapping["spikes"] = spikes
+    flight = load_flight(path, mapping=mapping, format=fmt)
+    if "altitude" not in flight.channels:
+        raise _err(
+            "mapping",
+            f"{path}: the log has no altitude channel (channels: {sorted(flight.channels)})",
+            "map the altitude column: altitude = { column = ..., unit = 'm' or 'ft' }",
+        )
+    unit = None  # None: the format states its own unit
+    if mapping is not None and "altitude" in mapping:
+        alt = mapping.get("altitude")
+        unit = str(alt.get("unit", "m")) if isinstance(alt, Mapping) else "m"
+    notes.extend(f"the log: {n}" for n in flight.notes)
+    resolved = replace(plan, format=fmt, mapping=mapping)
+    return path, flight, resolved, unit, notes
+
+
+def _origin_altitude(plan: DescentPlan, flight) -> float:
+    if plan.altitude_reference == "msl":
+        return 0.0
+    if plan.pad_altitude is not None:
+        return float(plan.pad_altitude)
+    if "pressure" in flight.channels:
+        c = flight["pressure"]
+        p = float(np.median(c.values[:20, 0]))
+        if c.unit in ("Pa", "pa") and 10_000 < p < 110_000:
+            return 44_330.8 * (1.0 - (p / 101_325.0) ** 0.190263)
+    raise _err(
+        "pad_altitude",
+        "the altitude above sea level of the log's zero (the pad) is not known, and the air "
+        "density depends on it",
+        "give the pad altitude in m (--pad-altitude), or say the altitude is above sea level "
+        "(--altitude-reference msl)",
+    )
+
+
+def identify_descent(
+    plan: DescentPlan, out: str | Path, *, progress: bool | TextIO = False
+) -> DescentResult:
+    """Identify the drag areas of a descent (see the module docstring).
+
+    Parameters
+    ----------
+    plan : DescentPlan
+    out : path
+        Folder of the stores (created); a store of the same name is replaced.
+    progress : bool or file
+        Progress bars of the runs.
+
+    Returns
+    -------
+    DescentResult
+
+    Raises
+    ------
+    StudyDefinitionError, FlightDataError
+        A plan or a log that cannot be used (one line: what, what came, how to fix it).
+    """
+    plan.check()
+    return _identify(plan, out, progress)
+
+
+def _identify(plan: DescentPlan, out: str | Path, progress) -> DescentResult:
+    path, flight, plan, altitude_unit, notes = _load(plan)
+    name = plan.name or path.stem
+    origin = _origin_altitude(plan, flight)
+    alt = flight["altitude"]
+    t, h = alt.t, alt.values[:, 0]
+    if plan.end is not None:
+        keep = t <= float(plan.end)
+        if keep.sum() < 10:
+            raise _err("end", f"keeps {int(keep.sum())} samples of the log", "a later end")
+        t, h = t[keep], h[keep]
+    events = {k: float(v) for k, v in flight.events.items()}
+    if "apogee" in events:
+        apogee = (events["apogee"], float(np.interp(events["apogee"], t, h)))
+    else:
+        apogee = detect_apogee(t, h)
+        events["apogee"] = apogee[0]
+    h_agl = h if plan.altitude_reference == "pad" else h - _pad_msl(plan, h)
+    check_descent(plan, t, h_agl, (apogee[0], float(np.interp(apogee[0], t, h_agl))), origin,
+                  altitude_unit)  # fmt: skip
+    td = detect_touchdown(t, h, after=apogee[0])
+    touchdown = None
+    if td is not None:
+        events["touchdown"] = td.time
+        touchdown = {"time_s": td.time, "ground_m": td.ground, "rate_ms": -td.rate}
+        if "landed" in events:
+            touchdown["landed_state_s"] = events["landed"]
+        tail = td.time - 1.0
+    else:
+        # no touchdown in the data: the windows end 1 s before the last sample, so that the
+        # end of the data decides nothing
+        tail = float(t[-1]) - 1.0
+    end_of_data = (float(t[-1]), float(h[-1]))
+    start = (
+        _resolve(events, plan.start, "start")
+        if plan.start is not None
+        else events.get("drogue", apogee[0])
+    )
+    if start < apogee[0] - 2.0 and plan.start is None:
+        notes.append(
+            f"the log's 'drogue' event ({start:.2f} s) comes before the apogee read from the "
+            f"data ({apogee[0]:.2f} s): the descent starts at the apogee"
+        )
+        start = apogee[0]
+    apogee_agl = (apogee[0], float(np.interp(apogee[0], t, h_agl)))
+
+    phases: list[_Phase] = []
+    skipped: list[PhaseResult] = []
+    if plan.drogue is not None and plan.main is not None:
+        trig, why = _main_trigger(
+            plan, events, t, h, h_agl, start, tail, origin, apogee_agl, altitude_unit
+        )
+        if trig is not None:
+            events["main_trigger"] = trig
+            events["main_open"] = trig + plan.main_lag
+        drogue_end = (trig - 1.0) if trig is not None else tail
+        phases.append(
+            _Phase("drogue", "cds_drogue", plan.drogue, start + plan.drogue_settle, drogue_end, 0.0)
+        )
+        if trig is not None:
+            phases.append(
+                _Phase(
+                    "main",
+                    "cds_main",
+                    plan.main,
+                    trig + plan.main_lag + plan.main_settle,
+                    tail,
+                    1.0,
+                )
+            )
+        else:
+            skipped.append(
+                PhaseResult(
+                    "main",
+                    "cds_main",
+                    stated_cds=plan.main.stated_cds,
+                    diameter=plan.main.diameter,
+                    status="no data",
+                    verdict=why,
+                )
+            )
+    elif plan.drogue is not None:
+        phases.append(
+            _Phase("drogue", "cds_drogue", plan.drogue, start + plan.drogue_settle, tail, 0.0)
+        )
+    else:
+        assert plan.main is not None
+        phases.append(_Phase("main", "cds_main", plan.main, start + plan.main_settle, tail, 1.0))
+    for ph in phases:
+        if ph.name in plan.windows:
+            w = plan.windows[ph.name]
+            if isinstance(w, str) or len(w) != 2:
+                raise _err(f"windows.{ph.name}", f"expected [start, end], got {w!r}")
+            ph.t0 = _resolve(events, w[0], f"windows.{ph.name}")
+            ph.t1 = _resolve(events, w[1], f"windows.{ph.name}")
+        else:
+            settle = plan.drogue_settle if ph.name == "drogue" else plan.main_settle
+            note = _trim_to_steady(ph, t, h, origin, settle)
+            if note:
+                notes.append(note)
+
+    for ph in phases:
+        lo, hi = float(t[0]), float(t[-1])
+        if ph.t0 < lo or ph.t1 > hi:
+            was = (ph.t0, ph.t1)
+            ph.t0, ph.t1 = max(ph.t0, lo), min(ph.t1, hi)
+            notes.append(
+                f"the {ph.name} window {was[0]:.2f}-{was[1]:.2f} s is clipped to "
+                f"{ph.t0:.2f}-{ph.t1:.2f} s: the altitude data cover {lo:.2f}-{hi:.2f} s"
+            )
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    results: list[PhaseResult] = []
+    drogue_res: PhaseResult | None = None
+    for ph in phases:
+        r = _run_phase(
+            plan, path, name, ph, t, h, origin, events, out, drogue_res, progress, flight.channels
+        )
+        results.append(r)
+        if ph.name == "drogue":
+            drogue_res = r
+    results.extend(skipped)
+    ratio = _height_ratio(flight, start, tail) if plan.altitude_reference == "pad" else None
+    if ratio is not None:
+        for r in results:
+            r.height_ratio = ratio
+        notes.append(
+            f"the log's GPS heights gain {ratio:.4f} m per metre of barometric height over the "
+            "descent: the air was warmer than ISA by about that ratio (T/T_ISA), and drag areas "
+            "identified in ISA air on barometric heights are high by it; they are compared with "
+            "the stated ones after dividing by it (cds_corrected)"
+        )
+    by_name = {r.name: r for r in results}
+    for r in results:
+        r.verdict, r.summary = verdict(r, by_name, plan)
+    if td is not None and "landed" in events and events["landed"] - td.time > 2.0:
+        notes.append(
+            f"the logger's 'landed' state ({events['landed']:.2f} s) comes "
+            f"{events['landed'] - td.time:.1f} s after the touchdown read from the data; "
+            "windows end at the touchdown"
+        )
+    return DescentResult(
+        name=name,
+        file=str(path),
+        mass=float(plan.mass),
+        convention=plan.convention if plan.drogue and plan.main else None,
+        origin_altitude=origin,
+        apogee=(float(apogee[0]), float(apogee[1])),
+        touchdown=touchdown,
+        end_of_data=end_of_data,
+        events=events,
+        phases=results,
+        notes=notes,
+    )
+
+
+def _trim_to_steady(ph: _Phase, t, h, origin: float, settle: float) -> str:
+    """Move a phase window's edge past a change of drag area (×1.5 or more) in its first or
+    last 35 %: a canopy still opening at its start, the next canopy (or its ejection) at its
+    end. A change in the middle stays: the verdicts report it. Returns a note, '' if none."""
+    from vectorid.descent.events import detect_rate_change
+
+    span = ph.t1 - ph.t0
+    if span < 30.0:
+        return ""
+    rc = detect_rate_change(t, h, ph.t0, ph.t1, origin_altitude=origin, min_ratio=1.5)
+    if rc is None:
+        return ""
+    was = (ph.t0, ph.t1)
+    if rc.time - ph.t0 < 0.35 * span and ph.t1 - (rc.time + settle) >= 20.0:
+        ph.t0 = rc.time + settle
+        where = "starts"
+    elif ph.t1 - rc.time < 0.35 * span and rc.time - 1.0 - ph.t0 >= 20.0:
+        ph.t1 = rc.time - 1.0
+        where = "ends"
+    else:
+        return ""
+    edge = ph.t0 if where == "starts" else ph.t1
+    return (
+        f"the {ph.name} window {was[0]:.2f}-{was[1]:.2f} s {where} at {edge:.2f} s "
+        f"instead: the descent rate steps there (drag area ×{rc.drag_area_ratio:.2f} at "
+        f"{rc.time:.2f} s, {rc.altitude:.0f} m), and a phase is one constant drag area"
+    )

@@ -1,0 +1,216 @@
+"""The verdict of each phase in words: agreement with the stated drag area (only when the
+stated value lies inside the printed range, or within the stated ±15 % tolerance, said as
+such), or the specific reason why not (the main did not open, a main-sized canopy, a descent
+rate that does not fit the stated value, an empty feasible set and what empties it)."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+
+from vectorid.descent.plan import AGREEMENT, RMS_GOAL, DescentPlan
+from vectorid.descent.result import PhaseResult
+
+__all__ = ["verdict"]
+
+
+def verdict(
+    r: PhaseResult, by_name: Mapping[str, PhaseResult], plan: DescentPlan
+) -> tuple[str, str]:
+    """A specific sentence (agreement with the stated drag area, or why not) and its short
+    form for a table."""
+    if r.status == "no data":
+        v = r.verdict or "no data in the window"
+        return v, v
+    parts: list[str] = []
+    short: list[str] = []
+    empty = r.n > 0 and r.n_feasible == 0
+    if empty:
+        lim = r.limits
+        crit = r.empty_by or "a constraint"
+        if crit.startswith("alt_"):
+            what = (
+                f"an altitude RMS of {r.best_alt_rms_m:.1f} m against {lim.alt_rms:.1f} m allowed"
+            )
+            short.append(f"D empty ({crit}: {r.best_alt_rms_m:.1f} > {lim.alt_rms:.1f} m RMS)")
+        else:
+            what = (
+                f"a mean vertical-speed residual of at least {r.best_vz_mean_abs_ms:.2f} m/s "
+                f"against {lim.vz_mean_abs:.2f} m/s allowed"
+            )
+            short.append(
+                f"D empty ({crit}: {r.best_vz_mean_abs_ms:.2f} > {lim.vz_mean_abs:.2f} m/s)"
+            )
+        parts.append(
+            f"no drag area keeps the model within the criteria constraints ({crit} empties "
+            f"D): the best fit leaves {what}"
+        )
+    if not empty and r.status in ("weak", "not identified") and r.cds_feasible is not None:
+        lo, hi = r.cds_feasible
+        why = (r.identifiability or {}).get("reason", "")
+        parts.append(
+            f"the data bound the drag area only to {lo:.4g}-{hi:.4g} m² (feasible range, "
+            f"{r.status}: {why}; {r.duration:.0f} s and {r.altitude_loss:.0f} m of descent in "
+            "the window)"
+        )
+        short.append(f"{r.status}: {lo:.3g}-{hi:.3g} m²")
+    value = r.compared_cds
+    stated = r.stated_cds
+    label = "identified" if r.cds is not None else "the best fit"
+    corrected = " (hot-day corrected)" if r.height_ratio else ""
+    if stated is not None and value is not None:
+        ratio = value / stated
+        pct = f"{100 * (ratio - 1):+.0f} %"
+        what = f"{label} {value:.4g} m²{corrected} is {ratio:.2f} × the stated {stated:.4g} m²"
+        dro = by_name.get("drogue")
+        dval = None if dro is None else dro.compared_cds
+        under = None
+        if r.name == "main" and dval:
+            under = value + (dval if plan.convention == "adds" else 0.0)
+        # a drag area the data do not identify: the stated value is judged by D's range
+        k = r.height_ratio or 1.0
+        rng = r.cds_feasible if (r.cds is None and not empty) else None
+        inside = rng is not None and rng[0] / k <= stated <= rng[1] / k
+        if inside and abs(ratio - 1) > AGREEMENT:
+            parts.append(
+                f"the data do not exclude the stated {stated:.4g} m²: it lies inside the "
+                f"feasible range {rng[0] / k:.4g}-{rng[1] / k:.4g} m²{corrected}"
+            )
+            short.append("stated value inside the feasible range")
+        elif abs(ratio - 1) <= AGREEMENT:
+            feas = r.cds_feasible
+            in_range = feas is not None and feas[0] / k <= stated <= feas[1] / k
+            if r.cds is None:  # no value: D empty, or the drag area is not identified
+                parts.append(
+                    f"{label}, {value:.4g} m²{corrected}, is within the ±15 % tolerance of the "
+                    f"stated {stated:.4g} m² ({pct})"
+                )
+                short.append(f"{label.removeprefix('the ')} within ±15 % ({pct})")
+            elif in_range:
+                parts.insert(0, f"agrees with the stated {stated:.4g} m² ({pct}){corrected}: it "
+                             "lies inside the feasible range")  # fmt: skip
+                short.insert(0, f"agrees ({pct}{', hot-day corrected' if corrected else ''})")
+            else:
+                text = (
+                    f"within the ±15 % tolerance of the stated {stated:.4g} m² ({pct}), but the "
+                    f"data exclude the stated value: it lies outside the feasible range "
+                    f"{feas[0] / k:.4g}-{feas[1] / k:.4g} m²{corrected}"
+                )
+                if r.stated_alt_rms_m is not None and r.limits is not None:
+                    text += (
+                        f" (altitude RMS with it {r.stated_alt_rms_m:.1f} m, "
+                        f"{r.limits.alt_rms:.1f} m allowed)"
+                    )
+                parts.insert(0, text)
+                short.insert(0, f"within ±15 % ({pct}) but outside the feasible range")
+        elif under is not None and under < 2.0 * dval:
+            parts.append(
+                f"the main did not open (or not fully): {what}; the drag area under it, "
+                f"{under:.3g} m², is {under / dval:.2f} × the drogue phase's {dval:.3g} m²"
+            )
+            short.append(
+                f"the main did not open (or not fully): {under / dval:.2f} × the drogue "
+                "phase's drag area"
+            )
+        elif (
+            r.name == "drogue"
+            and plan.main is not None
+            and plan.main.stated_cds
+            and abs(value / plan.main.stated_cds - 1) <= 2 * AGREEMENT
+        ):
+            sm = plan.main.stated_cds
+            parts.append(
+                f"{what}, but {value / sm:.2f} × the stated main's {sm:.4g} m²: a main-sized "
+                "canopy was open in this phase"
+            )
+            short.append(
+                f"{ratio:.1f} × the stated drogue, {value / sm:.2f} × the stated main: a "
+                "main-sized canopy was open"
+            )
+        else:
+            v_stated = r.descent_rate * math.sqrt(value / stated)
+            text = (
+                f"the descent rate does not fit the stated drag area: {what}; the measured "
+                f"mean descent rate, {r.descent_rate:.1f} m/s, would be about {v_stated:.1f} "
+                "m/s with it"
+            )
+            if rng is not None:
+                text += (
+                    f"; the stated value lies outside the feasible range "
+                    f"{rng[0] / k:.4g}-{rng[1] / k:.4g} m²{corrected}"
+                )
+            if r.stated_alt_rms_m is not None and r.limits is not None:
+                text += (
+                    f" (altitude RMS with the stated value {r.stated_alt_rms_m:.0f} m, "
+                    f"{r.limits.alt_rms:.1f} m allowed)"
+                )
+            parts.append(text)
+            short.append(
+                f"the descent rate ({r.descent_rate:.1f} m/s) does not fit the stated value: "
+                f"{ratio:.2f} × it (it would give {v_stated:.1f} m/s)"
+            )
+    elif stated is None:
+        parts.append("no stated drag area to compare with")
+    rms = r.best_alt_rms_m  # the closest any drag area of the box comes
+    floor = r.limits.floor_alt_rms if r.limits is not None else math.nan
+    if rms is not None and r.rate_bound is not None:
+        # what the residual is made of: the noise, what no constant drag area can follow
+        # (the monotone-rate bound), and, with GPS heights, the barometer's own error
+        rb = r.rate_bound["rms_m"]
+        where = "within" if rms <= floor else "above"
+        near = "close to" if rms <= 1.5 * rb else "well above"
+        text = (
+            f"residual: the best altitude fit is {where} the noise floor and {near} the least "
+            "that any descent whose rate never increases leaves (the bound above)"
+        )
+        fe = r.fast_error
+        baro = fe is not None and fe["baro_m"] > 2.0 * fe["gps_m"] and abs(fe["correlation"]) < 0.3
+        if baro:
+            text += (
+                f"; the barometric heights vary by {fe['baro_m']:.1f} m RMS about their "
+                f"{fe['span_s']:.0f}-s trend and the log's GPS heights by {fe['gps_m']:.1f} m, "
+                f"uncorrelated ({fe['correlation']:+.2f}): pressure error at the barometer, "
+                "not motion"
+            )
+        parts.append(text)
+        if rms <= floor:
+            if rms > RMS_GOAL:
+                short.append(f"alt RMS {rms:.1f} m, within the noise floor ({floor:.1f} m)")
+        elif rms > RMS_GOAL or rms > 1.5 * floor:  # say so in the table too
+            short.append(
+                f"alt RMS {rms:.1f} m (noise floor {floor:.1f} m, no constant drag area "
+                f"< {rb:.1f} m{'; baro error not in GPS' if baro else ''})"
+            )
+    if r.sensor_disagreement_m is not None and rms is not None and rms > 5.0:
+        parts.append(
+            f"the log's GPS and barometric heights disagree by {r.sensor_disagreement_m:.1f} "
+            "m RMS in this window (beyond a scale factor)"
+        )
+    da = r.drag_along
+    if da is not None and da["varies"]:
+        n, w = len(da["cds"]), da["windows"][0][1] - da["windows"][0][0]
+        parts.insert(
+            0,
+            f"drag area changes along the descent: {da['low']:.3g}-{da['high']:.3g} m² from the "
+            f"descent rate over {n} sub-windows of {w:.0f} s, beyond their noise; a constant drag "
+            "area is not what the data show, so no single value is given",
+        )
+        short.insert(0, f"drag area changes along the descent: {da['low']:.3g}-{da['high']:.3g} m²")
+    agrees = bool(short) and short[0].startswith("agrees")
+    if empty or not agrees:
+        if r.rate_change is not None and r.drag_along is None:  # the sub-windows decide
+            rc = r.rate_change
+            parts.append(
+                f"the drag area changes ×{rc['drag_area_ratio']:.2f} at {rc['time_s']:.1f} s "
+                f"({rc['altitude_m']:.0f} m) inside the window"
+            )
+            short.append(f"drag area changes ×{rc['drag_area_ratio']:.2f} at {rc['time_s']:.0f} s")
+        if r.effective_cds is not None and empty:
+            parts.append(
+                f"the drag area the descent rate implies goes from {r.effective_cds[0]:.3g} to "
+                f"{r.effective_cds[1]:.3g} m² along the phase (10 s windows)"
+            )
+            short.append(
+                f"descent rate implies {r.effective_cds[0]:.3g}-{r.effective_cds[1]:.3g} m²"
+            )
+    return "; ".join(parts), "; ".join(short)
