@@ -153,21 +153,53 @@ def our_figures(a, stages, max_points):
     }
 
 
+def printed_pdf(html: Path) -> tuple[int, float]:
+    """Bytes of the report printed to PDF by headless Chromium (as a browser's print does,
+    after every figure has drawn its picture for print), and the seconds it took."""
+    import base64
+    import shutil
+
+    from selenium import webdriver
+    from selenium.webdriver.chrome.service import Service
+
+    opts = webdriver.ChromeOptions()
+    for flag in (
+        "--headless=new --no-sandbox --disable-gpu --disable-dev-shm-usage --no-first-run "
+        "--window-size=1300,1000 --enable-unsafe-swiftshader"
+    ).split():
+        opts.add_argument(flag)
+    profile = tempfile.mkdtemp(prefix="vectorid-bench-report-")
+    opts.add_argument(f"--user-data-dir={profile}")
+    opts.binary_location = shutil.which("chromium") or "/usr/bin/chromium"
+    drv = webdriver.Chrome(
+        service=Service(shutil.which("chromedriver") or "/usr/bin/chromedriver"), options=opts
+    )
+    try:
+        t0 = time.perf_counter()
+        drv.get(html.resolve().as_uri())
+        deadline = time.monotonic() + 300
+        while not drv.execute_script("return window.vectoridPrintReady === true"):
+            if time.monotonic() > deadline:
+                raise RuntimeError("the report's figures did not finish drawing")
+            time.sleep(0.2)
+        pdf = base64.b64decode(drv.execute_cdp_cmd("Page.printToPDF", {})["data"])
+        return len(pdf), time.perf_counter() - t0
+    finally:
+        drv.quit()
+        shutil.rmtree(profile, ignore_errors=True)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--trials", type=int, default=100_000)
     ap.add_argument("--criteria", type=int, default=6)
     ap.add_argument("--params", type=int, default=15)
     ap.add_argument("--max-points", type=int, default=3_000)
+    ap.add_argument(
+        "--pdf", action="store_true", help="also print the report to PDF in headless Chromium"
+    )
     args = ap.parse_args()
     print(_machine.describe())
-
-    import importlib.util
-
-    spec_ = importlib.util.spec_from_file_location("bench_ui", Path(__file__).with_name("ui.py"))
-    bench_ui = importlib.util.module_from_spec(spec_)
-    spec_.loader.exec_module(bench_ui)
-    print(f"machine: {bench_ui.machine()}")
 
     from vectorid.analysis import Analysis
     from vectorid.store.sqlite import Store
@@ -222,8 +254,14 @@ def main() -> None:
         print(
             f"\nreport: {res.seconds:.1f} s (goal <= 10 s), {res.size / 1e6:.1f} MB "
             f"(goal <= 8 MB), {len(res.figures)} figures, {len(res.notes)} thinned; "
-            f"machine now: {bench_ui.machine()}"
+            f"machine now: {_machine.describe()}"
         )
+        if args.pdf:
+            size, secs = printed_pdf(out)
+            print(
+                f"printed to PDF by headless Chromium (every figure as its print picture): "
+                f"{size / 1e6:.1f} MB (goal <= 10 MB), {secs:.1f} s to draw and print"
+            )
         store.close()
 
 

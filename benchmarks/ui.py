@@ -2,8 +2,9 @@
 
 Usage::
 
-    .venv/bin/python benchmarks/ui.py [--trials 100000] [--criteria 6] [--params 12]
+    nice -n 5 .venv/bin/python benchmarks/ui.py [--trials 100000] [--criteria 6] [--params 12]
                                       [--changes 8] [--browser] [--browser-trials 100000 1000000]
+                                      [--repeats 5] [--no-server] [--job-trials 0]
 
 A synthetic store is written (as in ``benchmarks/report.py``: criteria from a cheap closed
 form, 0.5 % failed trials, four criteria constraints saved with the study). Then:
@@ -21,17 +22,30 @@ analysed again on every change) and ``no thinning`` (every trial drawn as a poin
 ``ratio`` = baseline / ours (> 1: ours is faster).
 
 **In the browser** (``--browser``): ``vectorid ui`` serves the store and headless Chromium
-drives it (software WebGL, so pessimistic). Measured in the page, from the action to the
-redrawn DOM (two animation frames after the last change):
+drives it (software WebGL, so pessimistic), each action ``--repeats`` times (default 5; median
+and max printed, the verdict against the issue's goal on the max). Measured in the page, from
+the action to the redrawn DOM (two animation frames after the last change):
 
-* ``page load``: navigation start to the counts, the criterion plot and the histograms drawn;
+* ``page load``: navigation start to the counts, the criterion plot and the histograms drawn
+  (the first load, which fills the browser's cache, not counted);
 * ``limit -> counts``: Enter in the first criterion's limit field (``#vid-limit-f1``) to
   N/ND/NP redrawn (``#vid-counts``);
-* ``limit -> counts+scatter+histograms``: the same change to the criterion plot's title and the
-  histograms' legend showing the new ND;
-* ``brush -> counts``: releasing the mouse after a brush on a criterion axis of the parallel
-  coordinates (the first four, one each) to ND redrawn (a brush that does not change ND is not
-  counted). plotly.js emits the brush only after redrawing its WebGL lines, which is part of it.
+* ``limit -> everything``: the same change to the criterion plot's title and the histograms'
+  legend showing the new ND, and nothing loading any more;
+* ``brush -> counts``: releasing the mouse after a brush on an axis of the parallel
+  coordinates (a band from a quarter of the axis to below its middle, one axis after the
+  other, each on its own) to the selection's counts in the header (``#vid-sel``). plotly.js
+  emits the brush only after redrawing its WebGL lines, which is part of it; the parallel
+  coordinates are not redrawn by the server on a brush any more;
+* ``parallel tab -> drawn``: clicking the tab to its axes drawn and the page quiet;
+* ``longest task``: the longest main-thread task (``PerformanceObserver`` ``longtask``,
+  recorded by the page itself) during page loads, typed limits and brushes;
+* ``MB per page load``: bytes transferred (document, scripts, callback answers; compressed
+  sizes) for the first load and for later ones (scripts from the browser's cache);
+* ``server MB``: the server's resident memory at the end, and its ratio to the store's columns
+  (ids, sequence, stage, status, parameters, criteria, functionals, wall times as loaded).
+  The process's own imports (Python, numpy, numba, Dash, plotly) hold ~250 MB of it, which
+  dominates at 1e5.
 
 Each action starts when the page is quiet (no callback loading for 0.8 s), so one change's
 requests do not overlap the next one's.
@@ -171,11 +185,17 @@ function busy() { return document.querySelector('[data-dash-is-loading="true"]')
 function check() {
   const dt = performance.now() - window.__t0;
   const nd = text('#count-nd');
-  let ok = nd !== null && nd !== prev;
+  let ok;
+  if (what === 'sel') {
+    const s = text('#vid-sel') || '';
+    ok = s !== '' && s !== prev;
+  } else {
+    ok = nd !== null && nd !== prev;
+  }
   if (ok && what === 'all') {
     const title = text('#scatter .gtitle') || '';
     const legend = text('#hist-graph .legend') || '';
-    ok = title.includes('ND=' + fmt(nd)) && legend.includes('(in D) (' + fmt(nd) + ')') && !busy();
+    ok = title.includes(fmt(nd)) && legend.includes(fmt(nd)) && !busy();
   }
   if (ok) {
     requestAnimationFrame(() => requestAnimationFrame(() => done(performance.now() - window.__t0)));
@@ -187,10 +207,11 @@ check();
 _QUIET = """
 const done = arguments[arguments.length - 1];
 let since = performance.now();
+const start = since;
 function check() {
   const now = performance.now();
   if (document.querySelector('[data-dash-is-loading="true"]')) { since = now; }
-  if (now - since > 800) { done(true); } else if (now - since > 60000) { done(false); }
+  if (now - since > 800) { done(true); } else if (now - start > 60000) { done(false); }
   else { setTimeout(check, 50); }
 }
 check();
@@ -209,6 +230,17 @@ function check() {
 }
 check();
 """
+
+#: Bytes transferred for the page so far (document and every resource: the scripts, the
+#: callbacks' answers), as the browser counts them (compressed sizes; 0 from its cache).
+_BYTES = """
+const nav = performance.getEntriesByType('navigation')[0];
+let b = nav ? nav.transferSize : 0;
+for (const r of performance.getEntriesByType('resource')) b += r.transferSize || 0;
+return b;
+"""
+_LONGEST = "return Math.max(0, ...(window.__vidLongTasks || []));"
+_RESET_LONG = "window.__vidLongTasks = [];"
 
 
 def _driver():
@@ -234,10 +266,33 @@ def _driver():
     return drv, profile
 
 
+def _rss_mb(pid: int) -> float:
+    """Resident memory of a process (MB), from /proc (nan elsewhere)."""
+    try:
+        for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1]) / 1024
+    except OSError:
+        pass
+    return float("nan")
+
+
+def _click_tab(drv, prefix: str) -> None:
+    from selenium.webdriver.common.by import By
+
+    for el in drv.find_elements(By.CSS_SELECTOR, ".tab"):
+        if el.text.strip().startswith(prefix):
+            el.click()
+            return
+    raise RuntimeError(f"no tab {prefix!r}")
+
+
 def browser_latency(
-    path: Path, changes: list[str], loads: int = 3, shots: Path | None = None
+    path: Path, changes: list[str], loads: int = 5, brushes: int = 5, shots: Path | None = None
 ) -> dict[str, list[float]]:
-    """Latencies (s) in headless Chromium: page loads, typed limits, a parallel brush.
+    """Latencies (s) in headless Chromium: page loads, typed limits, parallel brushes; and
+    the main thread's longest task (ms) per kind of action, the bytes transferred per page
+    load (MB) and the server's memory (MB).
 
     With ``shots``, a screenshot of every tab is saved there afterwards
     (``ui-<trials>-<tab>.png``)."""
@@ -262,13 +317,20 @@ def browser_latency(
     out: dict[str, list[float]] = {
         "page load": [],
         "limit -> counts": [],
-        "limit -> counts+scatter+histograms": [],
+        "limit -> everything": [],
         "brush -> counts": [],
+        "parallel tab -> drawn": [],
+        "longest task, page load (ms)": [],
+        "longest task, limits (ms)": [],
+        "longest task, brushes (ms)": [],
+        "MB per page load, first": [],
+        "MB per page load, cached": [],
+        "server MB": [],
     }
     drv = profile = None
     try:
         url = f"http://127.0.0.1:{port}/"
-        deadline = time.monotonic() + 180
+        deadline = time.monotonic() + 300
         while True:
             try:
                 with urllib.request.urlopen(url, timeout=5):
@@ -281,9 +343,14 @@ def browser_latency(
         for i in range(loads + 1):  # the first load fills the browser's cache
             drv.get(url)
             t = drv.execute_async_script(_LOADED)
+            mb = drv.execute_script(_BYTES) / 1e6
+            out["MB per page load, first" if i == 0 else "MB per page load, cached"].append(mb)
+            drv.execute_async_script(_QUIET)
+            out["longest task, page load (ms)"].append(drv.execute_script(_LONGEST))
             if i:
                 out["page load"].append(t / 1e3 if t >= 0 else float("nan"))
         time.sleep(1)
+        drv.execute_script(_RESET_LONG)
         for k, value in enumerate(changes):
             what = "counts" if k % 2 == 0 else "all"
             el = drv.find_element(By.ID, "vid-limit-f1")
@@ -295,37 +362,48 @@ def browser_latency(
             drv.execute_script("window.__t0 = performance.now();")
             el.send_keys(Keys.ENTER)
             ms = drv.execute_async_script(_WAIT, prev, what)
-            key = "limit -> counts" if what == "counts" else "limit -> counts+scatter+histograms"
+            key = "limit -> counts" if what == "counts" else "limit -> everything"
             out[key].append(ms / 1e3 if ms >= 0 else float("nan"))
             drv.execute_async_script(_QUIET)  # every view of this change drawn: no overlap
-        for el in drv.find_elements(By.CSS_SELECTOR, ".tab"):
-            if el.text.strip().startswith("Parallel"):
-                el.click()
-                break
-        deadline = time.monotonic() + 120
-        while not drv.find_elements(By.CSS_SELECTOR, "#par-graph .axis-brush rect.background"):
-            if time.monotonic() > deadline:
-                raise RuntimeError("the parallel coordinates did not draw")
-            time.sleep(0.3)
-        time.sleep(2)
+        out["longest task, limits (ms)"].append(drv.execute_script(_LONGEST))
+        for _ in range(3):
+            _click_tab(drv, "Test tables")
+            drv.execute_async_script(_QUIET)
+            drv.execute_script("window.__t0 = performance.now();")
+            _click_tab(drv, "Parallel")
+            deadline = time.monotonic() + 120
+            while not drv.find_elements(By.CSS_SELECTOR, "#par-graph .axis-brush rect.background"):
+                if time.monotonic() > deadline:
+                    raise RuntimeError("the parallel coordinates did not draw")
+                time.sleep(0.05)
+            drv.execute_async_script(_QUIET)
+            out["parallel tab -> drawn"].append(
+                (drv.execute_script("return performance.now() - window.__t0;") - 800) / 1e3
+            )
+        time.sleep(1)
         drv.execute_script(
             "document.addEventListener('mouseup', () => { window.__t0 = performance.now(); },"
             " true);"
         )
-        for k in range(4):  # one brush on each of the first four criterion axes
+        drv.execute_script(_RESET_LONG)
+        for k in range(brushes):  # one brush on each of the first criterion axes
             b = drv.find_elements(By.CSS_SELECTOR, "#par-graph .axis-brush rect.background")[k]
             h = b.size["height"]
-            prev = drv.find_element(By.ID, "count-nd").text
-            # from the top of the axis (outside the constraint's brush, which starts at the
-            # bottom for a minimised criterion) down to just below the middle
-            ActionChains(drv).move_to_element_with_offset(
-                b, 0, -(h // 2) + 3
-            ).click_and_hold().pause(0.1).move_by_offset(0, 30).pause(
+            prev = drv.find_element(By.ID, "vid-sel").text
+            # a band from a quarter of the axis to just below the middle
+            ActionChains(drv).move_to_element_with_offset(b, 0, -(h // 4)).click_and_hold().pause(
                 0.1
-            ).move_to_element_with_offset(b, 0, h // 10).pause(0.1).release().perform()
-            ms = drv.execute_async_script(_WAIT, prev, "counts")
+            ).move_by_offset(0, 30).pause(0.1).move_to_element_with_offset(b, 0, h // 10).pause(
+                0.1
+            ).release().perform()
+            ms = drv.execute_async_script(_WAIT, prev, "sel")
             out["brush -> counts"].append(ms / 1e3 if ms >= 0 else float("nan"))
             drv.execute_async_script(_QUIET)
+            out["longest task, brushes (ms)"].append(drv.execute_script(_LONGEST))
+            drv.find_element(By.ID, "par-clear").click()  # the next brush starts afresh
+            drv.execute_async_script(_QUIET)
+            drv.execute_script(_RESET_LONG)
+        out["server MB"].append(_rss_mb(proc.pid))
         if shots is not None:
             shots.mkdir(parents=True, exist_ok=True)
             n = drv.find_element(By.ID, "count-n").text.replace(",", "")
@@ -421,20 +499,31 @@ def jobs_throughput(folder: Path, trials: int) -> None:
     print(f"  saving the constraints with the study (UI job): {1e3 * save:.0f} ms")
 
 
+#: The issue's goals (s, ms, MB): None where it sets none.
 GOALS = {
-    100_000: {
-        "page load": 2.0,
-        "limit -> counts": 0.15,
-        "limit -> counts+scatter+histograms": 0.3,
-        "brush -> counts": None,
-    },
+    100_000: {"limit -> everything": 0.3, "brush -> counts": 0.3},
     1_000_000: {
-        "page load": None,
-        "limit -> counts": 0.5,
-        "limit -> counts+scatter+histograms": 1.0,
-        "brush -> counts": 0.5,
+        "page load": 2.0,
+        "limit -> counts": 0.3,
+        "limit -> everything": 1.0,
+        "brush -> counts": 0.3,
+        "longest task, page load (ms)": 200,
+        "longest task, limits (ms)": 200,
+        "longest task, brushes (ms)": 200,
+        "MB per page load, first": 10.0,
     },
 }
+
+
+def store_columns_mb(path: Path) -> float:
+    """The store's trial columns in memory (MB): ids, sequence, stage, status, parameters,
+    criteria, functionals and wall times as the UI loads them."""
+    from vectorid.store.sqlite import Store
+
+    with Store.open(path) as st:
+        t = st.load()
+    arrays = (t.id, t.seq, t.stage, t.status, t.X, t.F, t.G, t.wall)
+    return sum(a.nbytes for a in arrays) / 1e6
 
 
 def main() -> None:
@@ -444,6 +533,10 @@ def main() -> None:
     ap.add_argument("--params", type=int, default=12)
     ap.add_argument("--changes", type=int, default=8)
     ap.add_argument("--browser", action="store_true", help="also measure in headless Chromium")
+    ap.add_argument(
+        "--repeats", type=int, default=5, help="runs of each browser action (median, max)"
+    )
+    ap.add_argument("--no-server", action="store_true", help="skip the server-side table")
     ap.add_argument(
         "--job-trials", type=int, default=200_000, help="trials of the run jobs (0: skip them)"
     )
@@ -469,7 +562,8 @@ def main() -> None:
         f"store: {args.trials} trials, {args.criteria} criteria, {args.params} parameters "
         f"({time.perf_counter() - t0:.1f} s to write)"
     )
-    server_side(path, args.changes)
+    if not args.no_server:
+        server_side(path, args.changes)
     if args.job_trials:
         jobs_throughput(Path(tmp.name), args.job_trials)
     if not args.browser:
@@ -481,27 +575,25 @@ def main() -> None:
         p = Path(tmp.name) / f"browser-{n}.db"
         make_store(p, n, args.criteria, args.params)
         F = StoreCache(p).trials().F
-        lat = browser_latency(p, _changes(F, args.changes, seed=1), shots=args.screenshots)
+        cols = store_columns_mb(p)
+        lat = browser_latency(
+            p, _changes(F, 2 * args.repeats, seed=1), args.repeats, args.repeats, args.screenshots
+        )
         for key, vals in lat.items():
             vals = [v for v in vals if np.isfinite(v)]
             goal = GOALS.get(n, {}).get(key)
-            rows.append(
-                (
-                    n,
-                    key,
-                    statistics.median(vals) if vals else float("nan"),
-                    max(vals) if vals else float("nan"),
-                    len(vals),
-                    goal,
-                )
-            )
+            med = statistics.median(vals) if vals else float("nan")
+            rows.append((n, key, med, max(vals) if vals else float("nan"), len(vals), goal))
+            if key == "server MB":
+                rows.append((n, "server MB / store columns MB", med / cols, med / cols, 1, 2.0))
         print(f"  measured {n:,} trials; machine now: {_machine.describe()}")
-    print("\nin headless Chromium (software WebGL), action to redrawn DOM, seconds:")
-    print(f"{'trials':>10}  {'what':<38}{'median':>8}{'max':>8}{'n':>4}{'goal':>8}  verdict")
+    print("\nin headless Chromium (software WebGL), action to redrawn DOM, seconds (unless named):")
+    print(f"{'trials':>10}  {'what':<32}{'median':>9}{'max':>9}{'n':>4}{'goal':>8}  verdict")
     for n, key, med, mx, cnt, goal in rows:
-        verdict = "" if goal is None else ("meets" if med <= goal else "MISSES")
-        g = "" if goal is None else f"{goal:.2f}"
-        print(f"{n:>10,}  {key:<38}{med:8.3f}{mx:8.3f}{cnt:4d}{g:>8}  {verdict}")
+        verdict = "" if goal is None else ("meets" if mx <= goal else "MISSES")
+        g = "" if goal is None else f"{goal:g}"
+        print(f"{n:>10,}  {key:<32}{med:9.3f}{mx:9.3f}{cnt:4d}{g:>8}  {verdict}")
+    print("(verdict on the max of the runs)")
     print(f"machine at the end: {_machine.describe()}")
 
 

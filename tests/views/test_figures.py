@@ -62,11 +62,23 @@ def test_thinning_is_per_set_and_labelled_and_infeasible_becomes_a_density(user)
     fig = fg.scatter_figure(a, "f1", "f2", max_points=budget)
     tr = _by_class(fig)
     feas = a.n_feasible - a.n_pareto
-    # each set above the budget keeps exactly the budget, and the legend names the fraction
-    assert tr["feasible"].meta["shown"] == min(feas, budget) == len(tr["feasible"].x)
-    if feas > budget:
-        assert f"{budget} drawn" in tr["feasible"].name
+    assert feas > budget
+    # D beyond the budget (where its points would overplot): a density of every one of them,
+    # in D's colours; the Pareto set keeps points (open rings: what lies under them shows)
+    d = tr["feasible"]
+    assert d.type == "heatmap" and d.meta["drawn_as"] == "density"
+    assert int(np.asarray(d.customdata).sum()) == feas and "as a density" in d.name
     assert tr["pareto"].meta["shown"] == min(a.n_pareto, budget)
+    assert tr["pareto"].marker.symbol == "circle-open"
+    if a.n_pareto > budget:
+        assert f"{budget} drawn" in tr["pareto"].name
+    # the legend's sets add up to N, and the title says so
+    counts = {k: t.meta["count"] for k, t in tr.items()}
+    assert counts["feasible"] + counts["pareto"] == a.n_feasible
+    assert sum(counts.values()) + a.n_failed == a.n
+    assert f"ND {a.n_feasible:,} (in D, not Pareto {feas:,} + NP {a.n_pareto:,})" in (
+        fig.layout.title.text
+    )
     # infeasible trials beyond the budget: a 2-D histogram of every one of them
     inf = tr["infeasible"]
     assert inf.type == "heatmap" and inf.meta["drawn_as"] == "density"
@@ -90,7 +102,9 @@ def test_matrix_and_vs_params(user):
     v = fg.criterion_vs_parameter_figure(a, "f1", max_points=30)
     assert len(v.data) == 3 * 3  # three sets in each of three panels
     assert {t.xaxis for t in v.data} == {"x", "x2", "x3"}
-    assert v.data[1].meta["shown"] == min(30, a.n_feasible - a.n_pareto)
+    feas = a.n_feasible - a.n_pareto
+    assert v.data[1].meta["shown"] == feas  # as points, or beyond 30 as a density of all
+    assert v.data[1].meta["drawn_as"] == ("density" if feas > 30 else "points")
     with pytest.raises(StudyDefinitionError, match="unknown"):
         fg.scatter_figure(a, "f1", "nope")
     # grids of any size stay inside the figure (15 panels: 4 rows, float residue clipped)

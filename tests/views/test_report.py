@@ -142,6 +142,13 @@ def _render_and_check(res, name: str) -> Path:
                     break
                 time.sleep(0.2)
             assert done == n
+            # and each has its picture for print (fitted to an A4 page, point clouds as pixels)
+            deadline = time.time() + 90
+            while time.time() < deadline:
+                if d.execute_script("return window.vectoridPrintReady === true"):
+                    break
+                time.sleep(0.2)
+            assert d.execute_script("return document.querySelectorAll('img.raster').length") == n
             # every figure drew something: an SVG with plot content, and WebGL canvases
             # with non-zero size for the point clouds
             drawn = d.execute_script(

@@ -10,9 +10,14 @@ end; every wait is bounded.
 
 from __future__ import annotations
 
+import csv
+import io
+import json
 import urllib.error
+import urllib.parse
 import urllib.request
 
+import numpy as np
 import pytest
 
 from tests.analysis_helpers import make_store
@@ -67,9 +72,9 @@ def _bound_input(drv, name: str, side: str):
     return drv.find_element(By.ID, f"vid-{side}-{name}")
 
 
-def _analysis(store, limits=None):
+def _analysis(store, limits=None, roles=None):
     with Study.open(store) as st:
-        return st.analysis(limits)
+        return st.analysis(limits, roles)
 
 
 def test_requests_cannot_reach_files_or_tracebacks(server):
@@ -266,8 +271,11 @@ def test_saved_constraints_are_in_force_after_reload(browser, server):
     _tab(drv, "Study overview")
     _until(drv, lambda d: "30" in _text(d, "#ov-criteria"), "the saved limit in the overview")
     assert "20" in _text(drv, "#ov-constraints")
-    # a reload starts from the saved constraints: same fields, same ND
+    # a reload starts from the saved constraints: same fields, same ND (and the same tab,
+    # kept in the URL)
     drv.refresh()
+    _until(drv, lambda d: "tab=overview" in d.current_url, "the tab kept in the URL")
+    _tab(drv, "Test tables & plots")
     _until(drv, lambda d: _limit_input(d, "f1").get_attribute("value") == "30", "f1 after reload")
     assert _bound_input(drv, "g1", "high").get_attribute("value") == "20"
     _until(drv, lambda d: _text(d, "#count-nd") == str(a1.n_feasible), "ND after the reload")
@@ -317,7 +325,31 @@ def test_trial_table_sorts_filters_and_downloads_all_rows(browser, server):
     drv.find_element(By.CSS_SELECTOR, "#tab-set input[value='pareto']").click()
 
 
-def test_parallel_brush_sets_the_constraint(browser, server):
+def _live_ranges(drv, axis: int):
+    """The brushes plotly.js holds on one axis of the parallel coordinates, [[lo, hi], ...]."""
+    return drv.execute_script(
+        "const d = document.querySelector('#par-graph .js-plotly-plot').data[0].dimensions"
+        "[arguments[0]]; let r = d.constraintrange || []; if (r.length && typeof r[0] === "
+        "'number') r = [r]; return r;",
+        axis,
+    )
+
+
+def _brush(drv, axis: int, top: float, bottom: float) -> None:
+    """Drag along axis ``axis`` from ``top`` to ``bottom`` (fractions of its height from
+    its top)."""
+    b = drv.find_elements(By.CSS_SELECTOR, "#par-graph .axis-brush rect.background")[axis]
+    h = b.size["height"]
+    ActionChains(drv).move_to_element_with_offset(
+        b, 0, int(-h / 2 + top * h)
+    ).click_and_hold().move_by_offset(0, 5).move_to_element_with_offset(
+        b, 0, int(-h / 2 + bottom * h)
+    ).release().perform()
+
+
+def test_parallel_brushes_select_and_one_action_makes_a_constraint(browser, server):
+    """Two-sided brushes, two on one axis, are a selection (counted, exported with the D and
+    Pareto flags); the button makes the f1 brushes f1's Φ** (their upper edge)."""
     url, store = server
     drv = browser
     _tab(drv, "Test tables & plots")
@@ -325,71 +357,89 @@ def test_parallel_brush_sets_the_constraint(browser, server):
     nd0 = _text(drv, "#count-nd")
     _tab(drv, "Parallel coordinates & history")
     _until(drv, lambda d: d.find_elements(By.CSS_SELECTOR, "#par-graph .axis-brush"), "the axes")
-    _until(
-        drv, lambda d: d.find_elements(By.CSS_SELECTOR, "#hist-history .scatterlayer"), "history"
-    )
-    brushes = drv.find_elements(By.CSS_SELECTOR, "#par-graph .axis-brush rect.background")
-    f1 = brushes[0]
-    h = f1.size["height"]
-    # drag along the f1 axis over its lower half: the upper edge becomes f1's limit
-    ActionChains(drv).move_to_element_with_offset(
-        f1, 0, h // 2 - 2
-    ).click_and_hold().move_by_offset(0, -h // 2 + 10).release().perform()
-    _until(drv, lambda d: "f1 <=" in _text(d, "#par-msg"), "the brush message")
-    msg = _text(drv, "#par-msg")
-    lim = float(msg.split("f1 <= ")[1].split(";")[0])
-    want = _analysis(store, {"f1": lim})
-    _until(drv, lambda d: _text(d, "#count-nd") == str(want.n_feasible), "ND under the brush")
-    assert _text(drv, "#count-np") == str(want.n_pareto)
+    _brush(drv, 0, 0.30, 0.55)  # f1: a band in the middle, neither end of the axis
+    _until(drv, lambda d: len(_live_ranges(d, 0)) == 1, "the first brush")
+    _brush(drv, 0, 0.75, 0.90)  # a second band on the same axis
+    _until(drv, lambda d: len(_live_ranges(d, 0)) == 2, "the second brush")
+    rs = _live_ranges(drv, 0)
+    a = _analysis(store)
+    f1 = a.trials.F[:, 0]
+    sel = np.zeros(a.n, bool)
+    for lo, hi in rs:
+        assert f1.min() < lo < hi < f1.max()  # both edges kept, nothing snapped to an end
+        sel |= (f1 >= lo) & (f1 <= hi)
+    n, nd, npar = int(sel.sum()), int((sel & a.feasible).sum()), int((sel & a.pareto).sum())
+    want = f"selected {n:,} trials: {nd:,} in D, of which {npar:,} Pareto"
+    _until(drv, lambda d: _text(d, "#vid-sel") == want, "the selection's counts")
+    assert _text(drv, "#count-nd") == nd0  # a brush is a selection, not a constraint
     drv.save_screenshot(str(ARTIFACTS / "ui_parallel.png"))
-    # the constraint field shows the brushed limit (five significant digits)
+    # the selection as CSV: every selected trial once, with its D and Pareto flags
+    href = drv.find_element(By.ID, "sel-csv").get_attribute("href")
+    with urllib.request.urlopen(href, timeout=30) as r:
+        rows = list(csv.reader(io.StringIO(r.read().decode())))
+    head, body = rows[0], rows[2:]
+    assert head[-2:] == ["in_D", "pareto"] and len(body) == n
+    ids = {int(r[0]): (int(r[-2]), int(r[-1])) for r in body}
+    rows_of = {int(i): k for k, i in enumerate(a.trials.id)}
+    assert all(
+        (int(a.feasible[rows_of[i]]), int(a.pareto[rows_of[i]])) == f for i, f in ids.items()
+    )
+    assert sum(f[0] for f in ids.values()) == nd and sum(f[1] for f in ids.values()) == npar
+    # one explicit action: the f1 brushes become f1's criteria constraint (upper edge)
+    drv.find_element(By.ID, "par-to-limits").click()
+    _until(drv, lambda d: "f1 <=" in _text(d, "#par-msg"), "the message")
+    lim = float(_text(drv, "#par-msg").split("f1 <= ")[1].split(",")[0])
+    assert lim == pytest.approx(max(hi for _, hi in rs), rel=1e-4)
+    want = _analysis(store, {"f1": lim})
+    _until(drv, lambda d: _text(d, "#count-nd") == str(want.n_feasible), "ND under the limit")
+    assert _text(drv, "#count-np") == str(want.n_pareto)
+    _until(drv, lambda d: "(this session)" in _text(d, "#vid-force-f1"), "the constraint chip")
+    drv.find_element(By.ID, "par-clear").click()
+    _until(drv, lambda d: _text(d, "#vid-sel") == "", "the selection cleared")
     _tab(drv, "Test tables & plots")
     _until(drv, lambda d: _limit_input(d, "f1").get_attribute("value") == f"{lim:.5g}", "field")
     _type(drv, _limit("f1"), prev)
     _until(drv, lambda d: _text(d, "#count-nd") == nd0, "ND back")
 
 
-def test_counts_in_the_page_equal_the_analysis(browser, server):
-    """N/ND/NP computed in the page (vectorid.views.ui.client) from the shipped columns are
-    the server's, for criteria limits, functional bounds and a pseudo criterion."""
+def test_the_url_holds_the_view_and_opens_it_again(browser, server):
+    """Limits, a role, the tab, the axes, the chosen trial and a selection in the URL; a
+    fresh page at that URL shows the same view and counts."""
     url, store = server
     drv = browser
-    _until(
-        drv, lambda d: d.execute_script("return !!(window.__vid && window.__vid.ready)"), "columns"
-    )
-    version = drv.execute_script("return window.__vid.head.version")
-    cases = [
-        (["20", ""], ["pure", "pure"], ["", ""], ["25", ""], {"f1": 20.0, "g1": (None, 25.0)}),
-        (["60", "25"], ["pure", "pseudo"], ["", "7.7"], ["20", ""], None),
-        (["inf", "12.5"], ["pure", "pure"], ["1", ""], ["", ""], None),
-    ]
-    for texts, roles, lows, highs, _ in cases:
-        got = drv.execute_script(
-            "return window.vid.counts(arguments[0], arguments[1])",
-            texts + roles + lows + highs,
-            version,
-        )
-        limits = {
-            "f1": None if texts[0] in ("", "inf") else float(texts[0]),
-            "f2": None if texts[1] == "" else float(texts[1]),
-            "g1": (float(lows[0]) if lows[0] else None, float(highs[0]) if highs[0] else None),
-            "g2": (float(lows[1]) if lows[1] else None, float(highs[1]) if highs[1] else None),
-        }
-        with Study.open(store) as st:
-            a = st.analysis(limits, dict(zip(["f1", "f2"], roles)))
-        assert got == {
-            "n": a.n,
-            "nd": a.n_feasible,
-            "np": a.n_pareto,
-            "failed": a.n_failed,
-            "functional": a.n_functional,
-        }, (texts, roles, lows, highs)
-    # text the page does not parse strictly is left to the server
-    assert (
-        drv.execute_script(
-            "return window.vid.counts(arguments[0], arguments[1])",
-            ["1_0", "", "pure", "pure", "", "", "", ""],
-            version,
-        )
-        is None
-    )
+    _tab(drv, "Test tables & plots")
+    prev = _limit_input(drv, "f1").get_attribute("value")
+    _type(drv, _limit("f1"), "35")
+    want = _analysis(store, {"f1": 35.0}, {"f2": "pseudo"})
+    drv.find_element(By.CSS_SELECTOR, "#vid-role-f2 input[value='pseudo']").click()
+    _until(drv, lambda d: _text(d, "#count-np") == str(want.n_pareto), "NP with f2 pseudo")
+    _type(drv, by_id("trial-id"), "17")
+    _tab(drv, "Trial table")
+    _until(drv, lambda d: "tab=table" in d.current_url, "the tab in the URL")
+    shared = drv.current_url
+    assert "lim.f1=35" in shared and "role.f2=pseudo" in shared and "trial=17" in shared
+    with chrome(shared) as other:
+        _until(other, lambda d: _text(d, "#count-nd") == str(want.n_feasible), "ND")
+        assert _text(other, "#count-np") == str(want.n_pareto)
+        assert other.find_element(By.ID, "trial-id").get_attribute("value") == "17"
+        assert other.find_element(By.CSS_SELECTOR, ".tab--selected").text.strip() == "Trial table"
+        _tab(other, "Test tables & plots")
+        _until(other, lambda d: _limit_input(d, "f1").get_attribute("value") == "35", "f1")
+        assert other.find_element(
+            By.CSS_SELECTOR, "#vid-role-f2 input[value='pseudo']"
+        ).is_selected()
+        # a selection and the parallel axes' view travel too
+        sel = {"kind": "ranges", "ranges": {"x1": [[1.0, 2.0]]}}
+        a = _analysis(store, {"f1": 35.0}, {"f2": "pseudo"})
+        x1 = a.trials.X[:, 0]
+        n = int(((x1 >= 1) & (x1 <= 2)).sum())
+        q = urllib.parse.quote(json.dumps(sel))
+        other.get(shared.split("#")[0] + "#sel=" + q + "&tab=parallel&hide=g2&colour=x2")
+        _until(other, lambda d: _text(d, "#vid-sel").startswith(f"selected {n:,} trials"), "sel")
+        _until(other, lambda d: d.find_elements(By.CSS_SELECTOR, "#par-graph .axis-brush"), "axes")
+        assert "x2" in _text(other, "#par-colour") and "g2" in _text(other, "#par-hidden")
+        assert _live_ranges(other, 4) == [[1.0, 2.0]]
+    _tab(drv, "Test tables & plots")
+    drv.find_element(By.CSS_SELECTOR, "#vid-role-f2 input[value='pure']").click()
+    _type(drv, _limit("f1"), prev)
+    _until(drv, lambda d: "lim.f1" not in d.current_url, "the URL back at the study's limit")

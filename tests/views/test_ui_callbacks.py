@@ -309,32 +309,70 @@ def test_trial_table_sorts_filters_and_pages_over_all_trials(ctx, bk):
     assert float(lines[2].split(",")[4]) == f2.min()
 
 
-def test_parallel_brushes_set_constraints_and_select_a_sub_box(ctx, bk):
+def test_parallel_brushes_are_two_sided_selections_made_constraints_on_request(ctx, bk):
     fig = _fig(cb.parallel_view(ctx, ["40", ""], PURE2))
     names = list(fig.layout.meta["names"])
     assert names == ["f1", "f2", "g1", "g2", "x1", "x2"]
     dims = fig.data[0].dimensions
-    assert dims[0].constraintrange[1] == 40.0  # the constraint in force is the brush
-    ev = [{"dimensions[1].constraintrange": [[5.0, 20.0]]}, [0]]
-    t, lo, hi, sel, msg = cb.brush_to_fields(ctx, ev, names, ["40", ""], ["", ""], ["25", ""], None)
-    assert t == ["40", "20"] and "f2 <= 20" in msg  # min criterion: the upper edge
-    ev = [
-        {"dimensions[2].constraintrange": [0.0, 10.0], "dimensions[4].constraintrange": [[1, 2]]},
-        [0],
-    ]
-    t, lo, hi, sel, msg = cb.brush_to_fields(ctx, ev, names, t, lo, hi, None)
-    assert (lo[0], hi[0]) == ("0", "10") and sel == {"kind": "ranges", "ranges": {"x1": [1.0, 2.0]}}
-    a = _direct(bk)
+    assert [d.name for d in dims] == names
+    assert all(d.constraintrange is None for d in dims)  # constraints are not brushes here
+    # two ranges on f2 (both edges kept, not snapped to an end) and one on x1: a selection
+    sel = {"kind": "ranges", "ranges": {"f2": [[5.0, 12.0], [20.0, 30.0]], "x1": [[1, 2]]}}
+    a = _direct(bk, {"f1": 40.0})
     m = cb.selection_mask(ctx, a, sel)
-    assert np.array_equal(m, (a.trials.X[:, 0] >= 1) & (a.trials.X[:, 0] <= 2))
-    # the counts follow the brushed fields
-    c = cb.counts_view(ctx, t, PURE2, [[lo[0], hi[0]], ["7.7", ""]])
-    d = _direct(bk, {"f1": 40.0, "f2": 20.0, "g1": (0.0, 10.0)})
+    f2, x1 = a.trials.F[:, 1], a.trials.X[:, 0]
+    want = (((f2 >= 5) & (f2 <= 12)) | ((f2 >= 20) & (f2 <= 30))) & (x1 >= 1) & (x1 <= 2)
+    assert np.array_equal(m, want) and 0 < m.sum() < a.n
+    c = cb.selection_counts_view(ctx, ["40", ""], PURE2, None, sel)
+    assert (c["n"], c["nd"], c["np"]) == (
+        int(want.sum()),
+        int((want & a.feasible).sum()),
+        int((want & a.pareto).sum()),
+    )
+    # the brushes are drawn where they were made, on any axis, in the order left by the user
+    fig = _fig(cb.parallel_view(ctx, ["40", ""], PURE2, None, sel, {"order": ["x1", "f2"]}))
+    dims = fig.data[0].dimensions
+    assert [d.name for d in dims][:3] == ["x1", "f2", "f1"]
+    assert [list(r) for r in dims[1].constraintrange] == [[5.0, 12.0], [20.0, 30.0]]
+    fig = _fig(
+        cb.parallel_view(ctx, ["40", ""], PURE2, None, None, None, colour="x2", hidden=["g1"])
+    )
+    dims = {d.name: d for d in fig.data[0].dimensions}
+    assert dims["g1"].visible is False and fig.data[0].line.showscale
+    # one explicit action makes them constraints: f2 (min) gets the upper edge of its
+    # brushes, a functional both edges; a parameter stays a selection
+    sel["ranges"]["g1"] = [[0.0, 10.0]]
+    t, lo, hi, msg = cb.brushes_to_limits(ctx, sel, ["40", ""], ["", "7.7"], ["25", ""])
+    assert t == ["40", "30"] and (lo[0], hi[0]) == ("0", "10") and "f2 <= 30" in msg
+    assert (lo[1], hi[1]) == ("7.7", "")
+    c = cb.counts_view(ctx, t, PURE2, [[lo[0], hi[0]], [lo[1], hi[1]]])
+    d = _direct(bk, {"f1": 40.0, "f2": 30.0, "g1": (0.0, 10.0)})
     assert (c["nd"], c["np"]) == (d.n_feasible, d.n_pareto)
-    # removing a brush removes the limit / the range
-    ev = [{"dimensions[1].constraintrange": None, "dimensions[4].constraintrange": None}, [0]]
-    t, lo, hi, sel, _ = cb.brush_to_fields(ctx, ev, names, t, lo, hi, sel)
-    assert t[1] == "" and sel is None
+    with pytest.raises(StudyDefinitionError, match="no criterion or functional axis"):
+        cb.brushes_to_limits(ctx, {"kind": "ranges", "ranges": {"x1": [1, 2]}}, t, lo, hi)
+    with pytest.raises(StudyDefinitionError, match="expected a range"):
+        cb.selection_mask(ctx, a, {"kind": "ranges", "ranges": {"x1": [["a", 2]]}})
+
+
+def test_a_tightened_constraint_narrows_the_memoised_analysis(bk):
+    """Tightening a limit is computed from the last D (and keeps its Pareto set when every
+    Pareto trial stays); the result equals a fresh analysis every time."""
+    cache = StoreCache(bk)
+    roles = {"f1": "pure", "f2": "pure"}
+    steps = [{"f1": None}, {"f1": 80.0}, {"f1": 40.0}, {"f1": 40.0, "f2": 30.0}]
+    steps += [{"f1": 40.0, "f2": 5.0}, {"f1": 100.0}]
+    from vectorid.views.ui.data import Constraints
+
+    for limits in steps:
+        got = cache.analysis(Constraints(dict(limits), roles, {}))
+        want = _direct(bk, {k: v for k, v in limits.items()})
+        assert np.array_equal(got.feasible, want.feasible), limits
+        assert np.array_equal(got.pareto, want.pareto), limits
+    # every step but the first: f1 <= 100 loosens f1 <= 40 but narrows the first (no limit)
+    assert cache.narrowed == 5
+    b = Analysis(cache.spec, cache.trials(), {"f1": 40.0})
+    assert b.narrowed({"f1": 50.0}) is None  # looser: not a narrowing
+    assert b.narrowed({"f1": 40.0}, {"f2": "pseudo"}) is None  # other roles
 
 
 def test_history_counts_grow_with_the_trials(ctx, bk):
@@ -854,3 +892,15 @@ def test_flight_view_flies_the_chosen_drop(tmp_path):
     drop = find(page, "trial-drop")
     assert [o["value"] for o in drop.options] == ["drogue", "main"] and drop.value == "drogue"
     assert find(page, "trial-drop-label").style == {}
+
+
+def test_the_first_rows_of_a_test_table_are_those_of_the_full_sort(bk):
+    """``top`` rows found by partial selection equal the stable full sort's first rows,
+    ties and all; min and max stay the whole table's."""
+    a = _direct(bk)
+    a.trials.F[::7, 0] = np.round(a.trials.F[::7, 0])  # many ties
+    for name in a.crit_names:
+        full = a.test_table(name)
+        for top in (0, 1, 5, 50, len(full.ids) + 3):
+            t = a.test_table(name, top=top)
+            assert np.array_equal(t.ids, full.ids[:top]) and (t.min, t.max) == (full.min, full.max)

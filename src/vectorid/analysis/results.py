@@ -298,6 +298,82 @@ class Analysis:
             self.bounds[b.name][0 if b.side == "low" else 1] = b.value
         self._compute()
 
+    def narrowed(
+        self,
+        limits: Iterable[Bound] | Mapping[str, Any] | None = None,
+        roles: Mapping[str, str] | None = None,
+    ) -> Analysis | None:
+        """The analysis of the same trials under ``limits``/``roles`` (as the constructor
+        takes them), computed from this one when every bound is the same or tighter and the
+        roles are the same; None otherwise (build a new :class:`Analysis` then).
+
+        Tightening only removes trials from D, so only the rows of this D are checked
+        against the new bounds. The Pareto set is updated from this one: when every trial of
+        this Pareto set stays in D, it *is* the new Pareto set (every other trial of the new
+        D was dominated, hence dominated by a member of it; dominance is transitive), and no
+        scan is needed; otherwise only the new D is scanned.
+
+        Parameters
+        ----------
+        limits : iterable of Bound or mapping, optional
+            Bounds overriding the study's, as the constructor takes them.
+        roles : mapping, optional
+            Pure/pseudo roles by criterion name, as the constructor takes them.
+
+        Returns
+        -------
+        Analysis or None
+            The narrowed analysis (sharing this one's trials), or None when a bound is
+            looser or a role differs.
+        """
+        b = Analysis(
+            self.spec, self.trials.subset(np.zeros(len(self.trials), dtype=bool)), limits, roles
+        )
+        if b.roles != self.roles:
+            return None
+        for name, (lo, hi) in b.bounds.items():
+            olo, ohi = self.bounds[name]
+            if lo < olo or hi > ohi:
+                return None
+        b.trials = self.trials
+        b.ok = self.ok
+        b.pure = self.pure
+        rows = np.flatnonzero(self.functional_ok)
+        same_functional = all(b.bounds[n] == self.bounds[n] for n in self.con_names)
+        if same_functional:
+            b.functional_ok = self.functional_ok
+        else:
+            keep = np.ones(len(rows), dtype=bool)
+            for name in self.con_names:
+                lo, hi = b.bounds[name]
+                col = self._column(name)[rows]
+                with np.errstate(invalid="ignore"):
+                    keep &= (col >= lo) & (col <= hi)
+            b.functional_ok = np.zeros(len(self.ok), dtype=bool)
+            b.functional_ok[rows[keep]] = True
+        idx = np.flatnonzero(self.feasible)
+        keep = b.functional_ok[idx]
+        for name in self.crit_names:
+            lo, hi = b.bounds[name]
+            if (lo, hi) == tuple(self.bounds[name]) and same_functional:
+                continue
+            col = self._column(name)[idx]
+            with np.errstate(invalid="ignore"):
+                keep &= (col >= lo) & (col <= hi)
+        b.feasible = np.zeros(len(self.ok), dtype=bool)
+        b.feasible[idx[keep]] = True
+        if np.array_equal(b.feasible, self.feasible):
+            b.pareto = self.pareto
+        elif not (self.pareto & ~b.feasible).any():
+            b.pareto = self.pareto  # every Pareto trial stays in D: still the Pareto set
+        else:
+            b.pareto = np.zeros(len(self.ok), dtype=bool)
+            d = idx[keep]
+            if self.pure and len(d):
+                sub = self.trials.F[np.ix_(d, self.pure)]
+                b.pareto[d[pareto_mask(sub, [self.senses[i] for i in self.pure])]] = True
+        return b
+
     def _normalise_limits(self, limits: Any) -> list[Bound]:
         if limits is None:
             return []
@@ -405,7 +481,9 @@ class Analysis:
         """NP: trials in the Edgeworth–Pareto set."""
         return int(self.pareto.sum())
 
-    def test_table(self, name: str, feasible_only: bool = False) -> TestTable:
+    def test_table(
+        self, name: str, feasible_only: bool = False, top: int | None = None
+    ) -> TestTable:
         """The test table of one criterion: trials meeting the functional constraints (or,
         with ``feasible_only``, the feasible ones) sorted best first (seed 000, Fig. 6).
 
@@ -415,6 +493,9 @@ class Analysis:
             A criterion of the study.
         feasible_only : bool
             Only the trials of D.
+        top : int, optional
+            Only the first ``top`` rows (found without sorting the rest; ``min``/``max``
+            stay those of the whole table).
 
         Returns
         -------
@@ -428,34 +509,49 @@ class Analysis:
         j = self.crit_names.index(name)
         rows = np.flatnonzero(self.feasible if feasible_only else self.functional_ok)
         values = self.trials.F[rows, j]
-        order = np.argsort(-values if self.senses[j] == "max" else values, kind="stable")
+        vmin = float(values.min()) if len(values) else math.nan
+        vmax = float(values.max()) if len(values) else math.nan
+        key = -values if self.senses[j] == "max" else values
+        if top is not None and 0 <= top < len(key):
+            # the rows a stable sort puts first: every key below the top-th smallest, and
+            # the earliest rows among those equal to it (NaN last, as argsort puts them)
+            k = np.where(np.isnan(key), np.inf, key)
+            thr = k[np.argpartition(k, top - 1)[:top]].max() if top else -np.inf
+            cand = np.flatnonzero(k <= thr)
+            order = cand[np.lexsort((cand, k[cand]))][:top]
+            if np.isnan(key[order]).any():  # NaN among the first: the plain sort's order
+                order = np.argsort(key, kind="stable")[:top]
+        else:
+            order = np.argsort(key, kind="stable")
         rows, values = rows[order], values[order]
         lo, hi = self.bounds[name]
         limit = hi if self.senses[j] == "min" else lo
         return TestTable(
             name=name,
             sense=self.senses[j],
-            min=float(values.min()) if len(values) else math.nan,
-            max=float(values.max()) if len(values) else math.nan,
+            min=vmin,
+            max=vmax,
             ids=self.trials.id[rows],
             values=values,
             feasible=self.feasible[rows],
             limit=None if math.isinf(limit) else float(limit),
         )
 
-    def test_tables(self, feasible_only: bool = False) -> list[TestTable]:
+    def test_tables(self, feasible_only: bool = False, top: int | None = None) -> list[TestTable]:
         """:meth:`test_table` of every criterion, in study order.
 
         Parameters
         ----------
         feasible_only : bool
             Only the trials of D (default: every trial meeting the functional constraints).
+        top : int, optional
+            Only each table's first ``top`` rows.
 
         Returns
         -------
         list of TestTable
         """
-        return [self.test_table(n, feasible_only) for n in self.crit_names]
+        return [self.test_table(n, feasible_only, top) for n in self.crit_names]
 
     def rows(self, mask: np.ndarray) -> list[dict[str, Any]]:
         """Trials of ``mask`` as dicts (the rows of ``vectorid pareto --json``).

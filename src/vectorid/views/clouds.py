@@ -42,8 +42,10 @@ __all__ = [
     "axis_title",
     "cloud_traces",
     "column",
+    "counts_title",
     "criterion_vs_parameter_figure",
     "density_grid",
+    "fitted_range",
     "histograms_figure",
     "limits_of",
     "scatter_figure",
@@ -63,11 +65,19 @@ LIGHT_LAYOUT: dict[str, Any] = {
 }
 TEMPLATE = go.layout.Template(layout=LIGHT_LAYOUT)
 LIMIT_LINE = {"color": "#444", "width": 1.2, "dash": "dash"}
-SET_LABEL = {"infeasible": "infeasible", "feasible": "feasible (in D)", "pareto": "Pareto"}
+#: Legend names of the three colour classes; they partition the trials, so their counts add
+#: up to N, and "in D, not Pareto" + "Pareto" to ND.
+SET_LABEL = {"infeasible": "infeasible", "feasible": "in D, not Pareto", "pareto": "Pareto"}
 #: The chosen trial (orange star) and the proposed refine box (purple).
 CHOSEN_COLOUR = "#ff7f0e"
 PROPOSED_COLOUR = "#9467bd"
 _DENSITY_SCALE = [[0.0, "rgba(214,39,40,0.0)"], [0.001, "rgba(214,39,40,0.12)"], [1.0, "#8b0000"]]
+#: D's density (blue, translucent so that the red density under it shows through).
+_DENSITY_SCALE_D = [
+    [0.0, "rgba(31,119,180,0.0)"],
+    [0.001, "rgba(31,119,180,0.18)"],
+    [1.0, "rgba(8,48,107,0.85)"],
+]
 
 
 def b64(v: Any) -> dict[str, str]:
@@ -216,7 +226,7 @@ def thin(
 def _legend(name: str, count: int, shown: int, n_failed: int, density: bool) -> str:
     label = SET_LABEL[name]
     if density:
-        text = f"{label} ({count:,}, all as density)"
+        text = f"{label} ({count:,}, all as a density)"
     elif shown < count:
         text = f"{label} ({count:,}; {shown:,} drawn, {100.0 * shown / count:.2g} %)"
     else:
@@ -227,22 +237,48 @@ def _legend(name: str, count: int, shown: int, n_failed: int, density: bool) -> 
 
 
 def density_grid(
-    x: np.ndarray, y: np.ndarray, bins: int = 80
+    x: np.ndarray,
+    y: np.ndarray,
+    bins: int = 80,
+    span: tuple[float, float, float, float] | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """2-D histogram of finite ``(x, y)``: cell centres (bins,), (bins,) and counts
-    (bins, bins) indexed ``[y, x]``."""
+    (bins, bins) indexed ``[y, x]``; over ``span`` = (x low, x high, y low, y high) when
+    given (so that several sets share one grid), else over the data's range."""
     ok = np.isfinite(x) & np.isfinite(y)
     x, y = x[ok], y[ok]
     if len(x) == 0:
         return np.zeros(0), np.zeros(0), np.zeros((0, 0))
-    xe = np.linspace(float(x.min()), float(x.max()) or 1.0, bins + 1)
-    ye = np.linspace(float(y.min()), float(y.max()) or 1.0, bins + 1)
+    x0, x1, y0, y1 = span or (float(x.min()), float(x.max()), float(y.min()), float(y.max()))
+    xe = np.linspace(x0, x1 or 1.0, bins + 1)
+    ye = np.linspace(y0, y1 or 1.0, bins + 1)
     if xe[-1] <= xe[0]:
         xe = np.linspace(xe[0] - 0.5, xe[0] + 0.5, bins + 1)
     if ye[-1] <= ye[0]:
         ye = np.linspace(ye[0] - 0.5, ye[0] + 0.5, bins + 1)
     h, _, _ = np.histogram2d(x, y, bins=(xe, ye))
     return 0.5 * (xe[1:] + xe[:-1]), 0.5 * (ye[1:] + ye[:-1]), h.T
+
+
+def _finite_range(v: np.ndarray) -> tuple[float, float]:
+    f = v[np.isfinite(v)]
+    if not len(f):
+        return 0.0, 1.0
+    lo, hi = float(f.min()), float(f.max())
+    return (lo, hi) if hi > lo else (lo - 0.5, hi + 0.5)
+
+
+def data_span(xv: np.ndarray, yv: np.ndarray) -> tuple[float, float, float, float]:
+    """``(x low, x high, y low, y high)`` over the finite values."""
+    return (*_finite_range(xv), *_finite_range(yv))
+
+
+def fitted_range(v: np.ndarray, pad: float = 0.04) -> list[float]:
+    """An axis range fitted to the finite values of ``v`` (a margin of ``pad`` of the span on
+    each side)."""
+    lo, hi = _finite_range(v)
+    d = (hi - lo) * pad
+    return [lo - d, hi + d]
 
 
 def cloud_traces(
@@ -269,6 +305,9 @@ def cloud_traces(
     pc = classes or point_classes(a)
     rows, counts = thin(pc, budget, seed)
     n_failed = int(pc.failed.sum())
+    span = None
+    if budget is not None and max(counts["infeasible"], counts["feasible"]) > budget:
+        span = data_span(xv, yv)  # the densities of both sets on one grid
     out: list[dict[str, Any]] = []
     ids = a.trials.id
     kind = "scattergl" if gl else "scatter"
@@ -276,7 +315,8 @@ def cloud_traces(
     sel = selected is not None and bool(selected.any())
     for name in ("infeasible", "feasible", "pareto"):
         r = rows[name]
-        density = name == "infeasible" and budget is not None and counts[name] > budget
+        # the bulk sets as densities where their points would overplot; Pareto as points
+        density = name != "pareto" and budget is not None and counts[name] > budget
         meta = {
             "class": name,
             "count": counts[name],
@@ -285,8 +325,8 @@ def cloud_traces(
         }
         legend = _legend(name, counts[name], len(r), n_failed, density)
         if density:
-            m = pc.infeasible & ~pc.failed
-            cx, cy, z = density_grid(xv[m], yv[m], bins)
+            m = (pc.infeasible if name == "infeasible" else pc.feasible) & ~pc.failed
+            cx, cy, z = density_grid(xv[m], yv[m], bins, span=span)
             zl = np.where(z > 0, np.log10(np.maximum(z, 1)) + 1, np.nan)
             out.append(
                 {
@@ -299,14 +339,15 @@ def cloud_traces(
                         if enc is not _plain
                         else z.astype(np.int16 if z.max(initial=0) < 32767 else np.int32)
                     ),
-                    "colorscale": _DENSITY_SCALE,
+                    "colorscale": _DENSITY_SCALE if name == "infeasible" else _DENSITY_SCALE_D,
                     "showscale": False,
+                    "zsmooth": False,
                     "name": legend,
                     "legendgroup": name,
                     "showlegend": showlegend,
                     "hoverongaps": False,
                     "hovertemplate": f"{xname}≈%{{x:.4g}}, {yname}≈%{{y:.4g}}<br>"
-                    "%{customdata} infeasible trials in this cell<extra></extra>",
+                    f"%{{customdata}} {SET_LABEL[name]} trials in this cell<extra></extra>",
                     "xaxis": axes[0],
                     "yaxis": axes[1],
                     "meta": meta,
@@ -314,9 +355,13 @@ def cloud_traces(
             )
             continue
         if name == "pareto":
-            opacity = 0.25 if sel else 0.85
+            opacity = 0.35 if sel else 0.95
         else:
             opacity = 0.12 if sel else 0.5
+        # Pareto points as open rings the size of the others: what lies under them shows
+        marker = {"color": CLASS_COLOURS[name], "size": size, "opacity": opacity}
+        if name == "pareto":
+            marker.update(symbol="circle-open", size=size + 2, line={"width": 1.5})
         out.append(
             {
                 "type": kind,
@@ -327,11 +372,7 @@ def cloud_traces(
                 "name": legend,
                 "legendgroup": name,
                 "showlegend": showlegend,
-                "marker": {
-                    "color": CLASS_COLOURS[name],
-                    "size": size + (2 if name == "pareto" else 0),
-                    "opacity": opacity,
-                },
+                "marker": marker,
                 "hovertemplate": hover + f"<extra>{SET_LABEL[name]}</extra>",
                 "xaxis": axes[0],
                 "yaxis": axes[1],
@@ -370,9 +411,22 @@ def cloud_traces(
     return out
 
 
-def _limit_shapes(a: Analysis, x: str, y: str, xref: str = "x", yref: str = "y") -> list[dict]:
+def _limit_shapes(
+    a: Analysis,
+    x: str,
+    y: str,
+    xref: str = "x",
+    yref: str = "y",
+    xr: Sequence[float] | None = None,
+    yr: Sequence[float] | None = None,
+) -> list[dict]:
+    """Dashed lines at the constraints on ``x`` and ``y``; with the axes' ranges ``xr``,
+    ``yr`` given, a constraint outside them is not drawn as a line (it would stretch the
+    axis) but named at that edge ("off scale") by :func:`_offscale_notes`."""
     shapes = []
     for v in limits_of(a, x) if x else []:
+        if xr is not None and not xr[0] <= v <= xr[1]:
+            continue
         shapes.append(
             {
                 "type": "line",
@@ -386,6 +440,8 @@ def _limit_shapes(a: Analysis, x: str, y: str, xref: str = "x", yref: str = "y")
             }
         )
     for v in limits_of(a, y) if y else []:
+        if yr is not None and not yr[0] <= v <= yr[1]:
+            continue
         shapes.append(
             {
                 "type": "line",
@@ -399,6 +455,52 @@ def _limit_shapes(a: Analysis, x: str, y: str, xref: str = "x", yref: str = "y")
             }
         )
     return shapes
+
+
+def _offscale_notes(
+    a: Analysis,
+    x: str,
+    y: str,
+    xr: Sequence[float],
+    yr: Sequence[float],
+    xref: str = "x",
+    yref: str = "y",
+) -> list[dict]:
+    """Annotations naming the constraints beyond the fitted axes, at the edge they lie
+    beyond (e.g. "f1 ≤ 200 (off scale) →")."""
+    out = []
+    for name, rng, axis in ((x, xr, "x"), (y, yr, "y")):
+        if not name or name not in a.bounds:
+            continue
+        lo, hi = a.bounds[name]
+        for side, v in (("low", lo), ("high", hi)):
+            if not math.isfinite(v) or rng[0] <= v <= rng[1]:
+                continue
+            op = "≥" if side == "low" else "≤"
+            above = v > rng[1]
+            if axis == "x":
+                text = f"{name} {op} {v:.4g} (off scale) " + ("→" if above else "←")
+                pos = {"x": 1 if above else 0, "xanchor": "right" if above else "left"}
+                pos.update(y=0.02, yanchor="bottom", xref=f"{xref} domain", yref=f"{yref} domain")
+            else:
+                text = f"{name} {op} {v:.4g} (off scale) " + ("↑" if above else "↓")
+                pos = {"y": 1 if above else 0, "yanchor": "top" if above else "bottom"}
+                pos.update(x=0.99, xanchor="right", xref=f"{xref} domain", yref=f"{yref} domain")
+            out.append(
+                {"text": text, "showarrow": False, "font": {"size": 10, "color": "#444"}, **pos}
+            )
+    return out
+
+
+def counts_title(a: Analysis) -> str:
+    """The counts as the legend splits them, adding up: "N=…: ND=… (… not Pareto + NP …) +
+    … infeasible (… failed)"."""
+    inf = a.n - a.n_feasible
+    failed = f", of which {a.n_failed:,} failed" if a.n_failed else ""
+    return (
+        f"N={a.n:,} = ND {a.n_feasible:,} (in D, not Pareto {a.n_feasible - a.n_pareto:,} "
+        f"+ NP {a.n_pareto:,}) + infeasible {inf:,}{failed}"
+    )
 
 
 def _base_layout(**kw: Any) -> dict[str, Any]:
@@ -450,15 +552,16 @@ def scatter_figure(
     data = cloud_traces(
         a, xv, yv, x, y, budget=max_points, seed=seed, selected=selected, gl=gl, enc=enc
     )
+    xr, yr = fitted_range(xv), fitted_range(yv)
     layout = _base_layout(
-        title={
-            "text": title or f"{y} vs {x}   (N={a.n:,}, ND={a.n_feasible:,}, NP={a.n_pareto:,})"
-        },
-        xaxis={"title": {"text": axis_title(x, labels)}},
-        yaxis={"title": {"text": axis_title(y, labels)}},
-        shapes=_limit_shapes(a, x, y),
-        legend={"orientation": "h", "y": 1.02, "yanchor": "bottom", "x": 0},
-        height=520,
+        title={"text": title or f"{y} vs {x}   ({counts_title(a)})", "font": {"size": 13}},
+        xaxis={"title": {"text": axis_title(x, labels)}, "range": xr},
+        yaxis={"title": {"text": axis_title(y, labels)}, "range": yr},
+        shapes=_limit_shapes(a, x, y, xr=xr, yr=yr),
+        annotations=_offscale_notes(a, x, y, xr, yr),
+        legend={"orientation": "h", "y": -0.2, "yanchor": "top", "x": 0},
+        margin={"t": 40, "b": 130},
+        height=560,
     )
     return figure({"data": data, "layout": layout}, raw)
 
@@ -515,8 +618,8 @@ def criterion_vs_parameter_figure(
     layout.update(
         _base_layout(
             title={
-                "text": f"{criterion} vs parameters   (N={a.n:,}, ND={a.n_feasible:,}, "
-                f"NP={a.n_pareto:,})"
+                "text": f"{criterion} vs parameters   ({counts_title(a)})",
+                "font": {"size": 13},
             },
             shapes=shapes,
             height=max(360, 250 * nrow),
@@ -619,7 +722,7 @@ def histograms_figure(
                     "all",
                     i,
                     enc,
-                    name=f"all trials ({int(h.all.sum()):,})",
+                    name=f"all trials (N {int(h.all.sum()):,})",
                     legendgroup="all",
                     line={"color": "#999", "width": 1},
                     **common,
@@ -629,11 +732,11 @@ def histograms_figure(
             _step(
                 h,
                 h.feasible,
-                SET_LABEL["feasible"],
+                "in D",
                 "feasible",
                 i,
                 enc,
-                name=f"{SET_LABEL['feasible']} ({int(h.feasible.sum()):,})",
+                name=f"in D (ND {int(h.feasible.sum()):,})",
                 legendgroup="feasible",
                 line={"color": CLASS_COLOURS["feasible"], "width": 1.5},
                 fill="tozeroy",
@@ -649,7 +752,7 @@ def histograms_figure(
                 "pareto",
                 i,
                 enc,
-                name=f"Pareto ({int(h.pareto.sum()):,})",
+                name=f"Pareto (NP {int(h.pareto.sum()):,})",
                 legendgroup="pareto",
                 line={"color": CLASS_COLOURS["pareto"], "width": 2.2},
                 **common,

@@ -22,7 +22,8 @@ _COLOURS = ["#ff7f0e", "#9467bd", "#17becf", "#8c564b"]
 
 def rms_table(runs: Any, rows: Sequence[int]) -> list[dict[str, Any]]:
     """RMS over the window of (simulated − measured) per channel component, one row per
-    trial (angles in deg, as drawn). Failed simulations get no value."""
+    trial (angles in deg, as drawn), to four significant digits. Failed simulations get no
+    value."""
     out = []
     for r in rows:
         row: dict[str, Any] = {"trial": runs.labels[r]}
@@ -37,7 +38,9 @@ def rms_table(runs: Any, rows: Sequence[int]) -> list[dict[str, Any]]:
                     continue
                 d = h.runs[0][1][comp] - meas
                 d = d[np.isfinite(d)]
-                row[key] = float(np.sqrt(np.mean(d**2))) if len(d) else None
+                # four significant digits: the RMS of a few hundred residuals of noisy
+                # telemetry is not known better than that
+                row[key] = float(f"{np.sqrt(np.mean(d**2)):.4g}") if len(d) else None
         out.append(row)
     return out
 

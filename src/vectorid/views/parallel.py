@@ -1,7 +1,6 @@
 """Parallel coordinates of criteria, functionals and parameters, coloured by set, whose axis
-brushes *are* the constraints: a criterion axis's range is its criteria constraint Φ** (the
-worse side), a functional axis's range its bounds, a parameter axis's range a sub-box
-selection (:func:`brush_to_constraints`).
+constraints in force may be drawn as brushes (the report). In the browser UI a brush is a
+selection (two-sided, several per axis, any axis), made a constraint only on request.
 
 Lines are thinned per set as the point clouds are (:func:`vectorid.views.clouds.thin`: each
 set above the budget keeps a uniform random subset, and the title says so); the Pareto set is
@@ -49,9 +48,12 @@ def parallel_figure(
     lines: int | None = 1500,
     seed: int = 0,
     labels: Any = None,
-    ranges: Mapping[str, Sequence[float]] | None = None,
+    ranges: Mapping[str, Sequence[Any]] | None = None,
     title: str | None = None,
     raw: bool = False,
+    bounds_as_brushes: bool = True,
+    hidden: Sequence[str] = (),
+    colour: str = "set",
 ) -> Any:
     """Parallel coordinates (criteria, functionals, then parameters), one line per trial,
     coloured by set (infeasible red, feasible blue, Pareto green).
@@ -65,10 +67,18 @@ def parallel_figure(
         Lines drawn per set (thinned beyond; None draws every trial).
     labels : Labels, optional
         Units for the axis labels.
-    ranges : mapping name -> (low, high), optional
-        Sub-box selection on parameter axes (drawn as brushes).
+    ranges : mapping name -> (low, high) or list of them, optional
+        A selection drawn as brushes (several ranges per axis allowed), on any axis.
     raw : bool
         Return a plain dict with base64 arrays (the browser UI) instead of a ``go.Figure``.
+    bounds_as_brushes : bool
+        Draw the constraints in force as brushes on criterion and functional axes (the
+        report); the browser UI draws its selection there instead.
+    hidden : sequence of str
+        Axes left out of the drawing (kept in the figure, ``visible`` false).
+    colour : str
+        ``"set"`` (infeasible red, feasible blue, Pareto green) or a column's name: the lines
+        coloured by its value (colour bar).
 
     Returns
     -------
@@ -93,17 +103,24 @@ def parallel_figure(
         lo, hi = _range(v)
         d: dict[str, Any] = {
             "label": labels.short(name) if labels is not None else name,
+            "name": name,
             "values": enc(np.asarray(v[order], dtype=np.float32)),
             "range": [lo, hi],
         }
-        if kind in ("criterion", "functional"):
+        if name in hidden:
+            d["visible"] = False
+        if ranges and name in ranges:
+            rs = ranges[name]
+            rs = [rs] if rs and not isinstance(rs[0], list | tuple) else list(rs)
+            rs = [[float(min(r)), float(max(r))] for r in rs]
+            if rs:
+                d["constraintrange"] = rs[0] if len(rs) == 1 else rs
+        elif bounds_as_brushes and kind in ("criterion", "functional"):
             blo, bhi = a.bounds[name]
             if math.isfinite(blo) or math.isfinite(bhi):
                 d["constraintrange"] = (
                     [max(blo, lo), min(bhi, hi)] if blo <= hi and bhi >= lo else [lo, lo]
                 )
-        elif ranges and name in ranges:
-            d["constraintrange"] = [float(ranges[name][0]), float(ranges[name][1])]
         dims.append(d)
     shown = {k: len(rows[k]) for k in rows}
 
@@ -112,9 +129,21 @@ def parallel_figure(
             return f"{label} {shown[k]:,} of {counts[k]:,}"
         return f"{label} {counts[k]:,}"
 
+    line: dict[str, Any] = {"color": enc(code), "colorscale": _SCALE, "cmin": 0, "cmax": 2}
+    if colour != "set":
+        cv = np.asarray(column(a, colour)[0][order], dtype=np.float32)
+        clo, chi = _range(cv)
+        line = {
+            "color": enc(cv),
+            "colorscale": "Viridis",
+            "cmin": clo,
+            "cmax": chi,
+            "showscale": True,
+            "colorbar": {"title": {"text": labels.short(colour) if labels else colour}},
+        }
     trace = {
         "type": "parcoords",
-        "line": {"color": enc(code), "colorscale": _SCALE, "cmin": 0, "cmax": 2},
+        "line": line,
         "dimensions": dims,
         "unselected": {"line": {"color": "#bbb", "opacity": 0.08}},
         "labelangle": -25,
@@ -126,7 +155,7 @@ def parallel_figure(
         + ", ".join(
             [
                 part("pareto", "Pareto (green)"),
-                part("feasible", "feasible (blue)"),
+                part("feasible", "in D, not Pareto (blue)"),
                 part("infeasible", "infeasible (red, grey outside a brush)"),
             ]
         )

@@ -62,7 +62,13 @@ td,th{border:1px solid #ddd;padding:3px 7px;text-align:right}th{background:#f4f4
 td.l,th.l{text-align:left}.muted{color:#777}.x{color:#d62728}.p{color:#2ca02c;font-weight:600}
 .fig{min-height:320px;margin:14px 0;border:1px solid #eee;break-inside:avoid}
 .scroll{overflow-x:auto;max-width:100%}
-@media print{nav{display:none}.fig{border:none}h2{break-after:avoid}}
+img.raster{display:none}
+@page{size:A4;margin:12mm}
+@media print{nav{display:none}.fig{border:none}h2{break-after:avoid}
+body{max-width:none;padding:0}.modebar-container{display:none!important}
+.fig.rastered{display:none!important}
+img.raster{display:block;width:100%;max-width:186mm;break-inside:avoid;margin:6px 0}
+.scroll{overflow:visible}table{font-size:10px}}
 .counts{font-size:18px}.counts b{font-size:22px}.note{color:#555;font-size:13px;
 border-left:3px solid #d9a400;padding-left:6px}
 nav a{margin-right:10px}
@@ -83,10 +89,29 @@ _LOADER = """
       div.dataset.state='plotted'; return;}
     Plotly.newPlot(div, fig.data, fig.layout, {responsive:true, displaylogo:false});
     div.dataset.state='plotted';
+    raster(div);
+  }
+  // for print: each figure as a picture the width of an A4 page (720 CSS px, drawn at
+  // twice that), so that point clouds print as pixels, not as tens of thousands of vector
+  // marks, and no figure runs over the page's edge; the screen keeps the live figure
+  var pending = 0;
+  function ready(){ if(!pending && next >= divs.length) window.vectoridPrintReady = true; }
+  function raster(div){
+    if(!window.Plotly || !Plotly.toImage || !div.clientWidth) return;
+    var w = 720, h = Math.min(980, Math.round(div.clientHeight * w / div.clientWidth));
+    pending++;
+    Plotly.toImage(div, {format:'png', width:w, height:h, scale:2}).then(function(url){
+      var img = document.createElement('img');
+      img.className = 'raster'; img.src = url; img.alt = div.id;
+      div.parentNode.insertBefore(img, div.nextSibling);
+      div.classList.add('rastered');
+    }).catch(function(){}).then(function(){ pending--; ready(); });
   }
   // every figure, one per task, from the top: the page stays responsive while they draw
   var next = 0;
-  function step(){ if(next < divs.length){ plot(divs[next++]); setTimeout(step, 0); } }
+  function step(){
+    if(next < divs.length){ plot(divs[next++]); setTimeout(step, 0); } else { ready(); }
+  }
   window.vectoridPlotAll = function(){ divs.forEach(plot); };
   window.addEventListener('beforeprint', window.vectoridPlotAll);
   if(document.readyState === 'loading'){ document.addEventListener('DOMContentLoaded', step); }
@@ -169,7 +194,7 @@ class _Page:
         thinned = [
             tr.name
             for tr in figure.data
-            if tr.name and (" drawn, " in tr.name or "as density" in tr.name)
+            if tr.name and (" drawn, " in tr.name or "as a density" in tr.name)
         ]
         if thinned:
             self.notes.append(f"{title}: thinned for display: " + "; ".join(dict.fromkeys(thinned)))
@@ -667,8 +692,8 @@ def build_report(
         for x, y in pairs[:3]:
             page.fig(
                 fg.scatter_figure(a, x, y, max_points=max_points, seed=seed, labels=lab, gl=False),
-                "seed 001 Figs. 6, 11; seed 000 Fig. 8; infeasible trials as a density (every "
-                "one of them), feasible and Pareto trials as points",
+                "seed 001 Figs. 6, 11; seed 000 Fig. 8; infeasible trials and those of D beyond "
+                "the budget as densities (every one of them), the Pareto set as open rings",
             )
         if len(names) >= 3:
             page.fig(

@@ -33,7 +33,7 @@ log = logging.getLogger("vectorid.ui")
 STATIC = Path(__file__).resolve().parents[1] / "static"
 PLOTLY_BUNDLE = STATIC / "plotly-vectorid.min.js"
 #: Tabs whose views get the constraint fields only while shown (see ``Wiring.gate``).
-GATED = ("parallel", "table", "trial", "refine")
+GATED = ("tables", "parallel", "table", "trial", "refine")
 
 _CSS = """
 body{font-family:system-ui,-apple-system,Segoe UI,Roboto,sans-serif;margin:0;color:#222;
@@ -76,6 +76,10 @@ font-size:12px;background:#fff}
 .verdict{border:1px solid #999;border-radius:3px;padding:0 5px;white-space:nowrap}
 .v-identified{font-weight:700;background:#e9e9e9}.v-weak{font-style:italic}
 .v-not-identified{border-style:dashed;color:#444}
+.busy{visibility:hidden;color:#a15c00;font-size:13px}
+body:has([data-dash-is-loading="true"]) .busy{visibility:visible}
+#vid-counts[data-dash-is-loading="true"] b{opacity:.4}
+@media print{.top{position:static}.busy,button,.modebar-container{display:none !important}}
 .rangebar{position:relative;width:140px;height:12px;background:#e4e4e4;border-radius:2px;
 margin-top:3px}.rangebar>div{position:absolute}.rb-trial{top:-3px;height:18px;width:2px}
 """
@@ -89,21 +93,51 @@ _INDEX = (
 )
 
 
+def _defaults(ctx: cb.UIContext) -> dict[str, Any]:
+    """The values the page opens with (left out of the URL's fragment)."""
+    from .data import bounds_text, limits_text
+    from .overview import initial_choice
+
+    spec = ctx.spec
+    fields: dict[str, Any] = {}
+    for c, text in zip(spec.criteria, limits_text(spec)):
+        fields[f"lim.{c.name}"] = text
+        fields[f"role.{c.name}"] = c.role
+    for g, (lo, hi) in zip(spec.constraints, bounds_text(spec)):
+        fields[f"low.{g.name}"] = lo
+        fields[f"high.{g.name}"] = hi
+    x0, y0 = explore.default_axes(ctx)
+    fields.update(
+        tab="tables",
+        x=x0,
+        y=y0,
+        panel="histograms",
+        crit=spec.criterion_names[0],
+        trial=str(initial_choice(ctx) or ""),
+    )
+    return {"fields": fields, "view": sets.default_view(ctx)}
+
+
 def _layout(ctx: cb.UIContext) -> Any:
     from dash import dcc, html
 
     ctx.cache.state()  # built at every page load: start from the limits saved in the store
+    defaults = _defaults(ctx)
     return html.Div(
         [
+            dcc.Location(id="url", refresh=False),
+            dcc.Store(id="vid-defaults", data=defaults),
+            dcc.Store(id="vid-url", data=None),
+            dcc.Store(id="par-view", data=defaults["view"]),
             explore.header(ctx),
             html.Div(
                 className="page",
                 children=[
-                    dcc.Interval(id="tick", interval=1000),
+                    # polls the job once a second while one runs, and never otherwise
+                    dcc.Interval(id="tick", interval=1000, disabled=not ctx.jobs.status().running),
                     dcc.Store(id="version", data=list(ctx.cache.version())),
                     dcc.Store(id="selection", data=None),
                     dcc.Store(id="job-note", data=None),
-                    dcc.Store(id="vid-load", data=None),
                     *[dcc.Store(id=f"vid-con-{t}", data=None) for t in GATED],
                     dcc.Tabs(
                         id="tabs",
@@ -208,18 +242,19 @@ def create_app(
         return f"bad request: {type(exc).__name__}", 400
 
     server.register_error_handler(Exception, _bad_request)
+    _compress(server)
+
+    bundle = PLOTLY_BUNDLE.read_bytes()
 
     @server.route("/_vid/plotly.js")
-    def plotly_bundle():  # the partial plotly.js bundle, cached by the browser
-        return flask.send_file(PLOTLY_BUNDLE, mimetype="text/javascript", max_age=86400)
+    def plotly_bundle():  # the partial plotly.js bundle, cached by the browser (gzip: 0.5 MB)
+        resp = flask.Response(bundle, mimetype="text/javascript")
+        resp.headers["Cache-Control"] = "public, max-age=86400"
+        return resp
 
     @server.route("/_vid/vid.js")
     def vid_js():  # the page's counting library (vectorid.views.ui.client)
         return flask.Response(client.VID_JS, mimetype="text/javascript")
-
-    @server.route("/_vid/columns.bin")
-    def columns_bin():  # every trial's criteria and functionals, float64, for the counts
-        return flask.Response(client.columns_payload(cache), mimetype="application/octet-stream")
 
     app = dash.Dash(
         "vectorid.ui",
@@ -243,12 +278,107 @@ def create_app(
     )
     app.layout = lambda: _layout(ctx)  # a function: a reload reads the saved limits
     w = Wiring(ctx.spec.criterion_names, ctx.spec.constraint_names)
-    explore.register(app, ctx, w)
+    _register_url(app, ctx, w)
     tokens = sets.csv_route(server, ctx)
+    explore.register(app, ctx, w, tokens)
     sets.register(app, ctx, w, tokens)
     detail.register(app, ctx, w)
     _register_jobs(app, ctx, w)
     return app, ctx
+
+
+#: The fields of the view's state besides the constraints, in the order of the URL callbacks.
+_VIEW_FIELDS = (
+    ("tabs", "value"),
+    ("x-axis", "value"),
+    ("y-axis", "value"),
+    ("panel", "value"),
+    ("cvp-crit", "value"),
+    ("trial-id", "value"),
+    ("selection", "data"),
+    ("par-view", "data"),
+    ("par-colour", "value"),
+    ("par-hidden", "value"),
+)
+
+
+#: Content types sent gzip-compressed to a browser that accepts it.
+_COMPRESSIBLE = (
+    "application/json",
+    "text/javascript",
+    "application/javascript",
+    "text/css",
+    "text/html",
+)
+
+
+def _compress(server: Any) -> None:
+    """gzip every text response over 1 kB (callback answers, the page, the scripts) for a
+    browser that accepts it; the static scripts are compressed once and kept. A streamed
+    response (the CSV download) is sent as it is."""
+    import gzip
+
+    import flask
+
+    kept: dict[str, bytes] = {}
+    static = ("/_dash-component-suites/", "/_vid/plotly.js", "/_vid/vid.js")
+
+    @server.after_request
+    def gzip_response(resp: Any) -> Any:
+        if (
+            resp.status_code != 200
+            or resp.direct_passthrough
+            or resp.is_streamed
+            or "gzip" not in flask.request.headers.get("Accept-Encoding", "")
+            or "Content-Encoding" in resp.headers
+            or not (resp.mimetype or "").startswith(_COMPRESSIBLE)
+        ):
+            return resp
+        path = flask.request.path
+        body = kept.get(path) if path.startswith(static) else None
+        if body is None:
+            raw = resp.get_data()
+            if len(raw) < 1024:
+                return resp
+            body = gzip.compress(raw, compresslevel=1 if path.startswith("/_dash-update") else 6)
+            if path.startswith(static):
+                kept[path] = body
+        resp.set_data(body)
+        resp.headers["Content-Encoding"] = "gzip"
+        resp.headers["Content-Length"] = str(len(body))
+        resp.vary.add("Accept-Encoding")
+        return resp
+
+
+def _register_url(app: Any, ctx: cb.UIContext, w: Wiring) -> None:
+    """The whole view in the URL's fragment (:mod:`vectorid.views.ui.client`): read once at
+    page load into the fields, written back on every change (``history.replaceState``)."""
+    import json
+
+    from dash import Input, Output, State
+
+    names = {"crit": json.dumps(w.crit), "cons": json.dumps(w.cons)}
+    outs = [Output(i, "value") for i in w.ids("limit") + w.ids("role") + w.ids("low")]
+    outs += [Output(i, "value") for i in w.ids("high")]
+    outs += [
+        Output(i, p, allow_duplicate=(i in ("trial-id", "selection", "par-view")))
+        for i, p in _VIEW_FIELDS
+    ]
+    app.clientside_callback(
+        client.READ_URL_JS % names,
+        outs,
+        Input("url", "hash"),
+        State("vid-defaults", "data"),
+        prevent_initial_call="initial_duplicate",
+    )
+    app.clientside_callback(
+        client.WRITE_URL_JS % names,
+        Output("vid-url", "data"),
+        *w.constraint_inputs(Input),
+        *[Input(i, p) for i, p in _VIEW_FIELDS],
+        State("vid-defaults", "data"),
+        prevent_initial_call=True,
+    )
 
 
 def _register_jobs(app: Any, ctx: cb.UIContext, w: Wiring) -> None:
@@ -324,6 +454,7 @@ def _register_jobs(app: Any, ctx: cb.UIContext, w: Wiring) -> None:
         Output("job-text", "children"),
         Output("version", "data"),
         Output("job-msg", "children"),
+        Output("tick", "disabled"),
         Input("tick", "n_intervals"),
         Input("job-note", "data"),
         State("version", "data"),
@@ -335,7 +466,7 @@ def _register_jobs(app: Any, ctx: cb.UIContext, w: Wiring) -> None:
             now = list(ctx.cache.version())
             msg = cb.job_message(ctx, note)
         except Exception as exc:
-            return no_update, err(exc), no_update, no_update
+            return no_update, err(exc), no_update, no_update, no_update
         prog = st["progress"]
         value = str(prog) if prog is not None else (None if st["state"] == "running" else "0")
         return (
@@ -343,4 +474,5 @@ def _register_jobs(app: Any, ctx: cb.UIContext, w: Wiring) -> None:
             st["text"],
             (now if now != version else no_update),
             (msg if msg != (shown or "") else no_update),
+            st["state"] != "running",
         )

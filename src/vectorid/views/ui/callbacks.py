@@ -26,12 +26,13 @@ from .explore import (
     counts_view,
     panel_view,
     scatter_view,
+    selection_counts_view,
     selection_from_event,
     selection_mask,
     summary_view,
 )
 from .overview import initial_choice, overview_view
-from .parallel import brush_to_fields, history_view, parallel_view
+from .parallel import brushes_to_limits, history_view, parallel_view
 from .refine import refine_view
 from .table import csv_rows, table_page
 from .trial import identification_view, trial_view
@@ -40,7 +41,7 @@ from .verdicts import identifiability_view
 __all__ = [
     "UIContext",
     "box_to_limits",
-    "brush_to_fields",
+    "brushes_to_limits",
     "counts_view",
     "csv_rows",
     "history_view",
@@ -56,6 +57,7 @@ __all__ = [
     "parallel_view",
     "refine_view",
     "scatter_view",
+    "selection_counts_view",
     "selection_from_event",
     "selection_mask",
     "start_job",

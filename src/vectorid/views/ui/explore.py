@@ -5,6 +5,7 @@ rule. Plain functions: browser values in, plain data and Plotly figures out.
 
 from __future__ import annotations
 
+import weakref
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -23,6 +24,7 @@ __all__ = [
     "counts_view",
     "panel_view",
     "scatter_view",
+    "selection_counts_view",
     "selection_from_event",
     "selection_mask",
     "summary_view",
@@ -32,6 +34,17 @@ CHOSEN = {"color": clouds.CHOSEN_COLOUR, "symbol": "star", "size": 16, "line": {
 _MAX_IDS = 5000  # ids a selection may list (lasso); boxes, bins and ranges are kept as ranges
 #: Colour of a test-table cell outside D (the method's red) and inside (blue).
 OUTSIDE, INSIDE = "#d62728", "#1f77b4"
+
+
+def histograms_of(ctx: UIContext, a: Analysis) -> list[Any]:
+    """The per-parameter histograms of ``a`` (memoised per analysis: a selection or a
+    chosen trial redraws the panel without recounting a million trials)."""
+    memo = ctx.extra.setdefault("hists", weakref.WeakKeyDictionary())
+    hit = memo.get(a)
+    if hit is None:  # two requests at once may both count: the same answer, no lock held
+        hit = histograms(a)
+        memo[a] = hit
+    return hit
 
 
 def counts_view(ctx: UIContext, limit_texts: Any, roles: Any, functional: Any = None) -> dict:
@@ -81,7 +94,7 @@ def summary_view(
         messages.append(a.diagnose_empty().describe())
     # test tables (seed 000 Fig. 6): ids and values best first, red outside D, blue inside.
     # The order is cached per store version (it does not depend on criteria constraints).
-    tables = ctx.cache.test_tables(c)
+    tables = ctx.cache.test_tables(c, top=ctx.table_rows)
     lab = ctx.labels
     columns: list[dict[str, Any]] = []
     styles: list[dict[str, Any]] = []
@@ -159,11 +172,13 @@ def selection_mask(ctx: UIContext, a: Analysis, spec: Mapping[str, Any] | None) 
             return (xv >= x0) & (xv <= x1) & (yv >= y0) & (yv <= y1)
     if kind == "ranges":
         m = np.ones(a.n, bool)
-        for name, rng in dict(spec.get("ranges") or {}).items():
+        for name, rngs in dict(spec.get("ranges") or {}).items():
             v = clouds.column(a, ctx.cache.check_name(name, "any"))[0]
-            lo, hi = sorted(map(float, rng))
-            with np.errstate(invalid="ignore"):
-                m &= (v >= lo) & (v <= hi)
+            hit = np.zeros(a.n, bool)
+            for lo, hi in range_list(rngs):
+                with np.errstate(invalid="ignore"):
+                    hit |= (v >= lo) & (v <= hi)
+            m &= hit
         return m
     if kind == "bin":
         xv = clouds.column(a, ctx.cache.check_name(spec["param"], "parameter"))[0]
@@ -175,12 +190,65 @@ def selection_mask(ctx: UIContext, a: Analysis, spec: Mapping[str, Any] | None) 
     raise StudyDefinitionError("selection", f"unknown selection kind {kind!r}", "clear it")
 
 
+def range_list(value: Any) -> list[tuple[float, float]]:
+    """The ranges of one brushed axis, ``[lo, hi]`` or ``[[lo, hi], ...]`` (as the browser
+    sends them), as sorted ``(low, high)`` pairs.
+
+    Raises
+    ------
+    StudyDefinitionError
+        When a range is not two finite numbers.
+    """
+    items = value if value and isinstance(value[0], list | tuple) else [value]
+    out = []
+    for r in items[:64]:
+        try:
+            lo, hi = sorted(float(v) for v in r)
+        except (TypeError, ValueError):
+            raise StudyDefinitionError(
+                "brush", f"expected a range [low, high], got {r!r}", "clear the brush"
+            ) from None
+        if not (np.isfinite(lo) and np.isfinite(hi)):
+            raise StudyDefinitionError("brush", f"expected finite ends, got {r!r}", "clear it")
+        out.append((lo, hi))
+    return sorted(out)
+
+
+def selection_counts_view(
+    ctx: UIContext,
+    limit_texts: Any,
+    roles: Any,
+    functional: Any,
+    selection: Mapping[str, Any] | None,
+) -> dict[str, Any] | None:
+    """How many trials the selection holds, and how many of them are in D and in the
+    Pareto set (None without a selection).
+
+    Returns
+    -------
+    dict or None
+        ``n``, ``nd``, ``np`` and ``text`` ("selected 1,234 trials: 120 in D, of which 4
+        Pareto").
+    """
+    if not selection:
+        return None
+    a, _ = analysis_of(ctx, limit_texts, roles, functional)
+    m = selection_mask(ctx, a, selection)
+    n, nd, np_ = int(m.sum()), int((m & a.feasible).sum()), int((m & a.pareto).sum())
+    return {
+        "n": n,
+        "nd": nd,
+        "np": np_,
+        "text": f"selected {n:,} trials: {nd:,} in D, of which {np_:,} Pareto",
+    }
+
+
 def describe_selection(spec: Mapping[str, Any] | None, count: int) -> str:
     """The selection in words, with its size."""
     if not spec:
         return (
-            "no selection (box- or lasso-select points, click a histogram bin, or brush a "
-            "parameter axis of the parallel coordinates)"
+            "no selection (box- or lasso-select points, click a histogram bin, or brush "
+            "axes of the parallel coordinates)"
         )
     kind = spec.get("kind")
     if kind == "box":
@@ -191,8 +259,9 @@ def describe_selection(spec: Mapping[str, Any] | None, count: int) -> str:
             f"[{fmt(spec['lo'])}, {fmt(spec['hi'])}]"
         )
     elif kind == "ranges":
-        what = "sub-box " + ", ".join(
-            f"{n} in [{fmt(r[0])}, {fmt(r[1])}]" for n, r in dict(spec["ranges"]).items()
+        what = "brushes: " + "; ".join(
+            f"{n} in " + " or ".join(f"[{fmt(lo)}, {fmt(hi)}]" for lo, hi in range_list(r))
+            for n, r in dict(spec["ranges"]).items()
         )
     else:
         what = "picked points"
@@ -242,7 +311,7 @@ def selection_from_event(
             return None
         _, panel, code, b = (int(v) for v in cd)
         a, _ = analysis_of(ctx, limit_texts, roles, functional)
-        hists = histograms(a)
+        hists = histograms_of(ctx, a)
         if not 0 <= panel < len(hists):
             return None
         h = hists[panel]
@@ -404,10 +473,10 @@ def scatter_view(
     fig["layout"].update(
         dragmode="select",
         uirevision=f"{x}|{y}",
-        height=480,
+        height=520,
         clickmode="event+select",
-        margin={"t": 30, "b": 50, "l": 60, "r": 10},
-        title={"text": f"N={a.n:,}, ND={a.n_feasible:,}, NP={a.n_pareto:,}", "font": {"size": 12}},
+        margin={"t": 30, "b": 130, "l": 60, "r": 10},
+        title={"text": clouds.counts_title(a), "font": {"size": 12}, "x": 0.01, "xanchor": "left"},
     )
     return fig, describe_selection(selection, int(sel.sum()))
 
@@ -429,7 +498,7 @@ def panel_view(
     sel = selection_mask(ctx, a, selection)
     row = chosen_row(ctx, chosen)
     if panel == "histograms":
-        hists = histograms(a)
+        hists = histograms_of(ctx, a)
         names = a.spec.space.names
         sel_counts = None
         if sel.any():

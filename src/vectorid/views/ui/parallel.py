@@ -1,7 +1,7 @@
 """Data of the parallel-coordinates and history views: the figure under the constraints in
-force, a brush turned into constraints (criterion axis: its criteria constraint Φ**;
-functional axis: its bounds; parameter axis: a sub-box selection), and N/ND/NP against the
-number of trials."""
+force with the selection's brushes (two-sided, several per axis, any axis; a brush is a
+selection), the brushes made constraints on request (criterion axis: its criteria constraint
+Φ**; functional axis: its bounds), and N/ND/NP against the number of trials."""
 
 from __future__ import annotations
 
@@ -9,17 +9,34 @@ from collections import OrderedDict
 from collections.abc import Mapping, Sequence
 from typing import Any
 
+from ...errors import StudyDefinitionError
 from ..history import history, history_figure
-from ..parallel import brush_event, parallel_figure
+from ..parallel import parallel_figure
 from .context import UIContext, analysis_of, fmt
+from .explore import range_list
 
-__all__ = ["brush_to_fields", "history_view", "parallel_view"]
+__all__ = ["axis_order", "brushes_to_limits", "default_view", "history_view", "parallel_view"]
 
 
-def _ranges(selection: Mapping[str, Any] | None) -> dict[str, list[float]]:
+def _ranges(selection: Mapping[str, Any] | None) -> dict[str, list[tuple[float, float]]]:
     if selection and selection.get("kind") == "ranges":
-        return {k: list(v) for k, v in dict(selection.get("ranges") or {}).items()}
+        return {k: range_list(v) for k, v in dict(selection.get("ranges") or {}).items()}
     return {}
+
+
+def default_view(ctx: UIContext) -> dict[str, Any]:
+    """The axes of the parallel coordinates at page load: criteria, functionals, then
+    parameters (an empty ``order``), none hidden, lines coloured by set."""
+    return {"order": []}
+
+
+def axis_order(ctx: UIContext, order: Sequence[Any] | None) -> list[str]:
+    """Every axis once: those of ``order`` that exist, in that order, then the others in the
+    study's order (criteria, functionals, parameters)."""
+    spec = ctx.spec
+    names = spec.criterion_names + spec.constraint_names + spec.space.names
+    first = [n for n in dict.fromkeys(str(v) for v in order or []) if n in names]
+    return first + [n for n in names if n not in first]
 
 
 def parallel_view(
@@ -28,81 +45,83 @@ def parallel_view(
     roles: Any,
     functional: Any = None,
     selection: Mapping[str, Any] | None = None,
+    view: Mapping[str, Any] | None = None,
+    colour: Any = "set",
+    hidden: Sequence[Any] | None = None,
 ) -> Any:
-    """Parallel coordinates of criteria, functionals and parameters, coloured by set, the
-    constraints in force drawn as brushes on their axes."""
+    """Parallel coordinates of criteria, functionals and parameters, coloured by set (or by
+    a column), the selection's brushes drawn on their axes, the axes in the order the user
+    left them (``view["order"]``) with ``hidden`` ones left out."""
     a, _ = analysis_of(ctx, limit_texts, roles, functional)
-    fig = parallel_figure(a, lines=ctx.parallel_lines, labels=ctx.labels, ranges=_ranges(selection))
+    names = axis_order(ctx, (view or {}).get("order"))
+    if colour not in (None, "", "set"):
+        colour = ctx.cache.check_name(colour, "any")
+    hide = [n for n in (hidden or []) if n in names]
+    fig = parallel_figure(
+        a,
+        names,
+        lines=ctx.parallel_lines,
+        labels=ctx.labels,
+        ranges=_ranges(selection),
+        bounds_as_brushes=False,
+        hidden=hide,
+        colour=colour or "set",
+    )
     fig.update_layout(uirevision="parallel")
     return fig
 
 
-def brush_to_fields(
+def brushes_to_limits(
     ctx: UIContext,
-    event: Any,
-    names: Sequence[str],
+    selection: Mapping[str, Any] | None,
     limit_texts: Sequence[Any],
     lows: Sequence[Any],
     highs: Sequence[Any],
-    selection: Mapping[str, Any] | None,
-) -> tuple[list[Any], list[Any], list[Any], dict[str, Any] | None, str]:
-    """What a brush on the parallel coordinates changes.
-
-    A criterion axis sets that criterion's constraint to the brush's worse-side edge (upper
-    for ``min``, lower for ``max``; removing the brush removes the limit); a functional axis
-    sets both bounds; a parameter axis adds (or removes) that parameter's range in a sub-box
-    selection.
+) -> tuple[list[Any], list[Any], list[Any], str]:
+    """The brushes of the selection made constraints (one explicit action): a brushed
+    criterion axis sets its criteria constraint Φ** to the worse-side edge of its brushes
+    (the upper edge for ``min``, the lower for ``max``), a brushed functional axis sets
+    both bounds to the edges of its brushes; parameter axes stay a selection.
 
     Returns
     -------
     texts, lows, highs : list
-        The constraint fields after the brush.
-    selection : dict or None
-        The selection after the brush.
+        The constraint fields after the action.
     message : str
-        What changed, in words.
+        What was set.
+
+    Raises
+    ------
+    StudyDefinitionError
+        When no criterion or functional axis is brushed.
     """
     spec = ctx.spec
-    crit = spec.criterion_names
-    cons = spec.constraint_names
-    params = spec.space.names
+    crit, cons = spec.criterion_names, spec.constraint_names
     texts = list(limit_texts) if limit_texts else [""] * len(crit)
     lo_t = list(lows) if lows else [""] * len(cons)
     hi_t = list(highs) if highs else [""] * len(cons)
-    ranges = _ranges(selection)
-    sel_changed = False
     done = []
-    for name, rng in brush_event(event, names).items():
+    for name, rs in _ranges(selection).items():
+        if not rs:
+            continue
+        lo, hi = min(r[0] for r in rs), max(r[1] for r in rs)
         if name in crit:
             j = crit.index(name)
             sense = spec.criteria[j].sense
-            if rng is None:
-                texts[j] = ""
-                done.append(f"{name}: no limit")
-            else:
-                v = rng[1] if sense == "min" else rng[0]
-                texts[j] = fmt(v)
-                done.append(f"{name} {'<=' if sense == 'min' else '>='} {fmt(v)}")
+            v = hi if sense == "min" else lo
+            texts[j] = fmt(v)
+            done.append(f"{name} {'<=' if sense == 'min' else '>='} {fmt(v)}")
         elif name in cons:
             j = cons.index(name)
-            lo_t[j], hi_t[j] = ("", "") if rng is None else (fmt(rng[0]), fmt(rng[1]))
-            done.append(
-                f"{name}: no bounds" if rng is None else f"{fmt(rng[0])} <= {name} <= {fmt(rng[1])}"
-            )
-        elif name in params:
-            sel_changed = True
-            if rng is None:
-                ranges.pop(name, None)
-                done.append(f"{name}: range removed from the selection")
-            else:
-                ranges[name] = [rng[0], rng[1]]
-                done.append(f"{name} in [{fmt(rng[0])}, {fmt(rng[1])}] selected")
-    new_sel: dict[str, Any] | None
-    if sel_changed:
-        new_sel = {"kind": "ranges", "ranges": ranges} if ranges else None
-    else:
-        new_sel = dict(selection) if selection else None
-    return texts, lo_t, hi_t, new_sel, ("brushed: " + "; ".join(done)) if done else ""
+            lo_t[j], hi_t[j] = fmt(lo), fmt(hi)
+            done.append(f"{fmt(lo)} <= {name} <= {fmt(hi)}")
+    if not done:
+        raise StudyDefinitionError(
+            "brushes",
+            "no criterion or functional axis is brushed",
+            "drag along a criterion's axis first, then press the button",
+        )
+    return texts, lo_t, hi_t, "constraints set from the brushes: " + ", ".join(done)
 
 
 def history_view(ctx: UIContext, limit_texts: Any, roles: Any, functional: Any = None) -> Any:

@@ -241,18 +241,21 @@ def csv_rows(
     chunk: int = 20_000,
 ) -> Iterator[str]:
     """Every row of the table (set, filter, sort as shown) as CSV text, in chunks, full
-    precision, with a header of names and a second header of units."""
+    precision, with a header of names and a second header of units; the last two columns
+    flag the trials in D (``in_D``) and in the Pareto set (``pareto``), 1 or 0."""
     a, c = analysis_of(ctx, limit_texts, roles, functional)
     rows = table_rows(ctx, a, which, selection, filter_query, sort_by)
     names = ["id", "set", "stage", *a.crit_names, *a.con_names, *a.spec.space.names]
     buf = io.StringIO()
     w = csv.writer(buf)
-    w.writerow(names)
-    w.writerow(["", "", "", *[ctx.labels.unit.get(n, "") for n in names[3:]]])
+    w.writerow([*names, "in_D", "pareto"])
+    w.writerow(["", "", "", *[ctx.labels.unit.get(n, "") for n in names[3:]], "", ""])
     yield buf.getvalue()
     for s in range(0, len(rows), chunk):
         buf = io.StringIO()
         w = csv.writer(buf)
-        for r in _records(a, rows[s : s + chunk], None):
-            w.writerow(["" if r[n] is None else r[n] for n in names])
+        part = rows[s : s + chunk]
+        flags = zip(a.feasible[part].astype(int), a.pareto[part].astype(int))
+        for r, (d, p) in zip(_records(a, part, None), flags):
+            w.writerow(["" if r[n] is None else r[n] for n in names] + [d, p])
         yield buf.getvalue()

@@ -92,20 +92,23 @@ class Wiring:
     def gate(self, app: Any, tab: str) -> Any:
         """An Input carrying the constraint fields to a view on tab ``tab`` only while that tab
         is shown (a clientside callback fills ``vid-con-<tab>``), so that a constraint change
-        sends no request for the views that are hidden. The value is ``[fields, stamp]``.
+        sends no request for the views that are hidden, and coming back to a tab whose
+        fields did not change sends none either. The value is ``[fields, version]``.
         Several views of one tab share its gate (registered once)."""
-        from dash import Input, Output
+        from dash import Input, Output, State
 
         if tab in self.gated:
             return Input(f"vid-con-{tab}", "data")
         self.gated.add(tab)
         app.clientside_callback(
-            "function(tab, ...v) { return tab === "
+            "function(tab, ...v) { const cur = v.pop(), ver = v.pop(); return window.vidGate("
             + repr(tab)
-            + " ? [v, Date.now()] : dash_clientside.no_update; }",
+            + ", tab, v, undefined, ver, cur); }",
             Output(f"vid-con-{tab}", "data"),
             Input("tabs", "value"),
             *self.constraint_inputs(Input),
+            State("version", "data"),
+            State(f"vid-con-{tab}", "data"),
         )
         return Input(f"vid-con-{tab}", "data")
 

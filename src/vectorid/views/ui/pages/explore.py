@@ -7,7 +7,6 @@ from typing import Any
 
 import numpy as np
 
-from .. import client
 from ..context import UIContext, fmt
 from ..data import bounds_text, limits_text, parse_constraints
 from ..explore import (
@@ -15,6 +14,7 @@ from ..explore import (
     counts_view,
     panel_view,
     scatter_view,
+    selection_counts_view,
     selection_from_event,
     summary_view,
 )
@@ -22,7 +22,7 @@ from ..overview import initial_choice
 from ..verdicts import limit_sources
 from .common import Wiring, err, safe, table
 
-__all__ = ["counts_children", "header", "layout", "register"]
+__all__ = ["counts_children", "default_axes", "header", "layout", "register"]
 
 
 def counts_children(c: dict[str, int]) -> list[Any]:
@@ -58,6 +58,22 @@ def header(ctx: UIContext) -> Any:
             ),
             html.Div(
                 counts_children(counts_view(ctx, None, None)), id="vid-counts", className="counts"
+            ),
+            html.Span("updating…", id="vid-busy", className="busy", title="waiting for the server"),
+            html.Div(
+                [
+                    html.Span(id="vid-sel", className="muted"),
+                    " ",
+                    html.A(
+                        "Export the selection as CSV",
+                        id="sel-csv",
+                        href="",
+                        download="selection.csv",
+                        className="button",
+                        style={"display": "none"},
+                    ),
+                ],
+                className="bar",
             ),
             html.Label(
                 [
@@ -199,6 +215,13 @@ def _cards(ctx: UIContext) -> list[Any]:
     return cards
 
 
+def default_axes(ctx: UIContext) -> tuple[str, str]:
+    """The criterion plot's axes at page load: the first two criteria (or the first
+    criterion against the first parameter)."""
+    names = ctx.spec.criterion_names
+    return names[0], (names[1] if len(names) > 1 else ctx.spec.space.names[0])
+
+
 def layout(ctx: UIContext) -> Any:
     from dash import dcc, html
 
@@ -208,8 +231,7 @@ def layout(ctx: UIContext) -> Any:
         {"label": ctx.labels.short(n), "value": n}
         for n in names + spec.constraint_names + spec.space.names
     ]
-    x0 = names[0]
-    y0 = names[1] if len(names) > 1 else spec.space.names[0]
+    x0, y0 = default_axes(ctx)
     return html.Div(
         [
             html.Div(id="messages", className="msg"),
@@ -267,7 +289,7 @@ def layout(ctx: UIContext) -> Any:
                             dcc.Graph(
                                 id="scatter",
                                 config={"displaylogo": False},
-                                style={"height": "480px"},
+                                style={"height": "520px"},
                             ),
                             html.Div(id="sel-text", className="muted"),
                         ],
@@ -343,7 +365,7 @@ def layout(ctx: UIContext) -> Any:
     )
 
 
-def register(app: Any, ctx: UIContext, w: Wiring) -> None:
+def register(app: Any, ctx: UIContext, w: Wiring, tokens: Any) -> None:
     from dash import Input, Output, State, no_update
     from dash import ctx as dctx
     from dash.exceptions import PreventUpdate
@@ -399,25 +421,7 @@ def register(app: Any, ctx: UIContext, w: Wiring) -> None:
             return [*([no_update] * K), err(exc)]
         return [*new, msg]
 
-    # -- counts: in the page first (vectorid.views.ui.client), then from the server -------------
-    app.clientside_callback(client.LOAD_JS, Output("vid-load", "data"), Input("version", "data"))
-    app.clientside_callback(
-        client.COUNTS_JS,
-        Output("vid-counts", "children", allow_duplicate=True),
-        *CON,
-        Input("version", "data"),
-        prevent_initial_call=True,
-    )
-    app.clientside_callback(
-        client.BRUSH_JS,
-        Output("vid-counts", "children", allow_duplicate=True),
-        Input("par-graph", "restyleData"),
-        State("par-graph", "figure"),
-        State("version", "data"),
-        *CON_S,
-        prevent_initial_call=True,
-    )
-
+    # -- counts: on the server, over the cached columns; the page only waits -----------------
     @app.callback(Output("vid-counts", "children"), *CON, Input("version", "data"))
     def counts(*values):
         texts, roles, pairs = w.split(list(values[:-1]))
@@ -426,6 +430,37 @@ def register(app: Any, ctx: UIContext, w: Wiring) -> None:
         except Exception as exc:
             err(exc)
             return no_update
+
+    @app.callback(
+        Output("vid-sel", "children"),
+        Output("sel-csv", "href"),
+        Output("sel-csv", "style"),
+        Input("selection", "data"),
+        *CON,
+        Input("version", "data"),
+    )
+    def selection_counts(sel, *values):
+        """The selection's size, how much of it is in D and in the Pareto set, and a link
+        to its rows as CSV."""
+        texts, roles, pairs = w.split(list(values[:-1]))
+        try:
+            c = selection_counts_view(ctx, texts, roles, pairs, sel)
+        except Exception as exc:
+            return err(exc), "", {"display": "none"}
+        if c is None:
+            return "", "", {"display": "none"}
+        token = tokens.add(
+            {
+                "limit_texts": texts,
+                "roles": roles,
+                "functional": pairs,
+                "which": "selection",
+                "selection": sel,
+                "filter_query": "",
+                "sort_by": [],
+            }
+        )
+        return c["text"], f"/_vid/trials.csv?t={token}", {}
 
     # -- messages, constraints in force, test tables ----------------------------------------
     @app.callback(
@@ -472,20 +507,35 @@ def register(app: Any, ctx: UIContext, w: Wiring) -> None:
             *cls,
         )
 
-    # -- plots ----------------------------------------------------------------------------------
+    # -- plots: only while their tab is shown -------------------------------------------------
+    # ``vid-con-tables`` carries [constraint fields, version, selection] while the explorer is
+    # shown, so that a brush or a limit typed on another tab sends no request for its plots.
+    app.clientside_callback(
+        "function(tab, sel, ...v) { const cur = v.pop(), ver = v.pop(); "
+        "return window.vidGate('tables', tab, v, sel === undefined ? null : sel, ver, cur); }",
+        Output("vid-con-tables", "data"),
+        Input("tabs", "value"),
+        Input("selection", "data"),
+        *CON,
+        State("version", "data"),
+        State("vid-con-tables", "data"),
+    )
+    GATE = Input("vid-con-tables", "data")
+
     @app.callback(
         Output("scatter", "figure"),
         Output("sel-text", "children"),
-        *CON,
+        GATE,
         Input("x-axis", "value"),
         Input("y-axis", "value"),
-        Input("selection", "data"),
         Input("trial-id", "value"),
         Input("version", "data"),
     )
-    def scatter(*values):
-        texts, roles, pairs = w.split(list(values[: w.n_constraints]))
-        x, y, sel, chosen, _v = values[w.n_constraints :]
+    def scatter(gate, x, y, chosen, _v):
+        if not gate:
+            raise PreventUpdate
+        texts, roles, pairs = w.split(list(gate[0]))
+        sel = gate[2]
         try:
             return scatter_view(ctx, texts, roles, x, y, sel, chosen, functional=pairs)
         except Exception as exc:
@@ -495,18 +545,17 @@ def register(app: Any, ctx: UIContext, w: Wiring) -> None:
         Output("hist-graph", "figure"),
         Output("cvp-graph", "figure"),
         Output("panel-msg", "children"),
-        *CON,
+        GATE,
         Input("panel", "value"),
         Input("cvp-crit", "value"),
-        Input("selection", "data"),
         Input("trial-id", "value"),
         Input("version", "data"),
     )
-    def panel(*values):
-        texts, roles, pairs = w.split(list(values[: w.n_constraints]))
-        which, crit, sel, chosen, _v = values[w.n_constraints :]
-        if which not in ("histograms", "cvp"):
+    def panel(gate, which, crit, chosen, _v):
+        if not gate or which not in ("histograms", "cvp"):
             raise PreventUpdate
+        texts, roles, pairs = w.split(list(gate[0]))
+        sel = gate[2]
         try:
             fig = panel_view(ctx, texts, roles, which, crit, sel, chosen, functional=pairs)
         except Exception as exc:

@@ -1,4 +1,5 @@
-"""The parallel-coordinates page (brushes are constraints) with the history of N/ND/NP, and
+"""The parallel-coordinates page (brushes are a selection, made constraints on request) with
+the history of N/ND/NP, and
 the trial table page (server-side sort, filter, page; CSV download)."""
 
 from __future__ import annotations
@@ -8,26 +9,62 @@ import threading
 from collections import OrderedDict
 from typing import Any
 
+from .. import client
 from ..context import UIContext
-from ..parallel import brush_to_fields, history_view, parallel_view
+from ..parallel import brushes_to_limits, default_view, history_view, parallel_view
 from ..table import SETS, TABLE_STYLES, csv_rows, table_columns, table_page
 from ..verdicts import identifiability_view
 from .common import Wiring, err, safe, table
 
-__all__ = ["csv_route", "parallel_layout", "register", "table_layout"]
+__all__ = ["csv_route", "default_view", "parallel_layout", "register", "table_layout"]
 
 
 def parallel_layout(ctx: UIContext) -> Any:
     from dash import dcc, html
 
+    spec = ctx.spec
+    names = spec.criterion_names + spec.constraint_names + spec.space.names
+    opts = [{"label": ctx.labels.short(n), "value": n} for n in names]
     return html.Div(
         [
             html.P(
-                "Brush an axis (drag along it) to constrain it: a criterion axis sets its "
-                "criteria constraint Φ** (the worse-side edge), a functional axis its bounds, a "
-                "parameter axis selects that sub-box. Click a brush to remove it. Lines: a "
-                "random subset per set (the title says how many); Pareto on top.",
+                "Brush an axis (drag along it) to select the trials within that range; drag "
+                "again elsewhere on the axis for another range (a trial is selected when it "
+                "lies in one range of every brushed axis). Click a brush to remove it; drag "
+                "an axis's title to move it. The selection is counted in the header and "
+                "shown on every view; make it constraints with the button. Lines: a random "
+                "subset per set (the title says how many); Pareto on top.",
                 className="muted",
+            ),
+            html.Div(
+                className="bar",
+                children=[
+                    html.Button(
+                        "Brushed criteria → constraints Φ**",
+                        id="par-to-limits",
+                        title="each brushed criterion's worse-side edge (upper for min, lower "
+                        "for max) becomes its criteria constraint; a brushed functional's "
+                        "edges become its bounds",
+                    ),
+                    html.Button("Clear brushes", id="par-clear"),
+                    html.Label("colour by "),
+                    dcc.Dropdown(
+                        id="par-colour",
+                        options=[{"label": "set (D, Pareto)", "value": "set"}, *opts],
+                        value="set",
+                        clearable=False,
+                        style={"width": "180px"},
+                    ),
+                    html.Label("hidden axes "),
+                    dcc.Dropdown(
+                        id="par-hidden",
+                        options=opts,
+                        value=[],
+                        multi=True,
+                        placeholder="none",
+                        style={"minWidth": "220px"},
+                    ),
+                ],
             ),
             html.Div(id="par-msg", className="note"),
             html.Div(
@@ -175,32 +212,69 @@ def csv_route(server: Any, ctx: UIContext) -> CsvTokens:
 
 def register(app: Any, ctx: UIContext, w: Wiring, tokens: CsvTokens) -> None:
     from dash import Input, Output, State, no_update
+    from dash import ctx as dctx
     from dash.exceptions import PreventUpdate
 
     CON_S = w.constraint_inputs(State)
 
     @app.callback(
         Output("par-graph", "figure"),
-        Output("hist-history", "figure"),
         w.gate(app, "parallel"),
-        Input("selection", "data"),
+        Input("par-colour", "value"),
+        Input("par-hidden", "value"),
+        Input("par-clear", "n_clicks"),
+        State("selection", "data"),
+        State("par-view", "data"),
         State("tabs", "value"),
         Input("version", "data"),
     )
-    def parallel(cons, sel, tab, _v):
-        if not cons:
+    def parallel(cons, colour, hidden, _clear, sel, view, tab, _v):
+        """Redrawn when the constraints, colour or hidden axes change, not on a brush (the
+        brush is already drawn: the selection and the axis order are read, not listened to)."""
+        if not cons or tab != "parallel":
             raise PreventUpdate
         texts, roles, pairs = w.split(list(cons[0]))
-        if tab != "parallel":
-            raise PreventUpdate
+        if dctx.triggered_id == "par-clear":
+            sel = None
         try:
-            return (
-                parallel_view(ctx, texts, roles, pairs, sel),
-                history_view(ctx, texts, roles, pairs),
-            )
+            return parallel_view(ctx, texts, roles, pairs, sel, view, colour, hidden)
         except Exception as exc:
             err(exc)
-            return no_update, no_update
+            return no_update
+
+    @app.callback(
+        Output("hist-history", "figure"),
+        w.gate(app, "parallel"),
+        State("tabs", "value"),
+        Input("version", "data"),
+    )
+    def history(cons, tab, _v):
+        if not cons or tab != "parallel":
+            raise PreventUpdate
+        texts, roles, pairs = w.split(list(cons[0]))
+        try:
+            return history_view(ctx, texts, roles, pairs)
+        except Exception as exc:
+            err(exc)
+            return no_update
+
+    app.clientside_callback(
+        client.BRUSH_JS,
+        Output("selection", "data", allow_duplicate=True),
+        Output("par-view", "data", allow_duplicate=True),
+        Input("par-graph", "restyleData"),
+        State("selection", "data"),
+        State("par-view", "data"),
+        prevent_initial_call=True,
+    )
+
+    @app.callback(
+        Output("selection", "data", allow_duplicate=True),
+        Input("par-clear", "n_clicks"),
+        prevent_initial_call=True,
+    )
+    def clear(_n):
+        return None
 
     @app.callback(
         Output("par-in-force", "children"),
@@ -225,29 +299,26 @@ def register(app: Any, ctx: UIContext, w: Wiring, tokens: CsvTokens) -> None:
 
     @app.callback(
         [Output(i, "value", allow_duplicate=True) for i in lim + low + high]
-        + [Output("selection", "data", allow_duplicate=True), Output("par-msg", "children")],
-        Input("par-graph", "restyleData"),
-        State("par-graph", "figure"),
+        + [Output("par-msg", "children")],
+        Input("par-to-limits", "n_clicks"),
         State("selection", "data"),
         *CON_S,
         prevent_initial_call=True,
     )
-    def brush(event, fig, sel, *cons):
+    def to_limits(_n, sel, *cons):
+        """The brushes made constraints Φ** (the one explicit action)."""
         texts, _roles, pairs = w.split(list(cons))
         lows = [p[0] for p in pairs or []]
         highs = [p[1] for p in pairs or []]
-        names = ((fig or {}).get("layout") or {}).get("meta", {}).get("names") or []
         try:
-            t, lo, hi, new_sel, msg = brush_to_fields(ctx, event, names, texts, lows, highs, sel)
+            t, lo, hi, msg = brushes_to_limits(ctx, sel, texts, lows, highs)
         except Exception as exc:
             keep = [no_update] * (len(lim) + len(low) + len(high))
-            return [*keep, no_update, err(exc)]
-        if not msg:
-            raise PreventUpdate
+            return [*keep, err(exc)]
         out = [v if v != old else no_update for v, old in zip(t, texts)]
         out += [v if v != old else no_update for v, old in zip(lo, lows)]
         out += [v if v != old else no_update for v, old in zip(hi, highs)]
-        return [*out, new_sel if new_sel != sel else no_update, msg]
+        return [*out, msg]
 
     @app.callback(
         Output("vid-table", "data"),
