@@ -51,7 +51,7 @@ numpydoc_validation_checks = {"GL08", "PR01", "PR02"}
 # (numpydoc's PR01 would ask for the dataclass constructor's parameters instead).
 numpydoc_validation_exclude = {
     r"^vectorid\.(Trials|RunSummary|TestTable|EmptyDiagnosis|ParameterVerdict)$",
-    r"^vectorid\.models\.SimulationResult$",
+    r"^vectorid\.models\.(SimulationResult|SystemResult)$",
     # a class attribute documented by its ``#:`` comment, which autodoc shows
     r"^vectorid\.models\.Model\.compile_seconds$",
 }

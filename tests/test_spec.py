@@ -187,3 +187,41 @@ def test_module_missing_function_suggests(tmp_path):
     p = write(tmp_path, CONTRACT.replace("mypkg.mymodel:evaluate", "mymodel_abc:evalute"))
     with pytest.raises(StudyDefinitionError, match="did you mean 'evaluate'"):
         load_study(p).problem()
+
+
+def test_limit_noise_without_a_noise_statement_is_refused(tmp_path):
+    """A plain study cannot compute a noise floor: `limit = "noise"` there is an error that
+    says what to add, never a silent "no limit"."""
+    path = tmp_path / "s.toml"
+    path.write_text(
+        textwrap.dedent(
+            """
+            [study]
+            name = "plain"
+            model = "binh-korn"
+
+            [[variables]]
+            name = "x1"
+            low = 0.0
+            high = 5.0
+
+            [[variables]]
+            name = "x2"
+            low = 0.0
+            high = 3.0
+
+            [[criteria]]
+            name = "f1"
+            limit = "noise"
+
+            [[criteria]]
+            name = "f2"
+            """
+        ),
+        encoding="utf-8",
+    )
+    with pytest.raises(
+        StudyDefinitionError,
+        match=r"criteria\[0\]\.limit.*states no noise.*add an \[identification\] table",
+    ):
+        load_study(path)

@@ -196,12 +196,15 @@ def analysis_only(spec: Any, path: str) -> bool:
 
 def _identification_files(spec: Any) -> dict[str, Path]:
     """Data files of an ``[identification]`` table: each drop's ``file`` (or ``files``) and
-    ``wind``."""
+    ``wind``, and each record's ``file`` (a model of your own)."""
     table = spec.extra.get("identification")
     base = Path(spec.base_dir) if spec.base_dir else Path.cwd()
     out: dict[str, Path] = {}
     if not isinstance(table, Mapping):
         return out
+    for i, rec in enumerate(table.get("data") or []):  # records of a model of your own
+        if isinstance(rec, Mapping) and isinstance(rec.get("file"), str):
+            out[f"identification.data[{i}].file"] = base / rec["file"]
     drops = table.get("drops")
     if not isinstance(drops, list):
         return out

@@ -29,6 +29,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import re
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -200,10 +201,26 @@ def _parser() -> argparse.ArgumentParser:
         help="write the constraints in force instead (bound, unit, source of each limit)",
     )
 
-    n = sub.add_parser("init", help="write a study file for a built-in analytic problem")
-    n.add_argument("problem", help="e.g. binh-korn, zdt1, dtlz2-3, tanaka, osyczka-kundu")
-    n.add_argument("--out", help="file to write (default: PROBLEM.toml)")
-    n.add_argument("--trials", type=positive_int, default=2048)
+    n = sub.add_parser(
+        "init",
+        help="write a study file for a built-in analytic problem, or (own-model) a starting "
+        "point for identifying a model of your own",
+    )
+    n.add_argument(
+        "problem",
+        help="e.g. binh-korn, zdt1, dtlz2-3, tanaka, osyczka-kundu; or own-model (a folder "
+        "with a numpy model package, a CSV record with stated noise and a study file)",
+    )
+    n.add_argument(
+        "--out",
+        help="file to write (default: PROBLEM.toml); own-model: folder (default: own-model)",
+    )
+    n.add_argument(
+        "--trials",
+        type=positive_int,
+        default=None,
+        help="trials (default 2048; own-model: as its study file says)",
+    )
 
     d = sub.add_parser(
         "demo", help="run the two-step identification demo (or --analytic) and print its results"
@@ -924,21 +941,37 @@ def _cmd_init(args: argparse.Namespace) -> int:
     from .demo import study_toml
     from .errors import StudyDefinitionError
 
+    if args.problem == "own-model":
+        from ._hints import command_name
+        from .own_model import write_own_model
+
+        folder = Path(args.out or "own-model")
+        files = write_own_model(folder)
+        study = folder / "study.toml"
+        if args.trials is not None:
+            text = study.read_text(encoding="utf-8")
+            text = re.sub(r"(?m)^trials = \d+", f"trials = {args.trials}", text, count=1)
+            study.write_text(text, encoding="utf-8")
+        for f in files:
+            print(f"wrote {f}")
+        print(f"run it with: {command_name()} run {study}")
+        return 0
+
     try:
         analytic.get(args.problem)
     except ValueError as exc:  # unknown name: the message lists the names and the nearest one
         raise StudyDefinitionError(
             "PROBLEM",
             str(exc),
-            "e.g. `vectorid init binh-korn`; models of your own need a "
-            "study file written by hand (see README, 'A study file')",
+            "e.g. `vectorid init binh-korn`, or `vectorid init own-model` for a model of your "
+            "own (docs/own-model.md)",
         ) from None
     out = Path(args.out or f"{args.problem}.toml")
     if out.exists():
         raise StudyDefinitionError(
             "--out", f"{out} exists already", "choose another --out or remove it"
         )
-    out.write_text(study_toml(args.problem, trials=args.trials), encoding="utf-8")
+    out.write_text(study_toml(args.problem, trials=args.trials or 2048), encoding="utf-8")
     from ._hints import command_name
 
     print(f"wrote {out}; run it with: {command_name()} run {out}")

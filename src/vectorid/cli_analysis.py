@@ -540,6 +540,12 @@ def _cmd_identifiability(args: argparse.Namespace) -> int:
         _json(out)
         return 0
     print(f"N = {a.n}   ND = {a.n_feasible}   NP = {a.n_pareto}")
+    if verdicts and verdicts[0].thin:
+        print(
+            f"  thin: D holds {a.n_feasible} trials, fewer than the {verdicts[0].n_needed} a "
+            "verdict needs to show a spread; run more trials, or use the sequential sampler "
+            '([study] sampler = "sequential")'
+        )
     if note:
         print(note)
     crit = {c.name: c for c in spec.criteria}

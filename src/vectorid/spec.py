@@ -240,6 +240,27 @@ class StudySpec:
                     f"name {n!r} is used more than once among variables, criteria and constraints",
                     "give each a unique name (they become column names)",
                 )
+        scheme = self.model.partition(":")[0].strip() if isinstance(self.model, str) else ""
+        for key, kind, example in (
+            ("command", "cmd", 'model = "cmd"'),
+            ("fmu", "fmu", 'model = "fmu:model.fmu"'),
+        ):
+            if getattr(self, key) is not None and scheme != kind:
+                raise StudyDefinitionError(  # never ignored silently
+                    f"study.{key}",
+                    f"{key} applies to a {kind!r} model only, but the model is {self.model!r}",
+                    f"write {example} to use it, or remove {key}",
+                )
+        for i, c in enumerate(self.criteria):  # a noise floor needs noise: never "no limit"
+            if c.limit is None and c.limit_source == "noise" and "identification" not in self.extra:
+                raise StudyDefinitionError(
+                    f"criteria[{i}].limit",
+                    f'criterion {c.name!r} has limit = "noise", but this study states no noise '
+                    "(a noise floor is computed from an [identification] table: model, measured "
+                    "data and noise = { channel = σ })",
+                    "write a number (limit = 40.0), remove the limit, or add an [identification] "
+                    "table with a noise statement (docs/own-model.md)",
+                )
         object.__setattr__(self, "trials", _int("study.trials", self.trials, 1))
         object.__setattr__(self, "seed", _int("study.seed", self.seed, 0))
         if self.batch_size is not None:

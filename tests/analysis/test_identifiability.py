@@ -204,3 +204,25 @@ def test_constraints_that_cut_a_range_follow_the_rule_and_columns_change_nothing
             assert [w.to_dict() for w in identifiability(a, columns=cols)] == [
                 w.to_dict() for w in vs
             ]
+
+
+def test_a_thin_feasible_set_is_said_and_never_identified(store, capsys):
+    # f1 <= 0.01 pins x1 to |x1 - 0.4| <= 0.01: with f2 and f3, a handful of the 4096 trials
+    v = _verdicts(store, limits={"f1": 0.01})
+    nd = v["x1"].n_feasible
+    assert 0 < nd < 10 and v["x1"].thin and v["x1"].n_needed == 10  # max(10, 2p + 1), p = 4
+    assert v["x1"].width <= 0.25  # narrow, yet from too few members to show a spread
+    assert v["x1"].verdict == "weak"
+    assert f"D holds only {nd} trials, fewer than the 10 needed" in v["x1"].reason
+    assert 'sampler = "sequential"' in v["x1"].suggestion and "--trials" in v["x1"].suggestion
+    assert all(x.thin for x in v.values())
+    # enough members: not thin; a larger threshold makes the same set thin
+    v = _verdicts(store)
+    assert not v["x1"].thin and v["x1"].n_feasible >= 10
+    assert _verdicts(store, min_feasible=10**6)["x1"].verdict == "weak"
+    assert main(["identifiability", str(store), "--limit", "f1<=0.01"]) == 0
+    out = capsys.readouterr().out
+    assert f"thin: D holds {nd} trials, fewer than the 10" in out
+    assert main(["identifiability", str(store), "--limit", "f1<=0.01", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert all(p["thin"] and p["n_needed"] == 10 for p in doc["parameters"])

@@ -173,7 +173,8 @@ def test_a_main_that_did_not_open_is_said_so(tmp_path):
 
 def test_a_stated_drag_area_the_descent_does_not_fit_is_said_so(adds_log, tmp_path):
     path, _, _ = adds_log
-    r = identify_descent(_plan(path, drogue=Canopy(cds=0.3), trials=64), tmp_path)
+    # 256 trials: with 64, D holds too few members for a value (a thin set, at best "weak")
+    r = identify_descent(_plan(path, drogue=Canopy(cds=0.3), trials=256), tmp_path)
     p = r.phase("drogue")
     assert p.cds == pytest.approx(0.5, rel=0.05)
     assert "does not fit the stated drag area" in p.verdict

@@ -125,6 +125,16 @@ CASES = [
     ("cmd without command", edit(('"usermodel:evaluate"', '"cmd"')), "needs a command"),
     ("fmu without path", edit(('"usermodel:evaluate"', '"fmu:"')), "needs a path"),
     ("command not list", edit(("seed = 1", 'seed = 1\ncommand = "python x"')), "study.command"),
+    (
+        "command with a python model",
+        edit(("seed = 1", 'seed = 1\ncommand = ["python", "x.py"]')),
+        "study.command.*applies to a 'cmd' model only",
+    ),
+    (
+        "fmu with a python model",
+        edit(("seed = 1", "seed = 1\nfmu = { stop_time = 1.0 }")),
+        "study.fmu.*applies to a 'fmu' model only",
+    ),
     # -- [[variables]]
     ("no variables", BASE.split("[[variables]]")[0] + "[[criteria]]\nname='f1'\n", "variables"),
     ("variables not array", edit(add="variables = 3\n"), "not valid TOML|variables"),
@@ -159,6 +169,12 @@ CASES = [
     ("limit string", edit(("limit = 1.0", 'limit = "40"')), r'limit.*"40"'),
     ("limit bool", edit(("limit = 1.0", "limit = true")), r"limit.*true"),
     ("limit nan", edit(("limit = 1.0", "limit = nan")), "limit.*finite"),
+    (
+        "limit noise without noise",
+        edit(("limit = 1.0", 'limit = "noise"')),
+        r'criteria\[1\]\.limit.*limit = "noise", but this study states no noise',
+    ),
+    ("limits noise", edit(add='[limits]\nf1 = "noise"\n'), r"f1\.limit.*expected a number"),
     ("criterion no name", edit(('name = "f1"\n', "")), "criteria.*name"),
     ("criterion name number", edit(('name = "f1"', "name = 7")), "name"),
     ("criterion unknown key", edit(("limit = 1.0", "limit = 1.0\nweight = 2")), "unknown key"),

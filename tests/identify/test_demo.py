@@ -64,7 +64,13 @@ def test_demo_end_to_end_reduced(tmp_path, capsys):
     # generator's truth or the demo says why not (which limit the truth itself exceeds)
     block = text.split("x6 = C_D base value (eq. 11) [dimensionless]")[1].split("x8 = ")[0]
     verdict = block.split()[0]
-    assert verdict == "identified", block
+    if ver["x6"]["thin"]:  # 160 trials leave D too thin to call anything identified (the
+        # rule of vectorid.analysis.identifiability): narrow, yet "weak", and it says why
+        assert verdict == "weak" and ver["x6"]["width"] <= 0.25, block
+        assert f"fewer than the {ver['x6']['n_needed']} needed" in ver["x6"]["reason"]
+        assert "run more trials" in block, block
+    else:
+        assert verdict == "identified", block
     assert "holds it" in block or "why: the truth itself is outside D" in block, block
 
 

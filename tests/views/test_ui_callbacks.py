@@ -787,6 +787,12 @@ def test_chosen_text_shows_a_value_only_where_identified():
     assert verdict_line([ok, weak, empty]) == (
         "identified: x6 [0.47705, 0.61797]; weak: x8; not identified: x9"
     )
+    thin = ParameterVerdict("x8", "weak", (0.8, 1.2), None, (0.75, 1.5), n_feasible=6,
+                            thin=True, n_needed=20)  # fmt: skip
+    assert verdict_line([thin]).endswith(
+        "thin: D holds 6 trials, fewer than the 20 needed to show its spread (run more "
+        'trials, or sampler = "sequential")'
+    )
 
 
 def test_limit_sources_and_saving_keeps_them(tmp_path):

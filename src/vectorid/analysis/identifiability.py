@@ -14,7 +14,8 @@ re-run):
 - **verdict**, from the relative width w = width(feasible) / width(box):
 
   ============== ===========================================================================
-  identified     w <= 0.25, D holds at least ``min_feasible`` trials (5), and D stays off
+  identified     w <= 0.25, D holds at least ``min_feasible`` trials (by default
+                 max(10, 2p + 1) for p variables: see "thin sets" below), and D stays off
                  both box edges (a range that touches the box may continue beyond it)
   weak           0.25 < w <= 0.6; or w <= 0.25 but D touches a box edge (of the study
                  box, or of a refined stage's box that cut the range: the sampling, not the
@@ -22,6 +23,18 @@ re-run):
   not identified w > 0.6 (D covers most of the box), no criteria constraint is in force (D
                  is then every trial: nothing was asked of the data), or D is empty
   ============== ===========================================================================
+
+**Thin sets.** A range [min, max] over N points understates the spread of the set they
+were drawn from: N points drawn uniformly over an interval span on average (N - 1)/(N + 1)
+of it, so 10 points show about 82 % of D's width along a variable (the shortfall is then
+of the order of the spread between neighbouring trials) and 6 points only 71 %; and in p
+dimensions a set needs at least 2p + 1 points to have one on each side of its centre along
+every axis. Below ``min_feasible`` = max(10, 2p + 1) members the verdict is at best
+"weak", ``thin`` is set, and the reason says how many members D holds and how many it
+needs; the suggestion is more trials (``vectorid run STUDY --trials N``), the sequential
+sampler (``[study] sampler = "sequential"``) or a refined box. (A larger number would be
+safer still, e.g. 20 for 90 %; 10 is the least at which a range is more the data's than
+the sampling's, and the two-step's quantile stand-in already aims at 20.)
 
 The thresholds are arguments (``identified``, ``weak``). With noise-grounded limits
 (:mod:`vectorid.identify.noise`) D is the set of vectors the data cannot tell from the truth,
@@ -43,7 +56,7 @@ import numpy as np
 
 from .results import Analysis
 
-__all__ = ["VERDICTS", "ParameterVerdict", "identifiability", "verdicts_json"]
+__all__ = ["VERDICTS", "ParameterVerdict", "identifiability", "thin_threshold", "verdicts_json"]
 
 #: The verdicts, from best to worst.
 VERDICTS = ("identified", "weak", "not identified")
@@ -75,6 +88,11 @@ class ParameterVerdict:
     width : float
         width(feasible) / width(box) (NaN when D is empty).
     n_feasible : int
+    thin : bool
+        D holds fewer members than ``n_needed``: too few to show its spread (the range is
+        then a lower bound of the uncertainty, and the verdict at best "weak").
+    n_needed : int
+        Members of D the verdict needs to show a spread (``min_feasible``).
     """
 
     name: str
@@ -89,6 +107,8 @@ class ParameterVerdict:
     meaning: str = ""
     width: float = math.nan
     n_feasible: int = 0
+    thin: bool = False
+    n_needed: int = 0
 
     @property
     def identified(self) -> bool:
@@ -144,6 +164,8 @@ class ParameterVerdict:
             "constrained_by": list(self.constrained_by),
             "width": None if math.isnan(self.width) else float(self.width),
             "n_feasible": int(self.n_feasible),
+            "thin": bool(self.thin),
+            "n_needed": int(self.n_needed),
             "reason": self.reason,
             "suggestion": self.suggestion,
             "unit": self.unit,
@@ -173,7 +195,7 @@ def identifiability(
     *,
     identified: float = 0.25,
     weak: float = 0.6,
-    min_feasible: int = 5,
+    min_feasible: int | None = None,
     meanings: Mapping[str, str] | None = None,
     hints: Mapping[str, str] | None = None,
     stages: Sequence[Any] | None = None,
@@ -188,8 +210,9 @@ def identifiability(
         Trials and the constraints in force.
     identified, weak : float
         Thresholds on width(feasible) / width(box).
-    min_feasible : int
-        Fewer trials in D cannot show its spread: at best "weak".
+    min_feasible : int, optional
+        Fewer trials in D cannot show its spread: at best "weak" (default max(10, 2p + 1)
+        for p design variables; see "thin sets" in the module docstring).
     meanings : mapping, optional
         Variable name -> what it is (shown beside the name).
     hints : mapping, optional
@@ -221,6 +244,8 @@ def identifiability(
         ref = a.spec.extra.get("x-identifiability", {})
         reference = ref.get("reference") if isinstance(ref, Mapping) else None
     space = a.spec.space
+    if min_feasible is None:
+        min_feasible = thin_threshold(len(space))
     X = a.trials.X
     bounds = a.active_bounds()
     crit_bounds = [b for b in bounds if b.name in a.crit_names]
@@ -300,6 +325,8 @@ def identifiability(
                 meaning=meanings.get(v.name, ""),
                 width=width,
                 n_feasible=a.n_feasible,
+                thin=0 < a.n_feasible < min_feasible,
+                n_needed=int(min_feasible),
             )
         )
     return out
@@ -319,7 +346,7 @@ def _judge(
     hint: str,
     clipped: str = "",
 ) -> tuple[str, str, str]:
-    excite = hint or "a drop or manoeuvre that excites it (e.g. a controlled drop)"
+    excite = hint or "data that excite it (another record, manoeuvre or drop)"
     more = (
         f"add a criterion sensitive to {name}, {excite}, or a longer window "
         "(more of the motion it shapes)"
@@ -348,6 +375,17 @@ def _judge(
         edge.append("high")
     pct = f"{width:.0%} of the box"
     by = f"; cut by {', '.join(cut)}" if cut else "; no single constraint's limit cuts it"
+    thin = (
+        f"D holds only {nd} trials, fewer than the {min_feasible} needed to show its spread "
+        "(the range is a lower bound of the uncertainty)"
+        if nd < min_feasible
+        else ""
+    )
+    grow = (
+        f"run more trials (vectorid run STUDY --trials N, aiming at >= {min_feasible} in D), "
+        'or use the sequential sampler ([study] sampler = "sequential"), or refine the box '
+        "(double tuning)"
+    )
     if width > t_weak:
         return "not identified", f"D spans {pct}{by}", more
     if width <= t_weak and clipped:
@@ -367,11 +405,9 @@ def _judge(
             f"widen the box of {name} on its {side} side and run again",
         )
     if width <= t_id:
-        return (
-            "weak",
-            f"D spans {pct} but holds only {nd} trials, too few to show its spread",
-            "refine the box (double tuning) and run more trials",
-        )
+        return "weak", f"D spans {pct}, but {thin}", grow
+    if thin:
+        return "weak", f"D spans {pct}{by}; {thin}", f"{grow}; then, if still weak: {more}"
     return "weak", f"D spans {pct}{by}", f"partly determined: {more}"
 
 
@@ -403,6 +439,12 @@ def _clipped(a: Analysis, j: int, stages: Sequence[Any] | None, box: tuple[float
             sides.append("high")
     sides = sorted(set(sides), key=["low", "high"].index)
     return " and ".join(sides)
+
+
+def thin_threshold(p: int) -> int:
+    """Members of D a verdict needs to show a spread, for p design variables:
+    max(10, 2p + 1) (see "thin sets" in the module docstring)."""
+    return max(10, 2 * int(p) + 1)
 
 
 def verdicts_json(verdicts: list[ParameterVerdict]) -> dict[str, Any]:

@@ -13,6 +13,8 @@ Fig. 2) are functionals: the mean over realisations and the worst drop.
 
 The ``[identification]`` table of a study file
 ----------------------------------------------
+(For a model of your own, a :class:`~vectorid.models.SystemModel`, the table holds
+``[[identification.data]]`` records instead of drops: see :mod:`vectorid.identify.system`.)
 ::
 
     [study]
@@ -676,22 +678,29 @@ class Identification:
         ``window_bounds`` (window variable name -> (low, high), s) says how far window
         variables may move each drop's window, so that enough data is kept around it.
         """
-        _check_keys("(table)", table, _TABLE_KEYS)
+        from vectorid.identify.system import SystemIdentification, resolve_model
+        from vectorid.models.system import SystemModel
+
+        _check_keys("(table)", table, {**_TABLE_KEYS, "data": ""})
+        model = resolve_model(table, default_model, base_dir)
+        if isinstance(model, SystemModel):  # a model of your own: records, not drops
+            return SystemIdentification.from_table(  # type: ignore[return-value]
+                table,
+                model,
+                variables=variables,
+                criteria=criteria,
+                constraints=constraints,
+                base_dir=base_dir,
+            )
+        if "data" in table:
+            raise _err(
+                "data",
+                "[[identification.data]] records are for models of your own (SystemModel); "
+                f"{model.name!r} is a flight model",
+                "give its flight data as [[identification.drops]]",
+            )
         _check_noise(table, criteria)
         base = Path(base_dir) if base_dir is not None else Path.cwd()
-        model_name = table.get("model", default_model)
-        if not isinstance(model_name, str):
-            raise _err(
-                "model",
-                f"expected a model name, got {model_name!r}",
-                f"write model = one of {', '.join(models.available())}",
-            )
-        try:
-            model = models.get(model_name, **dict(table.get("model_options", {})))
-        except KeyError as exc:
-            raise _err("model", str(exc).strip("'\""), "use a registered model name") from None
-        except (TypeError, ValueError) as exc:
-            raise _err("model_options", str(exc), "see the model's constructor options") from None
         output_dt = _positive("output_dt", table.get("output_dt", 0.5))
         dt = _positive("dt", table.get("dt", 0.05))
         init_span = _positive("init_span", table.get("init_span", 1.0))

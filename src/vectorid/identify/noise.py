@@ -1207,7 +1207,26 @@ def noise_limits(
         or (s["limits"] == "noise" and c.limit is None)
     ]
     if not targets:
+        table = spec.extra["identification"]
+        unused = [k for k in ("noise_quantile", "noise_coverage", "noise_draws", "noise_seed")
+                  if k in table]  # fmt: skip
+        if unused and _own_model(spec):  # a setting that changes nothing is an error
+            raise _err(
+                unused[0],
+                f"{unused[0]} shapes noise-floor limits, but no criterion is limited by the "
+                "noise",
+                f'add limits = "noise" (or limit = "noise" to a criterion), or remove {unused[0]}',
+            )
         return {}
+    if ident is None:
+        ident = Identification.from_spec(spec)
+    from vectorid.identify.system import SystemIdentification
+
+    if isinstance(ident, SystemIdentification):  # a model of your own
+        from vectorid.identify import system
+
+        _check_settings(s)
+        return system.noise_limits(spec, ident, targets, s)
     if s["noise"] is None and not any(
         "noise" in dt
         for dt in spec.extra["identification"].get("drops", [])
@@ -1221,15 +1240,8 @@ def noise_limits(
     ident = ident if ident is not None else Identification.from_spec(spec)
     noise = _drop_noise(spec, ident, s["noise"])
     disc = _drop_discrepancy(spec, s["discrepancy"])
-    q = s["quantile"]
-    if q is not None and not (isinstance(q, int | float) and 0 < q < 1):
-        raise _err("noise_quantile", f"expected a number in (0, 1), got {q!r}", "e.g. 0.99")
-    cov = s["coverage"]
-    if not (isinstance(cov, int | float) and 0 < cov < 1):
-        raise _err("noise_coverage", f"expected a number in (0, 1), got {cov!r}", "e.g. 0.95")
-    draws = s["draws"]
-    if not (isinstance(draws, int) and draws >= 100):
-        raise _err("noise_draws", f"expected an integer >= 100, got {draws!r}", "e.g. 2000")
+    _check_settings(s)
+    q, cov, draws = s["quantile"], s["coverage"], s["draws"]
     ref = _reference(spec, ident, params)
     floor = noise_floor(
         ident,
@@ -1244,6 +1256,18 @@ def noise_limits(
     # The stated noise is in the study file; an estimated one is only here, so say it.
     est = "; ".join(f"{k}: {v}" for k, v in floor.noise.items() if v.startswith("estimated"))
     return {n: (v, f"{note} ({est})" if est else note) for n, (v, note) in out.items()}
+
+
+def _check_settings(s: Mapping[str, Any]) -> None:
+    q = s["quantile"]
+    if q is not None and not (isinstance(q, int | float) and 0 < q < 1):
+        raise _err("noise_quantile", f"expected a number in (0, 1), got {q!r}", "e.g. 0.99")
+    cov = s["coverage"]
+    if not (isinstance(cov, int | float) and 0 < cov < 1):
+        raise _err("noise_coverage", f"expected a number in (0, 1), got {cov!r}", "e.g. 0.95")
+    draws = s["draws"]
+    if not (isinstance(draws, int) and draws >= 100):
+        raise _err("noise_draws", f"expected an integer >= 100, got {draws!r}", "e.g. 2000")
 
 
 def _reference(spec, ident, params) -> dict[str, float]:
@@ -1300,8 +1324,16 @@ def resolve_noise_limits(spec, *, ident=None, params: Mapping[str, float] | None
     comes back unchanged (units filled)."""
     if "identification" not in spec.extra:
         return spec
+    from vectorid.identify.identification import Identification
+    from vectorid.identify.system import SystemIdentification
+
+    if ident is None and _own_model(spec):
+        ident = Identification.from_spec(spec)
     limits = noise_limits(spec, ident=ident, params=params)
-    units = _library_units(spec)
+    if isinstance(ident, SystemIdentification):
+        units = ident.units()
+    else:
+        units = _library_units(spec)
     crit = []
     for c in spec.criteria:
         new = c
@@ -1312,6 +1344,19 @@ def resolve_noise_limits(spec, *, ident=None, params: Mapping[str, float] | None
             new = replace(new, limit=v, limit_source="noise", limit_note=note)
         crit.append(new)
     return replace(spec, criteria=tuple(crit))
+
+
+def _own_model(spec) -> bool:
+    """Whether the study's identification names a model of your own (a SystemModel)."""
+    from vectorid.identify.system import resolve_model
+    from vectorid.models.system import SystemModel
+
+    table = spec.extra.get("identification")
+    default = spec.model if isinstance(spec.model, str) else None
+    try:
+        return isinstance(resolve_model(table, default, spec.base_dir), SystemModel)
+    except StudyDefinitionError:  # the identification itself says what is wrong
+        return False
 
 
 def _library_units(spec) -> dict[str, str]:

@@ -373,7 +373,12 @@ def parameter_meanings(spec: StudySpec) -> dict[str, str]:
     name = table.get("model", spec.model) if isinstance(table, Mapping) else spec.model
     out: dict[str, str] = {}
     try:
-        model = models.get(name) if isinstance(name, str) else None
+        if isinstance(name, str) and ":" in name:  # a model of your own beside the study
+            from vectorid.identify.system import resolve_model
+
+            model = resolve_model(table, spec.model, spec.base_dir)
+        else:
+            model = models.get(name) if isinstance(name, str) else None
     except Exception:  # not a registered model: no meanings
         model = None
     params = {p.name: p for p in getattr(model, "parameters", ())}

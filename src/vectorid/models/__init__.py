@@ -8,6 +8,15 @@
 
 Models are registered by name and imported on first use, so importing this package is cheap and
 a missing optional model only fails when it is asked for.
+
+Your own model (a :class:`SystemModel`, see :mod:`vectorid.models.system` and
+``docs/own-model.md``) is found by :func:`get` in three ways: by import path
+(``"mypkg.dynamics:Oscillator"``), by a name given to :func:`register`, or by a name an
+installed package declares in the ``vectorid.models`` entry-point group::
+
+    # pyproject.toml of your package
+    [project.entry-points."vectorid.models"]
+    oscillator = "mypkg.dynamics:Oscillator"
 """
 
 # ruff: noqa: E402  (the imports below come after _simd.configure(), on purpose)
@@ -31,6 +40,7 @@ from vectorid.models.base import (
 from vectorid.models.controls import ControlSchedule, flap_deflections, riser_commands
 from vectorid.models.integrate import STATUS_MESSAGES
 from vectorid.models.steps import StepChoice, choose_step
+from vectorid.models.system import SystemModel, SystemResult
 from vectorid.models.wind import DrydenTurbulence, Wind, WindProfile
 
 __all__ = [
@@ -44,6 +54,8 @@ __all__ = [
     "Parameter",
     "SimulationResult",
     "StepChoice",
+    "SystemModel",
+    "SystemResult",
     "Wind",
     "WindProfile",
     "available",
@@ -63,16 +75,48 @@ _REGISTRY: dict[str, str] = {
 }
 
 
+#: Entry-point group in which installed packages declare their models.
+ENTRY_POINT_GROUP = "vectorid.models"
+
+
 def register(name: str, target: str) -> None:
-    """Register a model class under ``name``; ``target`` is ``"package.module:ClassName"``."""
-    if ":" not in target:
+    """Register a model class under ``name``.
+
+    Parameters
+    ----------
+    name : str
+        The name a study file then uses (``model = "oscillator"``).
+    target : str
+        ``"package.module:ClassName"`` of a :class:`Model` or :class:`SystemModel` subclass;
+        imported on first use. Process and Dask workers import it again by that path, so
+        register in a module the workers import too, or prefer an entry point (see the
+        module docstring), which every process sees.
+    """
+    if not isinstance(target, str) or not _is_import_path(target):
         raise ValueError(f"target must look like 'package.module:ClassName', got {target!r}")
     _REGISTRY[name] = target
 
 
+def _is_import_path(text: str) -> bool:
+    module, sep, name = text.partition(":")
+    return bool(sep) and all(p.isidentifier() for p in module.split(".")) and all(
+        p.isidentifier() for p in name.split(".")
+    )
+
+
+def _entry_points() -> dict[str, str]:
+    from importlib.metadata import entry_points
+
+    try:
+        return {ep.name: ep.value for ep in entry_points(group=ENTRY_POINT_GROUP)}
+    except Exception:  # a broken installed distribution must not hide the built-in models
+        return {}
+
+
 def available() -> tuple[str, ...]:
-    """Registered model names (whether or not their module can be imported)."""
-    return tuple(sorted(_REGISTRY))
+    """Registered model names, entry points included (whether or not their module can be
+    imported)."""
+    return tuple(sorted({*_REGISTRY, *_entry_points()}))
 
 
 def get(name: str, **options: Any) -> Model:
@@ -81,7 +125,10 @@ def get(name: str, **options: Any) -> Model:
     Parameters
     ----------
     name : str
-        Registry name, one of :func:`available`.
+        Registry name (one of :func:`available`: registered or declared in the
+        ``vectorid.models`` entry-point group), or an import path
+        ``"package.module:ClassName"`` (the module must be importable: installed, or on
+        ``sys.path``; a study file's folder is put there for it).
     **options
         Configuration passed to the model's constructor (e.g. ``aerodynamics=False``).
 
@@ -92,12 +139,17 @@ def get(name: str, **options: Any) -> Model:
     ImportError
         The model's module or class cannot be imported (not written yet, or broken).
     """
-    try:
+    if name in _REGISTRY:
         target = _REGISTRY[name]
-    except KeyError:
-        raise KeyError(
-            f"unknown model {name!r}; available models: {', '.join(available())}"
-        ) from None
+    elif _is_import_path(name):
+        target = name
+    else:
+        target = _entry_points().get(name)
+        if target is None:
+            raise KeyError(
+                f"unknown model {name!r}; available models: {', '.join(available())}, or an "
+                "import path 'package.module:ClassName' of your own model"
+            )
     module_name, _, class_name = target.partition(":")
     try:
         module = importlib.import_module(module_name)
@@ -108,10 +160,17 @@ def get(name: str, **options: Any) -> Model:
                 f"exist (not implemented yet, or vectorid is installed without it)"
             ) from exc
         raise
+    cls: Any = module
     try:
-        cls = getattr(module, class_name)
+        for part in class_name.split("."):
+            cls = getattr(cls, part)
     except AttributeError:
         raise ImportError(
             f"model {name!r}: module {module_name} has no class {class_name}"
         ) from None
+    if not (isinstance(cls, type) and issubclass(cls, Model | SystemModel)):
+        raise TypeError(
+            f"model {name!r}: {target} is not a model class (expected a subclass of "
+            "vectorid.models.SystemModel or vectorid.models.Model)"
+        )
     return cls(**options)

@@ -403,6 +403,56 @@ def _chosen(
     return ids
 
 
+def _own_model_records(page: _Page, a: Analysis, ident: Any, chosen: Sequence[int]) -> None:
+    """Each record of an own model's identification against the best trial per criterion
+    (and the chosen one): one panel per measured output channel."""
+    import plotly.graph_objects as go
+    from plotly.subplots import make_subplots
+
+    ok = np.flatnonzero(a.ok)
+    picks: dict[str, int] = {}
+    for j, c in enumerate(a.criteria):
+        if len(ok):
+            picks[f"best {c.name}"] = int(ok[np.argmin(a.trials.F[ok, j])])
+    for i in chosen[:1]:
+        hit = np.flatnonzero(a.trials.id == int(i))
+        if hit.size:
+            picks[f"chosen №{int(i)}"] = int(hit[0])
+    page.add(
+        f"<p>Model <code>{_e(ident.model.name)}</code> simulated over each record's window "
+        f"from its stated initial state, on the comparison grid (step {_f(ident.output_dt)} "
+        "s): the measurement and the best trial per criterion.</p>"
+    )
+    if not picks:
+        page.add("<p class=note>No successful trial to show.</p>")
+        return
+    rows = list(picks.values())
+    X = a.trials.X[rows]
+    for rec in ident.records:
+        res = ident.simulate(X, rec)
+        chans = [c for c in ident.model.output_names if c in rec.values]
+        fig = make_subplots(rows=len(chans), cols=1, shared_xaxes=True)
+        for r, ch in enumerate(chans, start=1):
+            unit = ident.model.unit_of(ch)
+            fig.add_trace(
+                go.Scatter(x=rec.t, y=rec.values[ch], mode="markers", name=f"{ch} measured",
+                           marker={"size": 4, "color": "#222"}),
+                row=r, col=1,
+            )  # fmt: skip
+            for k, (label, i) in enumerate(picks.items()):
+                fig.add_trace(
+                    go.Scatter(x=rec.grid, y=res[ch][k], mode="lines",
+                               name=f"{ch} {label} (№{int(a.trials.id[i])})"),
+                    row=r, col=1,
+                )  # fmt: skip
+            fig.update_yaxes(title_text=f"{ch} [{unit}]", row=r, col=1)
+        fig.update_xaxes(title_text="t [s]", row=len(chans), col=1)
+        fig.update_layout(
+            title=f"Record {rec.name}: measured and simulated", height=300 * len(chans)
+        )
+        page.fig(fig, "the record's samples and the model on the comparison grid")
+
+
 def _identification(page: _Page, a: Analysis, chosen: Sequence[int], max_envelope: int) -> None:
     """The "Identification" section: trajectories, channels and spectra against the flight
     (seed 000 Fig. 11, seed 001 Figs. 2, 7, 9); numbers from
@@ -424,6 +474,11 @@ def _identification(page: _Page, a: Analysis, chosen: Sequence[int], max_envelop
             "is gone, the store's folder): keep the data files there, or write the report "
             "where they are reachable.</p>"
         )
+        return
+    from ..identify.system import SystemIdentification
+
+    if isinstance(ident, SystemIdentification):  # a model of your own: its records
+        _own_model_records(page, a, ident, chosen)
         return
     picks = vd.pick_trials(a, chosen, max_envelope=max_envelope)
     ids = picks.ids()

@@ -208,6 +208,15 @@ def identification_view(
         if ident is None:
             ident = Identification.from_spec(spec)
             ctx.extra[key] = ident
+        from ...identify.system import SystemIdentification
+
+        if isinstance(ident, SystemIdentification):
+            return (
+                None,
+                "this view compares trials with flight drops; a model of your own has records: "
+                "`vectorid report` shows them against the best trials",
+                [],
+            )
         rows = [ctx.cache.row_of(i) for i in ids]
         X = ctx.cache.trials().X[rows]
         want = str(drop) if drop not in (None, "") else ident.drops[0].name

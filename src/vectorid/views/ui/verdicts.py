@@ -120,6 +120,8 @@ def verdict_rows(vs: list[ParameterVerdict]) -> list[dict[str, Any]]:
                 "constrained_by": ", ".join(v.constrained_by) or "-",
                 "reason": v.reason,
                 "suggestion": v.suggestion,
+                "thin": bool(v.thin),
+                "n_needed": int(v.n_needed),
             }
         )
     return rows
@@ -138,6 +140,11 @@ def verdict_line(vs: list[ParameterVerdict]) -> str:
         names = [v.name for v in vs if v.verdict == verdict]
         if names:
             parts.append(f"{verdict}: " + ", ".join(names))
+    if vs[0].thin:  # too few members of D to show a spread: say so beside the verdicts
+        parts.append(
+            f"thin: D holds {vs[0].n_feasible} trials, fewer than the {vs[0].n_needed} needed "
+            'to show its spread (run more trials, or sampler = "sequential")'
+        )
     return "; ".join(parts)
 
 

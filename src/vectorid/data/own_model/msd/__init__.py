@@ -1,0 +1,1 @@
+"""A mass-spring-damper written as a vectorid model of your own (see dynamics.py)."""
