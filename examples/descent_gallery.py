@@ -38,8 +38,8 @@ RP = "rocketpy-descents"
 
 #: flight name -> (file relative to the data folder, plan keywords, note on the settings).
 #: Only what each flight's README states: the mass, the canopies, the triggers (with their lag),
-#: the pad elevation, and how to read the file (its columns where the header has several
-#: candidates, a unit its header does not state, the lines that hold the flight). No window,
+#: the pad elevation, and a unit the file does not state (Juno III's feet). Columns, repeated
+#: buffers and logging pauses are read from the content. No window,
 #: settling time or end is picked by hand: the phases come from the data.
 FLIGHTS: dict[str, tuple[str, dict[str, Any], str]] = {
     "Prometheus (TeleMega)": (
@@ -73,7 +73,6 @@ FLIGHTS: dict[str, tuple[str, dict[str, Any], str]] = {
     "Andromeda": (
         f"{RP}/andromeda/flight_data.csv",
         {
-            "columns": {"time": "t(s)", "altitude": "alt(m)"},
             "mass": 20.9767,
             "drogue": Canopy(cds=0.84665922014),
             "main": Canopy(cds=8.362919643856031),
@@ -81,8 +80,8 @@ FLIGHTS: dict[str, tuple[str, dict[str, Any], str]] = {
             "main_at": "500m",
             "pad_altitude": 160.0,
         },
-        "the header has alt(ft) and alt(m): columns given; the corrupt last two rows are left "
-        "out as spikes",
+        "the header has alt(ft) and alt(m), which agree: alt(m) is used; the corrupt last two "
+        "rows are left out as spikes",
     ),
     "Camões": (
         f"{RP}/camoes/flight_data.csv",
@@ -118,15 +117,17 @@ FLIGHTS: dict[str, tuple[str, dict[str, Any], str]] = {
     "Juno III": (
         f"{RP}/juno3/cots_GNSS.csv",
         {
-            "columns": {"time": "time", "altitude": "ALT"},
+            # the one option beyond mass, canopy and trigger: the file does not state the unit
+            # of ALT (its README does: feet); read as metres, the descent check stops (2.5-3.3 ×
+            # too fast for the stated drogue), since units are never guessed
             "altitude_unit": "ft",
-            "read": {"first_line": 46, "max_gap": 4.0},
             "mass": 24.05,
             "drogue": Canopy(cds=0.885),
             "altitude_reference": "msl",
         },
-        "GNSS altitude above sea level in feet (README; the header says no unit), about 1 Hz "
-        "with holes of 3 s; the file repeats a pre-launch buffer six times: read from line 46",
+        "GNSS altitude above sea level in feet (README; the header says no unit, so "
+        "--altitude-unit ft is needed); the repeated pre-launch buffer and the 3-s logging "
+        "pauses are found from the time column",
     ),
     "Lince": (
         f"{RP}/lince/main_data.csv",

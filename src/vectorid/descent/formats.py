@@ -8,7 +8,11 @@
 - Any other text file is a generic CSV: its time and altitude columns come from ``--columns``
   or, when the header has exactly one time-like and one altitude-like column, from the header
   (said in a note); a unit in a column's name (``Altitude (Ft-AGL)``, ``alt(m)``,
-  ``height_ft``, ``t [ms]``) is read, and an option that contradicts it is an error.
+  ``height_ft``, ``t [ms]``) is read, and an option that contradicts it is an error. Several
+  altitude columns that state their units and agree after the conversion are one (the metres
+  one is used). A time that goes back (a repeated buffer) and logging pauses are handled from
+  the time column (:func:`_flight_part`), each said in a note. A unit no column name states is
+  never guessed: the default (s, m) is said in a note and the descent checks stop on a wrong one.
 """
 
 from __future__ import annotations
@@ -207,6 +211,16 @@ def detect_format(
             cand = [n for n in names if pat.search(_split_name(n)[0])]
             if key == "time":
                 cand = [n for n in cand if _plain_unit(n, "time")]
+            if key == "altitude" and len(cand) > 1:
+                same = _same_altitude(p, cand)
+                if same is not None:
+                    notes.append(
+                        f"the header has {len(cand)} altitude columns "
+                        f"({', '.join(map(repr, cand))}) holding the same altitude in different "
+                        f"units (they agree after the unit conversion): {same!r} is used "
+                        "(--columns altitude=COL chooses another)"
+                    )
+                    cand = [same]
             if len(cand) != 1:
                 found = f"candidates: {', '.join(map(repr, cand))}" if cand else "none found"
                 raise _err(
@@ -246,6 +260,8 @@ def detect_format(
                 f"{key} unit {default}: the column name {cols[key]!r} states none and {opt} "
                 "was not given (the plausibility checks catch a wrong unit)"
             )
+    if fmt == "csv":
+        extra.update(_flight_part(p, cols["time"], units["time"], extra, notes))
     mapping: dict[str, Any] = {
         "time": cols["time"],
         "time_unit": units["time"],
@@ -266,3 +282,143 @@ def _plain_unit(name: str, kind: str) -> bool:
         return column_unit(name, kind) is not None and not re.search(r"\bnot\b", text.lower())
     except StudyDefinitionError:
         return False
+
+
+#: A time restart is cut only when the longest part where time never goes back holds at least
+#: this share of the rows (else the file is not one flight with a repeated buffer: an error).
+_KEEP_SHARE = 0.8
+#: A pause longer than the loader's default gap (2 s) is accepted, with a note, up to this
+#: many median sample steps and at most this many seconds.
+_PAUSE_STEPS, _PAUSE_MAX_S = 20.0, 30.0
+
+
+def _flight_part(
+    path: Path, time_col: str, time_unit: str, extra: dict[str, Any], notes: list[str]
+) -> dict[str, Any]:
+    """``first_line``/``last_line``/``max_gap`` a generic CSV needs, read from its time column.
+
+    - The time goes back (a logger that repeats a pre-launch buffer, or restarts): the longest
+      part where the time never goes back is the flight, kept with a note, when it holds at
+      least 80 % of the rows; else nothing is cut (the loader stops on the time going back).
+    - Logging pauses longer than the default gap (2 s) but at most 20 sample steps (the median
+      step of the 20 around each) and 30 s: accepted with a note naming them (no rows are made
+      up for them).
+
+    Options the user gave (``first_line``, ``last_line``, ``max_gap``) are kept as given.
+    """
+    import csv
+
+    from vectorid.identify.loaders import DEFAULT_MAX_GAP
+
+    factor = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9, "min": 60.0}.get(time_unit)
+    if factor is None:
+        return {}
+    lines: list[int] = []
+    times: list[float] = []
+    with path.open(encoding="utf-8-sig", errors="replace", newline="") as fh:
+        header: list[str] | None = None
+        idx = -1
+        delim = ","
+        for lineno, line in enumerate(fh, start=1):
+            if not line.strip() or line.lstrip().startswith("#"):
+                continue
+            if header is None:
+                try:
+                    delim = csv.Sniffer().sniff(line, delimiters=",;\t").delimiter
+                except csv.Error:
+                    delim = ","
+                header = [c.strip() for c in next(csv.reader([line], delimiter=delim))]
+                if time_col not in header:
+                    return {}
+                idx = header.index(time_col)
+                continue
+            row = next(csv.reader([line], delimiter=delim), [])
+            try:
+                v = float(row[idx]) * factor
+            except (IndexError, ValueError):
+                continue
+            lines.append(lineno)
+            times.append(v)
+    if len(times) < 3:
+        return {}
+    import numpy as np
+
+    t = np.asarray(times)
+    out: dict[str, Any] = {}
+    lo, hi = 0, t.size - 1
+    back = np.flatnonzero(np.diff(t) < 0)
+    if back.size and extra.get("first_line") is None and extra.get("last_line") is None:
+        starts = np.concatenate([[0], back + 1])
+        ends = np.concatenate([back, [t.size - 1]])
+        k = int(np.argmax(ends - starts))
+        n_keep = int(ends[k] - starts[k] + 1)
+        if n_keep >= _KEEP_SHARE * t.size:
+            lo, hi = int(starts[k]), int(ends[k])
+            if lo > 0:
+                out["first_line"] = lines[lo]
+            if hi < t.size - 1:
+                out["last_line"] = lines[hi]
+            notes.append(
+                f"the time goes back {back.size} time(s) (a repeated buffer or a restart): "
+                f"the flight is read from lines {lines[lo]}-{lines[hi]}, the longest part where "
+                f"the time never goes back ({n_keep} of {t.size} rows; "
+                f"{t.size - n_keep} left out); --first-line/--last-line choose others"
+            )
+    if extra.get("max_gap") is None:
+        part = t[lo : hi + 1]
+        dt = np.diff(part)
+        gaps = np.flatnonzero(dt > DEFAULT_MAX_GAP)
+        ok = []
+        for g in gaps:  # a pause is judged against the sample step around it
+            near = dt[max(0, g - 10) : g + 11]
+            near = near[(near > 0) & (near <= DEFAULT_MAX_GAP)]
+            step = float(np.median(near)) if near.size else np.inf
+            ok.append(dt[g] <= min(_PAUSE_STEPS * step, _PAUSE_MAX_S))
+        if gaps.size and all(ok):
+            worst = float(dt[gaps].max())
+            out["max_gap"] = float(np.nextafter(worst, np.inf))
+            where = ", ".join(f"{part[g]:.4g}-{part[g + 1]:.4g} s" for g in gaps[:5])
+            more = f" and {gaps.size - 5} more" if gaps.size > 5 else ""
+            notes.append(
+                f"{gaps.size} logging pause(s) longer than {DEFAULT_MAX_GAP:g} s (up to "
+                f"{worst:.3g} s, at most {_PAUSE_STEPS:g} sample steps): {where}{more}; "
+                "accepted as logging pauses, no rows are made up for them (--max-gap sets "
+                "the limit)"
+            )
+    return out
+
+
+def _same_altitude(path: Path, cand: list[str]) -> str | None:
+    """The column to use when all of ``cand`` state a unit of length and hold the same altitude
+    (after the unit conversion, 99 % of the rows within 0.5 % of the altitude's span): the one
+    in metres, else the first; None when they differ or a unit is not stated."""
+    import numpy as np
+    import pandas as pd
+
+    units = []
+    for c in cand:
+        try:
+            u = column_unit(c, "length")
+        except StudyDefinitionError:
+            return None
+        if u is None:
+            return None
+        units.append(u)
+    try:
+        df = pd.read_csv(path, usecols=cand, sep=None, engine="python", encoding="utf-8-sig",
+                         comment="#")  # fmt: skip
+        df.columns = [str(c).strip() for c in df.columns]
+        to_m = {"m": 1.0, "ft": 0.3048, "km": 1000.0}
+        vals = [pd.to_numeric(df[c], errors="coerce").to_numpy(float) * to_m[u]
+                for c, u in zip(cand, units)]  # fmt: skip
+    except (ValueError, KeyError, OSError):
+        return None
+    ref = vals[0]
+    span = float(np.nanmax(ref) - np.nanmin(ref)) if np.isfinite(ref).any() else 0.0
+    if span <= 0:
+        return None
+    for v in vals[1:]:
+        both = np.isfinite(ref) & np.isfinite(v)
+        if both.sum() < 10 or np.mean(np.abs(ref[both] - v[both]) <= 0.005 * span) < 0.99:
+            return None
+    return cand[units.index("m")] if "m" in units else cand[0]
