@@ -138,6 +138,12 @@ def test_wind_realisations_are_seeded_and_averaged(tmp_path):
     assert np.all(np.isfinite(a.evaluate(X)[0]))
 
 
+def test_wind_uncertainty_without_realisations_is_refused(tmp_path):
+    spec = _study(tmp_path, extra={"wind_uncertainty": {"sigma_speed": 1.0}})
+    with pytest.raises(StudyDefinitionError, match="wind_uncertainty.*wind_realisations = 1"):
+        Identification.from_spec(spec)
+
+
 @pytest.mark.parametrize(
     ("mutate", "needle"),
     [

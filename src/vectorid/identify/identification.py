@@ -382,6 +382,13 @@ class Identification:
                 f"expected an integer >= 1, got {wind_realisations!r}",
                 "use 1 for the measured profile only",
             )
+        if m == 1 and wind_uncertainty:
+            raise _err(
+                "wind_uncertainty",
+                "has no effect with wind_realisations = 1 (the measured profile only)",
+                "set wind_realisations = 4 (or more) to fly the model in perturbed winds, "
+                "or remove wind_uncertainty",
+            )
         self.wind_realisations = m
         self.seed = int(seed)
         self.atmosphere = atmosphere
