@@ -149,8 +149,43 @@ class InitialState:
             object.__setattr__(self, name, tuple(float(z) for z in a))
 
 
+class ChannelResult:
+    """What every batch simulation result offers: channels by name, the trials that finished
+    and one message per trial (a base of :class:`SimulationResult` and of
+    :class:`vectorid.models.system.SystemResult`, which hold ``outputs``, ``channels``,
+    ``status`` and ``t_fail``)."""
+
+    outputs: NDArray[np.float64]
+    channels: tuple[str, ...]
+    status: NDArray[np.int64]
+    t_fail: NDArray[np.float64]
+
+    def __getitem__(self, channel: str) -> NDArray[np.float64]:
+        """Output channel by name, shape (n, T)."""
+        try:
+            return self.outputs[:, :, self.channels.index(channel)]
+        except ValueError:
+            raise KeyError(
+                f"no output channel {channel!r}; available: {', '.join(self.channels)}"
+            ) from None
+
+    @property
+    def ok(self) -> NDArray[np.bool_]:
+        """Mask of trials that finished (status 0)."""
+        return self.status == STATUS_OK
+
+    @property
+    def messages(self) -> list[str]:
+        """One message per trial explaining its status."""
+        out = []
+        for s, tf in zip(self.status.tolist(), self.t_fail.tolist()):
+            msg = STATUS_MESSAGES.get(s, f"unknown status {s}")
+            out.append(msg if s == STATUS_OK or not np.isfinite(tf) else f"{msg} (t = {tf:g} s)")
+        return out
+
+
 @dataclass
-class SimulationResult:
+class SimulationResult(ChannelResult):
     """Outputs of a batch simulation on the output grid.
 
     Attributes
@@ -193,29 +228,6 @@ class SimulationResult:
         self.airspeed = y[:, :, 12]
         self.alpha = y[:, :, 13]
         self.beta = y[:, :, 14]
-
-    def __getitem__(self, channel: str) -> NDArray[np.float64]:
-        """Output channel by name, shape (n, T)."""
-        try:
-            return self.outputs[:, :, self.channels.index(channel)]
-        except ValueError:
-            raise KeyError(
-                f"no output channel {channel!r}; available: {', '.join(self.channels)}"
-            ) from None
-
-    @property
-    def ok(self) -> NDArray[np.bool_]:
-        """Mask of trials that finished (status 0)."""
-        return self.status == STATUS_OK
-
-    @property
-    def messages(self) -> list[str]:
-        """One message per trial explaining its status."""
-        out = []
-        for s, tf in zip(self.status.tolist(), self.t_fail.tolist()):
-            msg = STATUS_MESSAGES.get(s, f"unknown status {s}")
-            out.append(msg if s == STATUS_OK or not np.isfinite(tf) else f"{msg} (t = {tf:g} s)")
-        return out
 
 
 class Model(abc.ABC):

@@ -43,10 +43,9 @@ from typing import Any, ClassVar
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vectorid.models.base import Channel, Parameter, _validate_time
+from vectorid.models.base import Channel, ChannelResult, Parameter, _validate_time
 from vectorid.models.integrate import (
     STATUS_BAD_PARAMETER,
-    STATUS_MESSAGES,
     STATUS_NONFINITE,
     STATUS_OK,
 )
@@ -55,7 +54,7 @@ __all__ = ["SystemModel", "SystemResult"]
 
 
 @dataclass
-class SystemResult:
+class SystemResult(ChannelResult):
     """Outputs of a batch simulation of a :class:`SystemModel` on the output grid.
 
     Attributes
@@ -80,29 +79,6 @@ class SystemResult:
     t_fail: NDArray[np.float64]
     params: NDArray[np.float64]
     model: str
-
-    def __getitem__(self, channel: str) -> NDArray[np.float64]:
-        """Output channel by name, shape (n, T)."""
-        try:
-            return self.outputs[:, :, self.channels.index(channel)]
-        except ValueError:
-            raise KeyError(
-                f"no output channel {channel!r}; available: {', '.join(self.channels)}"
-            ) from None
-
-    @property
-    def ok(self) -> NDArray[np.bool_]:
-        """Mask of trials that finished (status 0)."""
-        return self.status == STATUS_OK
-
-    @property
-    def messages(self) -> list[str]:
-        """One message per trial explaining its status."""
-        out = []
-        for s, tf in zip(self.status.tolist(), self.t_fail.tolist()):
-            msg = STATUS_MESSAGES.get(s, f"unknown status {s}")
-            out.append(msg if s == STATUS_OK or not np.isfinite(tf) else f"{msg} (t = {tf:g} s)")
-        return out
 
 
 class SystemModel(abc.ABC):  # noqa: B024 - either hook (rhs or _simulate) is the one to write
