@@ -157,14 +157,16 @@ class Stage:
 
 def _unconverged(verdicts: list, summary: Any) -> None:
     """A sequential run that did not converge has no faithful sample of D: a range read from
-    it may be too narrow, so no variable is called identified (demoted to weak, saying why)."""
+    it may be too narrow (or miss part of D), so no variable is called identified or weak —
+    each is "not identified", saying why; the range printed is the sampled set's."""
     why = (
         f"the sequential sampler did not converge (D: {summary.members} members, ESS "
-        f"{summary.ess:.0f} of {summary.population} wanted), so its range may be too narrow"
+        f"{summary.ess:.0f} of {summary.population} wanted): the range is that of the trials "
+        "sampled, not of D, and may be too narrow"
     )
     for v in verdicts:
-        if v.verdict == "identified":
-            v.verdict = "weak"
+        if v.verdict != "not identified":
+            v.verdict = "not identified"
             v.reason = f"{why}; {v.reason}" if v.reason else why
             v.suggestion = "raise the budget and run again"
 

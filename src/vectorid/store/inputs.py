@@ -314,7 +314,13 @@ def code_hashes(spec: Any) -> dict[str, Any]:
         return _vectorid_sources("analytic")  # a built-in analytic problem
     elif isinstance(model, str):
         module = model.partition(":")[0]
-        root = _top_module_file(module, base)
+        if module == "__main__":
+            # a function of the running script, stored as "__main__:name" (the Python API):
+            # the script's file is its code, as when the study was created from it
+            main_file = getattr(sys.modules.get("__main__"), "__file__", None)
+            root = Path(main_file).resolve() if main_file and Path(main_file).is_file() else None
+        else:
+            root = _top_module_file(module, base)
         if root is None:
             return {}  # the builder reports the missing module
         if _inside(root, _vectorid_dir()):
