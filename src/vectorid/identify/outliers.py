@@ -165,7 +165,12 @@ def drop_spikes(fd, source: str = "", policy: str = "drop"):
         if ch.t.size < 8:
             continue
         floor = SPIKE_FLOORS.get(name, 0.0)
-        sp = find_spikes(ch.t, ch.values, floor=floor)
+        values = np.asarray(ch.values, dtype=float)
+        period = {"rad": 2.0 * np.pi, "deg": 360.0}.get(ch.unit)
+        if period is not None and np.isfinite(values).all():
+            # an angle that wraps (a heading through 360° -> 0°) is continuous, not a spike
+            values = np.unwrap(values, axis=0, period=period)
+        sp = find_spikes(ch.t, values, floor=floor)
         if floor == 0.0 and len(sp):
             # a channel without a length or speed floor (angles, rates, controls, ...): its
             # first and last samples stay (an oscillation's edge is not a glitch); inside, a
