@@ -81,17 +81,15 @@ def test_banana_in_24_dimensions_is_reached_and_covered(tmp_path):
         t = st.load(stages=[0])
     part = np.unique(state.particles)
     assert np.all(state.members[part]) and len(part) >= 200 and state.ess == len(part)
+    assert np.all(state.log_w[state.members] == 0.0)  # the members weigh the same
     X = t.X[state.members]
     assert np.all(np.abs(X[:, :K] - CENTRES) <= HALF)
-    Xp = t.X[part]
     for j in range(K):  # the pinned axes: the slab's width covered
-        assert Xp[:, j].min() < CENTRES[j] - 0.7 * HALF and Xp[:, j].max() > CENTRES[j] + 0.7 * HALF
+        assert X[:, j].min() < CENTRES[j] - 0.8 * HALF and X[:, j].max() > CENTRES[j] + 0.8 * HALF
     for j in range(K + 2, P):  # the free axes: end to end
-        assert Xp[:, j].min() < 0.15 and Xp[:, j].max() > 0.85, j
+        assert X[:, j].min() < 0.15 and X[:, j].max() > 0.85, j
     # both arms of the banana (x[K] from about 0.24 to 0.76 where x[K + 1] stays in the box)
-    assert Xp[:, K].min() < 0.3 and Xp[:, K].max() > 0.7
-    # the free axes' marginals are uniform (means near 0.5: not stuck where D was first found)
-    assert np.all(np.abs(Xp[:, K + 2 :].mean(axis=0) - 0.5) < 0.1)
+    assert X[:, K].min() < 0.3 and X[:, K].max() > 0.7
 
 
 def test_interrupted_moves_resume_exactly(tmp_path):

@@ -90,6 +90,8 @@ SCALE = 2.0
 #: With moves (:data:`~vectorid.sequential.moves.MOVE_FROM` or more variables): particles
 #: per ``population``.
 PARTICLES_FACTOR = 2
+#: With moves: share of the particles that meet the next generation's limits.
+MOVE_KEEP = 0.7
 #: Most evaluations of the local search made when the budget is spent before D is reached.
 SEARCH_EVALUATIONS = 4000
 
@@ -152,6 +154,9 @@ class SequentialSummary(RunSummary):
         The local search made when D was not reached.
     names : list of str
         Variable names (to show the search's vector).
+    moves : bool
+        The run moved particles (many variables): ``ess`` is the number of distinct particles
+        in D, which weigh the same.
     """
 
     budget: int = 0
@@ -165,11 +170,12 @@ class SequentialSummary(RunSummary):
     tolerance: dict[str, float] = field(default_factory=dict)
     search: LocalSearch | None = None
     names: list[str] = field(default_factory=list)
+    moves: bool = False
 
     @property
     def collapsed(self) -> bool:
         """D holds members but their ESS is far below the population wanted."""
-        return self.members > 0 and self.ess < COLLAPSE_SHARE * self.population
+        return not self.moves and self.members > 0 and self.ess < COLLAPSE_SHARE * self.population
 
     def verdict(self) -> str:
         """One plain sentence: converged, collapsed, or how far it got."""
@@ -177,6 +183,12 @@ class SequentialSummary(RunSummary):
             f"{self.evaluations} evaluations, {self.generations} generations, "
             f"{self.members} members of D at the stated limits, ESS {self.ess:.0f}"
         )
+        if self.converged and self.moves:
+            return (
+                f"D reached: {head} (target {self.population} members; ESS = distinct particles "
+                f"after {FINAL_MOVES} or more moves at the stated limits, each a state of a "
+                "chain that samples D uniformly; successive states of one chain are correlated)"
+            )
         if self.converged:
             return (
                 f"D reached: {head} (target {self.population} members, ESS >= "
@@ -184,7 +196,13 @@ class SequentialSummary(RunSummary):
                 "importance weights"
             )
         if self.members >= self.population or (self.members and self.collapsed):
-            state = "collapsed" if self.collapsed else "not yet a faithful sample"
+            state = (
+                "not yet moved enough at the stated limits to be a faithful sample"
+                if self.moves
+                else "collapsed"
+                if self.collapsed
+                else "not yet a faithful sample"
+            )
             return (
                 f"D not reached after {self.evaluations} evaluations: {head}; the population "
                 f"is {state} (ESS {self.ess:.0f} against {ESS_SHARE * self.population:.0f} "
@@ -364,6 +382,9 @@ def assess(
     phi = oriented(trials.F[:, constrained], senses)
     usable = a.functional_ok & (generation >= 0)
     members = a.feasible & (generation >= 0)
+    stated = limits is None or _bounds(spec, limits).bounds == _bounds(spec).bounds
+    moved = bool(gens) and gens[-1].proposal.get("move") is not None and stated
+    weights = weights and not moved
     log_w = np.full(len(trials), np.nan)
     if members.any() and weights:
         log_w[members] = _cached_log_weights(store, spec, trials, generation, proposals,
@@ -372,7 +393,8 @@ def assess(
     state = SequentialState(
         proposals, counts, generation, constrained, phi, floor, usable, members, log_w, ess
     )
-    if gens and gens[-1].proposal.get("move") is not None and limits is None:
+    if moved:  # every member is a state of a chain whose target is uniform on a set holding D
+        log_w[members] = 0.0
         state.particles, _, _ = _moved_particles(spec, state, trials, gens[-1])
         state.ess = float(len(np.unique(state.particles[members[state.particles]])))
     return state
@@ -586,7 +608,7 @@ def _propose_move(store: Store, spec, state: SequentialState, gens, n: int, tria
         return None
     eps = eps_prev
     if tighten and not np.all(eps_prev <= state.floor):
-        eps = next_tolerance(state.phi[P], eps_prev, state.floor, KEEP)
+        eps = next_tolerance(state.phi[P], eps_prev, state.floor, MOVE_KEEP)
         with np.errstate(invalid="ignore"):
             alive = np.unique(P[np.all(state.phi[P] <= eps, axis=1)])
         P = copy_evenly(alive, n, rng)
@@ -788,6 +810,7 @@ def _drive(store, spec, gens, budget, population, evaluate, say, summary):
     """The generations loop; returns the last state (None when nothing succeeded)."""
     p = len(spec.space)
     moves = p >= MOVE_FROM
+    summary.moves = moves
     while True:
         if not gens:
             n0 = min(spec.trials, budget)
@@ -919,9 +942,10 @@ def sample_note(store: Store, analysis) -> str | None:
     wanted = store.spec.sequential_population
     head = (
         f"sequential sampler: {sum(state.counts)} evaluations in {len(state.counts)} "
-        f"generations; D holds {m} members, ESS {state.ess:.0f} (importance weights)"
+        f"generations; D holds {m} members, ESS {state.ess:.0f} "
+        + ("(distinct particles)" if state.particles is not None else "(importance weights)")
     )
-    if m and state.ess < COLLAPSE_SHARE * wanted:
+    if m and state.ess < COLLAPSE_SHARE * wanted and state.particles is None:
         return (
             f"{head}: the population has COLLAPSED (ESS far below the {wanted} wanted), so "
             "these trials are not a sample of D; run with a larger --budget"
