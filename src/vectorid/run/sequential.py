@@ -17,6 +17,12 @@ trial; the parts that only compute live in :mod:`vectorid.sequential`.
    (:mod:`vectorid.sequential.kernel`) and draws ``GENERATION_FACTOR x population`` points
    inside the box from it. The generation (its points and kernel) is recorded *before* it
    is evaluated.
+4. With :data:`~vectorid.sequential.moves.MOVE_FROM` or more variables the importance
+   weights degenerate, so generations 1, 2, ... instead move ``PARTICLES_FACTOR x
+   population`` equally weighted particles by random-walk Metropolis steps inside the
+   current limits (:mod:`vectorid.sequential.moves`); the run has converged when the limits
+   are the stated ones, the particles have made ``FINAL_MOVES`` moves there and at least
+   ``population`` of them are distinct members of D (their number is the ESS printed).
 
 Resume: generation ``g``'s points are a deterministic function of the seed, ``g``, the study's
 limits and the stored trials of generations ``< g``; they are stored before evaluation, so a
@@ -76,9 +82,9 @@ __all__ = [
 ]
 
 #: Later generations propose this many times ``population`` points.
-GENERATION_FACTOR = 4
+GENERATION_FACTOR = 2
 #: Share of the accepted population that meets the next generation's limits.
-KEEP = 0.5
+KEEP = 0.3
 #: The run has converged when D's ESS reaches this share of ``population``.
 ESS_SHARE = 1.0
 #: Below this share of ``population``, D's ESS means the population has collapsed.
@@ -859,7 +865,7 @@ def _drive(store, spec, gens, budget, population, evaluate, say, summary):
             made = _propose_move(store, spec, state, gens, PARTICLES_FACTOR * population,
                                  trials, budget - evaluations)  # fmt: skip
         else:
-            n = min(GENERATION_FACTOR * population, budget - evaluations)
+            n = min(int(GENERATION_FACTOR * population), budget - evaluations)
             made = _propose(store, spec, state, gens, n, trials)
         if made is None:
             say("the proposal puts almost no mass inside the box: stopped")
