@@ -274,7 +274,8 @@ def test_a_log_without_the_altitude_column_says_which(adds_log, tmp_path):
     path, _, _ = adds_log
     with pytest.raises(FlightDataError, match="'alt'.*alt_m"):
         identify_descent(
-            _plan(path, mapping={"time": "t_s", "altitude": {"column": "alt"}}), tmp_path
+            _plan(path, mapping={"time": "t_s", "altitude": {"column": "alt", "unit": "m"}}),
+            tmp_path,
         )
 
 

@@ -115,8 +115,8 @@ def check_descent(
         raise _err(
             "altitude unit",
             said,
-            "the altitude looks like metres read as feet: leave --altitude-unit ft out (or "
-            "check the mass and the drag areas)",
+            "the altitude looks like metres read as feet: give --altitude-unit m (or check the "
+            "mass and the drag areas)",
         )
 
 
