@@ -183,7 +183,69 @@ class LogFormat:
     named: str | None = None
 
 
+#: A field that reads as a number (a decimal point or comma), an ISO 8601 date, or no value.
+_NUMERIC = re.compile(
+    r"^\s*([-+]?(\d+([.,]\d*)?|[.,]\d+)([eE][-+]?\d+)?|\d{4}-\d\d-\d\d[T ][\d:.]+Z?"
+    r"|nan|NaN|NAN|)\s*$"
+)
+_DECIMAL_COMMA = re.compile(r"^\s*[-+]?\d+,\d+\s*$")
+
+
+@dataclass(frozen=True)
+class _Layout:
+    """Where a generic CSV's header is and how its fields are written."""
+
+    line: int  # the header's line number (1-based)
+    first: int  # the first non-empty, non-comment line (text before the header: line > first)
+    delimiter: str
+    decimal: str
+    names: list[str]
+
+
+def _split(line: str, delim: str) -> list[str]:
+    import csv
+
+    return next(csv.reader([line], delimiter=delim, skipinitialspace=True), [])
+
+
+def _layout(path: Path) -> _Layout | None:
+    """The header of a generic CSV: the first line of at least two fields, not all numbers,
+    followed by rows of as many fields, each with a number in it (text lines before it, as
+    loggers write a title or a date, are not the header); its delimiter; and whether the
+    numbers are written with a decimal comma (``12,5`` in a ``;``- or tab-separated file)."""
+    import csv
+
+    lines: list[tuple[int, str]] = []
+    with path.open(encoding="utf-8-sig", errors="replace", newline="") as fh:
+        for lineno, line in enumerate(fh, start=1):
+            if line.strip() and not line.lstrip().startswith("#"):
+                lines.append((lineno, line.rstrip("\r\n")))
+            if len(lines) >= 40:
+                break
+    for i, (lineno, line) in enumerate(lines[:30]):
+        try:
+            delim = csv.Sniffer().sniff(line, delimiters=",;\t").delimiter
+        except csv.Error:
+            delim = ","
+        names = _split(line, delim)
+        if len(names) < 2 or all(_NUMERIC.match(f) for f in names):
+            continue
+        rows = [_split(ln, delim) for _, ln in lines[i + 1 : i + 6]]
+        if not rows or any(
+            len(r) != len(names) or not any(_NUMERIC.match(f) and f.strip() for f in r)
+            for r in rows
+        ):
+            continue
+        comma = delim != "," and any(_DECIMAL_COMMA.match(f) for r in rows for f in r)
+        return _Layout(lineno, lines[0][0], delim, "," if comma else ".",
+                       [c.strip() for c in names])  # fmt: skip
+    return None
+
+
 def _header(path: Path) -> list[str]:
+    lay = _layout(path)
+    if lay is not None:
+        return lay.names
     import csv
 
     with path.open(encoding="utf-8-sig", errors="replace") as fh:
@@ -195,6 +257,33 @@ def _header(path: Path) -> list[str]:
                     delim = ","
                 return [c.strip() for c in next(csv.reader([line], delimiter=delim))]
     return []
+
+
+def _data_rows(path: Path, lay: _Layout | None):
+    """``(line number, fields)`` of the data rows after the header (decimal commas made
+    points)."""
+    import csv
+
+    with path.open(encoding="utf-8-sig", errors="replace", newline="") as fh:
+        header_seen = False
+        delim = "," if lay is None else lay.delimiter
+        for lineno, line in enumerate(fh, start=1):
+            if not line.strip() or line.lstrip().startswith("#"):
+                continue
+            if not header_seen:
+                if lay is None:
+                    try:
+                        delim = csv.Sniffer().sniff(line, delimiters=",;\t").delimiter
+                    except csv.Error:
+                        delim = ","
+                    header_seen = True
+                elif lineno == lay.line:
+                    header_seen = True
+                continue
+            row = next(csv.reader([line], delimiter=delim), [])
+            if lay is not None and lay.decimal == ",":
+                row = [c.replace(",", ".") for c in row]
+            yield lineno, row
 
 
 def detect_format(
@@ -281,7 +370,22 @@ def detect_format(
             )  # fmt: skip
         return LogFormat(fmt, None, [])
     notes: list[str] = []
+    lay = _layout(p) if fmt == "csv" else None
     names = _header(p) if fmt == "csv" else []
+    if lay is not None:
+        if lay.line > lay.first:
+            extra.setdefault("header_line", lay.line)
+            notes.append(
+                f"the header is line {lay.line}: the text before it (from line {lay.first}) is "
+                "not data"
+            )
+        if lay.decimal == ",":
+            extra.setdefault("decimal", ",")
+            extra.setdefault("delimiter", lay.delimiter)
+            notes.append(
+                f"numbers written with a decimal comma (12,5), fields separated by "
+                f"{lay.delimiter!r}: read as such"
+            )
     cols = dict(columns or {})
     named = named_csv(names) if fmt == "csv" and format is None else None
     if named is not None:
@@ -393,28 +497,26 @@ def detect_format(
 
 def _iso_times(path: Path, col: str) -> bool:
     """Whether the column ``col`` holds ISO 8601 dates (its first five values parse as such)."""
-    import csv
-
     import numpy as np
 
-    with path.open(encoding="utf-8-sig", errors="replace", newline="") as fh:
-        rows = [ln for ln in fh if ln.strip() and not ln.lstrip().startswith("#")][:6]
-    if len(rows) < 2:
+    lay = _layout(path)
+    names = lay.names if lay is not None else _header(path)
+    if col not in names:
+        return False
+    k = names.index(col)
+    vals: list[str] = []
+    for _, row in _data_rows(path, lay):
+        if k < len(row):
+            vals.append(row[k].strip())
+        if len(vals) >= 5:
+            break
+    if not vals:
         return False
     try:
-        delim = csv.Sniffer().sniff(rows[0], delimiters=",;\t").delimiter
-    except csv.Error:
-        delim = ","
-    header = [c.strip() for c in next(csv.reader([rows[0]], delimiter=delim))]
-    if col not in header:
-        return False
-    k = header.index(col)
-    try:
-        vals = [next(csv.reader([r], delimiter=delim))[k].strip() for r in rows[1:]]
         return all(re.match(r"^\d{4}-\d\d-\d\d[T ]\d", v) for v in vals) and all(
             not np.isnat(np.datetime64(v.rstrip("Z").replace(" ", "T"))) for v in vals
         )
-    except (IndexError, ValueError):
+    except ValueError:
         return False
 
 
@@ -451,7 +553,6 @@ def _flight_part(
 
     Options the user gave (``first_line``, ``last_line``, ``max_gap``) are kept as given.
     """
-    import csv
 
     from vectorid.identify.loaders import DEFAULT_MAX_GAP
 
@@ -460,30 +561,18 @@ def _flight_part(
         return {}
     lines: list[int] = []
     times: list[float] = []
-    with path.open(encoding="utf-8-sig", errors="replace", newline="") as fh:
-        header: list[str] | None = None
-        idx = -1
-        delim = ","
-        for lineno, line in enumerate(fh, start=1):
-            if not line.strip() or line.lstrip().startswith("#"):
-                continue
-            if header is None:
-                try:
-                    delim = csv.Sniffer().sniff(line, delimiters=",;\t").delimiter
-                except csv.Error:
-                    delim = ","
-                header = [c.strip() for c in next(csv.reader([line], delimiter=delim))]
-                if time_col not in header:
-                    return {}
-                idx = header.index(time_col)
-                continue
-            row = next(csv.reader([line], delimiter=delim), [])
-            try:
-                v = float(row[idx]) * factor
-            except (IndexError, ValueError):
-                continue
-            lines.append(lineno)
-            times.append(v)
+    lay = _layout(path)
+    names = lay.names if lay is not None else _header(path)
+    if time_col not in names:
+        return {}
+    idx = names.index(time_col)
+    for lineno, row in _data_rows(path, lay):
+        try:
+            v = float(row[idx]) * factor
+        except (IndexError, ValueError):
+            continue
+        lines.append(lineno)
+        times.append(v)
     if len(times) < 3:
         return {}
     import numpy as np
@@ -550,8 +639,14 @@ def _same_altitude(path: Path, cand: list[str]) -> str | None:
             return None
         units.append(u)
     try:
-        df = pd.read_csv(path, usecols=cand, sep=None, engine="python", encoding="utf-8-sig",
-                         comment="#")  # fmt: skip
+        lay = _layout(path)
+        if lay is None:
+            df = pd.read_csv(path, usecols=cand, sep=None, engine="python",
+                             encoding="utf-8-sig", comment="#")  # fmt: skip
+        else:
+            df = pd.read_csv(path, usecols=cand, sep=lay.delimiter, decimal=lay.decimal,
+                             skiprows=range(lay.line - 1), encoding="utf-8-sig",
+                             comment="#", skipinitialspace=True)  # fmt: skip
         df.columns = [str(c).strip() for c in df.columns]
         to_m = {"m": 1.0, "ft": 0.3048, "km": 1000.0}
         vals = [pd.to_numeric(df[c], errors="coerce").to_numpy(float) * to_m[u]
