@@ -166,8 +166,36 @@ def run_flight(name: str, data: Path, out: Path, trials: int, seed: int = 1):
     return identify_descent(plan, out)
 
 
+def command(name: str, data: str = "../shared/data") -> str:
+    """The ``vectorid descent`` command of a flight of :data:`FLIGHTS`: the same plan, from
+    the command line (``--commands`` prints them all; docs/descent.md lists them)."""
+    rel, kw, _ = FLIGHTS[name]
+
+    def num(v: float) -> str:
+        return format(float(v), ".10g")
+
+    args = [".venv/bin/vectorid", "descent", f"{data}/{rel}"]
+    for key, value in kw.items():
+        if isinstance(value, Canopy):
+            if value.cds is not None:
+                args += [f"--{key}-cds", num(value.cds)]
+            else:
+                args += [f"--{key}-diameter", f"{num(value.diameter / INCH)}in"]
+                if value.cd is not None:
+                    args += [f"--{key}-cd", num(value.cd)]
+        elif isinstance(value, float | int):
+            args += [f"--{key.replace('_', '-')}", num(value)]
+        else:
+            args += [f"--{key.replace('_', '-')}", str(value)]
+    return " ".join(args) + f" --out {_slug(name)}"
+
+
 def _slug(name: str) -> str:
-    return "".join(c if c.isalnum() else "-" for c in name.lower()).strip("-")
+    import re
+    import unicodedata
+
+    plain = unicodedata.normalize("NFKD", name).encode("ascii", "ignore").decode()
+    return re.sub(r"[^a-z0-9]+", "-", plain.lower()).strip("-")
 
 
 def table(results: dict[str, Any]) -> str:
@@ -215,7 +243,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", default="descent-gallery", help="folder of the stores")
     ap.add_argument("--json", action="store_true", help="print every result as JSON")
     ap.add_argument("--only", nargs="*", help="flights to run (names of the table)")
+    ap.add_argument(
+        "--commands", action="store_true",
+        help="print each flight's `vectorid descent` command instead of running them",
+    )  # fmt: skip
     args = ap.parse_args(argv)
+    if args.commands:
+        for n in args.only or list(FLIGHTS):
+            print(f"# {n}\n{command(n)}")
+        return 0
     data = Path(args.data)
     if not data.is_dir():
         print(f"error: no shared data folder at {data}; give its path", file=sys.stderr)

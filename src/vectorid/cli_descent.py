@@ -273,10 +273,9 @@ def _noise(text: str) -> float | str:
     return v
 
 
-def _cmd_descent(args: argparse.Namespace) -> int:
-    from .cli import _print_json
-    from .descent import DescentPlan, identify_descent
-    from .errors import StudyDefinitionError, VectoridError
+def plan_from_args(args: argparse.Namespace):
+    """The :class:`~vectorid.descent.DescentPlan` of a parsed ``vectorid descent`` command."""
+    from .descent import DescentPlan
 
     windows = {}
     for c in ("drogue", "main"):
@@ -322,6 +321,15 @@ def _cmd_descent(args: argparse.Namespace) -> int:
         trials=args.trials,
         seed=args.seed,
     )
+    return plan
+
+
+def _cmd_descent(args: argparse.Namespace) -> int:
+    from .cli import _print_json
+    from .descent import identify_descent
+    from .errors import StudyDefinitionError, VectoridError
+
+    plan = plan_from_args(args)
     try:
         result = identify_descent(plan, args.out)
     except VectoridError:
