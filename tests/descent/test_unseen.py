@@ -158,3 +158,18 @@ def test_what_cannot_be_read_is_one_line_and_exit_2(tmp_path, capsys, text, opts
     assert "Traceback" not in err
     lines = [ln for ln in err.splitlines() if ln.startswith("error:")]
     assert len(lines) == 1 and says in lines[0], err
+
+
+def test_an_altitude_above_sea_level_is_not_taken_for_one_above_the_pad(tmp_path, capsys):
+    t, h, _ = _bella()
+    path = tmp_path / "msl.csv"
+    path.write_text("time (s),Altitude (m MSL)\n" + _lines(t, h + 407.0))
+    code, _, err = _cli([path, *STATED, "--out", tmp_path / "o"], capsys)
+    lines = [ln for ln in err.splitlines() if ln.startswith("error:")]
+    assert code == 2 and len(lines) == 1 and "--altitude-reference msl" in lines[0], err
+    assert "Traceback" not in err
+    # said so, it is the clean log's descent (the same drag areas)
+    _, flight, _, _, _ = _load(_plan(path, []))
+    _, clean, _, _, _ = _load(_plan(BELLA, []))
+    np.testing.assert_allclose(flight["altitude"].values[:, 0] - 407.0,
+                               clean["altitude"].values[:, 0], atol=1e-6)  # fmt: skip
