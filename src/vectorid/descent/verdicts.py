@@ -179,10 +179,11 @@ def verdict(
                 short.append(f"alt RMS {rms:.1f} m, within the noise floor ({floor:.1f} m)")
         elif rms > RMS_GOAL or rms > 1.5 * floor:  # say so in the table too
             said = empty and (r.empty_by or "").startswith("alt_")  # the D-empty clause has it
-            short.append(
-                f"{'' if said else f'alt RMS {rms:.1f} m '}(noise floor {floor:.1f} m, no "
-                f"constant drag area < {rb:.1f} m{'; baro error not in GPS' if baro else ''})"
+            what = (
+                f"noise floor {floor:.1f} m, no constant drag area < {rb:.1f} m"
+                f"{'; baro error not in GPS' if baro else ''}"
             )
+            short.append(what if said else f"alt RMS {rms:.1f} m ({what})")
     if r.sensor_disagreement_m is not None and rms is not None and rms > 5.0:
         parts.append(
             f"the log's GPS and barometric heights disagree by {r.sensor_disagreement_m:.1f} "
