@@ -316,6 +316,13 @@ def test_parallel_brushes_are_two_sided_selections_made_constraints_on_request(c
     dims = fig.data[0].dimensions
     assert [d.name for d in dims] == names
     assert all(d.constraintrange is None for d in dims)  # constraints are not brushes here
+    # the lines go to the page's own canvas (layout.meta.lines), plotly.js keeps the axes
+    lines = fig.layout.meta["lines"]
+    shown = sum(fig.data[0].meta["shown"].values())
+    assert set(lines["values"]) == set(names) and lines["mode"] == "set"
+    assert all(len(_arr(v)) == shown for v in lines["values"].values())
+    assert sorted(set(_arr(lines["color"]).tolist())) <= [0, 1, 2]
+    assert all(len(_arr(d.values)) == 2 for d in dims)
     # two ranges on f2 (both edges kept, not snapped to an end) and one on x1: a selection
     sel = {"kind": "ranges", "ranges": {"f2": [[5.0, 12.0], [20.0, 30.0]], "x1": [[1, 2]]}}
     a = _direct(bk, {"f1": 40.0})

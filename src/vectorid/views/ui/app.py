@@ -76,6 +76,7 @@ font-size:12px;background:#fff}
 .verdict{border:1px solid #999;border-radius:3px;padding:0 5px;white-space:nowrap}
 .v-identified{font-weight:700;background:#e9e9e9}.v-weak{font-style:italic}
 .v-not-identified{border-style:dashed;color:#444}
+#par-graph .gl-canvas{visibility:hidden}#par-graph .gl-canvas-pick{pointer-events:none !important}
 .busy{visibility:hidden;color:#a15c00;font-size:13px}
 body:has([data-dash-is-loading="true"]) .busy{visibility:visible}
 #vid-counts[data-dash-is-loading="true"] b{opacity:.4}
