@@ -911,3 +911,21 @@ def test_the_first_rows_of_a_test_table_are_those_of_the_full_sort(bk):
         for top in (0, 1, 5, 50, len(full.ids) + 3):
             t = a.test_table(name, top=top)
             assert np.array_equal(t.ids, full.ids[:top]) and (t.min, t.max) == (full.min, full.max)
+
+
+def test_histograms_counted_over_d_alone_match_the_plain_ones(ctx):
+    """The explorer's histograms (every-trial counts kept, D and Pareto counted over their
+    own rows) equal analysis.histograms under several constraint sets."""
+    from vectorid.analysis.histograms import histograms
+    from vectorid.views.ui.context import analysis_of
+    from vectorid.views.ui.explore import fast_histograms
+
+    for texts in (["40", ""], ["20", "30"], ["", ""]):
+        a, _ = analysis_of(ctx, texts, PURE2)
+        fast, plain = fast_histograms(ctx, a, min_trials=0), histograms(a)
+        assert [h.param for h in fast] == [h.param for h in plain]
+        for f, p in zip(fast, plain):
+            assert np.array_equal(f.edges, p.edges) and f.n_outside == p.n_outside
+            for k in ("all", "feasible", "pareto"):
+                assert np.array_equal(getattr(f, k), getattr(p, k)), (f.param, k)
+        assert sum(fast[0].feasible) == a.n_feasible > 0 or not texts[0]

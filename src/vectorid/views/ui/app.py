@@ -220,7 +220,7 @@ def create_app(
         progress_of=lambda: cache.version()[0],
     )
     ctx = cb.UIContext(cache=cache, jobs=jobs, max_points=max_points)
-    cache.analysis()  # load and compile (numba) before the first request
+    _warm(ctx)  # load, compile (numba) and keep what the first page needs
     jobs.warm()  # the job worker imports vectorid while the page loads
 
     server = flask.Flask("vectorid.ui", static_folder=None)
@@ -286,6 +286,23 @@ def create_app(
     detail.register(app, ctx, w)
     _register_jobs(app, ctx, w)
     return app, ctx
+
+
+def _warm(ctx: cb.UIContext) -> None:
+    """Before the first request: the store loaded and analysed (numba compiled), each
+    trial's histogram bin and the default criterion plot's density cells kept (see
+    :func:`~vectorid.views.ui.explore.fast_histograms`, :func:`~vectorid.views.clouds.
+    cloud_traces`), so that the first page and the first typed limit count only D."""
+    from .. import clouds
+    from .explore import histograms_of, trials_memo
+
+    a = ctx.cache.analysis()
+    if a.n:
+        histograms_of(ctx, a)
+        x, y = explore.default_axes(ctx)
+        clouds.scatter_figure(
+            a, x, y, max_points=ctx.max_points, raw=True, memo=trials_memo(ctx, a, "scatter")
+        )
 
 
 #: The fields of the view's state besides the constraints, in the order of the URL callbacks.
