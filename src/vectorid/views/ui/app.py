@@ -21,7 +21,7 @@ from typing import Any
 
 from . import callbacks as cb
 from . import client
-from .data import StoreCache
+from .data import FreedMemoryReleaser, StoreCache
 from .jobs import JobManager
 from .pages import detail, explore, sets
 from .pages.common import Wiring, err
@@ -243,6 +243,12 @@ def create_app(
         return f"bad request: {type(exc).__name__}", 400
 
     server.register_error_handler(Exception, _bad_request)
+    releaser = FreedMemoryReleaser()
+
+    @server.teardown_request
+    def _release(_exc: Any = None) -> None:  # freed temporaries back after a burst
+        releaser.poke()
+
     _compress(server)
 
     bundle = PLOTLY_BUNDLE.read_bytes()

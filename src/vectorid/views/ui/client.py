@@ -298,6 +298,7 @@ function parCanvas(gd) {
   const done = out => {
     cv.dataset.lines = out.lines; cv.dataset.selected = out.selected;
     cv.dataset.ms = Math.round(out.ms || 0); cv.dataset.seq = out.seq || 0;
+    cv.dataset.at = Math.round(performance.now());
   };
   if (window.Worker && cv.transferControlToOffscreen) {
     try {
