@@ -295,19 +295,14 @@ function parCanvas(gd) {
   cv.className = 'vid-lines';
   cv.style.cssText = 'position:absolute;top:0;left:0;pointer-events:none';
   box.appendChild(cv);
-  const done = out => {
-    cv.dataset.lines = out.lines; cv.dataset.selected = out.selected;
-    cv.dataset.ms = Math.round(out.ms || 0); cv.dataset.seq = out.seq || 0;
-    cv.dataset.at = Math.round(performance.now());
-  };
   if (window.Worker && cv.transferControlToOffscreen) {
     try {
       if (!par.worker) {
         const url = URL.createObjectURL(new Blob([PAR_WORKER], {type: 'text/javascript'}));
         par.worker = new Worker(url);
-        par.worker.onmessage = e => {
+        par.worker.onmessage = e => {  // on the canvas shown now (a tab may remount it)
           const c = document.querySelector('#par-graph canvas.vid-lines');
-          if (c) done(e.data);
+          if (c) parDone(c, e.data);
         };
       }
       const off = cv.transferControlToOffscreen();
@@ -315,8 +310,12 @@ function parCanvas(gd) {
       cv.vidWorker = true;
     } catch (e) { cv.vidWorker = false; }
   }
-  cv.vidDone = done;
   return cv;
+}
+function parDone(cv, out) {  // what was drawn, for tests and benchmarks
+  cv.dataset.lines = out.lines; cv.dataset.selected = out.selected;
+  cv.dataset.ms = Math.round(out.ms || 0); cv.dataset.seq = out.seq || 0;
+  cv.dataset.at = Math.round(performance.now());
 }
 function parRedraw() {
   par.due = false;
@@ -335,7 +334,7 @@ function parRedraw() {
     const t0 = performance.now();
     const out = parDraw(cv.getContext('2d'), job);
     out.ms = performance.now() - t0; out.seq = job.seq;
-    cv.vidDone(out);
+    parDone(cv, out);
   }
 }
 function parSchedule() {

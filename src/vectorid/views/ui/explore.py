@@ -479,9 +479,10 @@ def _star(fig: dict, a: Analysis, xv: np.ndarray, yv: np.ndarray, row: int | Non
     """The chosen trial as an orange star (appended to a figure dict)."""
     if row is None or not (np.isfinite(xv[row]) and np.isfinite(yv[row])):
         return
+    gl = any(t.get("type") == "scattergl" for t in fig["data"])
     fig["data"].append(
         {
-            "type": "scattergl",
+            "type": "scattergl" if gl else "scatter",
             "x": [float(xv[row])],
             "y": [float(yv[row])],
             "customdata": [int(a.trials.id[row])],
@@ -494,6 +495,23 @@ def _star(fig: dict, a: Analysis, xv: np.ndarray, yv: np.ndarray, row: int | Non
             **kw,
         }
     )
+
+
+#: Up to this many points, the criterion plot draws SVG points, not WebGL: a plot at scale
+#: draws its bulk sets as densities and only the Pareto set (and a selection) as points, and
+#: a WebGL context (with plotly.js's shader set-up) cost the page 0.2-0.5 s of main thread
+#: at load in software WebGL.
+SVG_POINTS = 3000
+
+
+def _points_drawn(ctx: UIContext, a: Analysis, sel: np.ndarray) -> int:
+    """Points the criterion plot draws (sets under the budget, Pareto, the selection), as
+    :func:`~vectorid.views.clouds.cloud_traces` decides (an upper bound)."""
+    budget = ctx.max_points
+    n = min(a.n_pareto, budget)
+    for count in (a.n - a.n_feasible, a.n_feasible - a.n_pareto):
+        n += count if count <= budget else 0
+    return n + min(int(sel.sum()), 3 * budget)
 
 
 def scatter_view(
@@ -527,6 +545,7 @@ def scatter_view(
         selected=sel if sel.any() else None,
         raw=True,
         memo=trials_memo(ctx, a, "scatter"),
+        gl=_points_drawn(ctx, a, sel) > SVG_POINTS,
     )
     xv, yv = clouds.column(a, x)[0], clouds.column(a, y)[0]
     _star(fig, a, xv, yv, chosen_row(ctx, chosen))
