@@ -82,6 +82,7 @@ def test_banana_in_24_dimensions_is_reached_and_covered(tmp_path):
     part = np.unique(state.particles)
     assert np.all(state.members[part]) and len(part) >= 200 and state.ess == len(part)
     assert np.all(state.log_w[state.members] == 0.0)  # the members weigh the same
+    assert getattr(t, "log_weight", None) is None  # so histograms count them unweighted
     X = t.X[state.members]
     assert np.all(np.abs(X[:, :K] - CENTRES) <= HALF)
     for j in range(K):  # the pinned axes: the slab's width covered
