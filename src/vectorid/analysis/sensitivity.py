@@ -8,7 +8,10 @@
   large statistic means the constraints select a part of that parameter's range (the
   parameter matters for feasibility); a statistic near 0 means D does not depend on it.
   Uniform Sobol sampling makes the marginal of every parameter uniform, so the test is
-  meaningful without weighting.
+  meaningful without weighting. A sequential store's trials are not uniform: there both
+  statistics use the trials' importance weights (:mod:`vectorid.analysis.weights`: weighted
+  mid-ranks, weighted empirical CDFs, p-values from Kish's effective sizes), and
+  :attr:`Sensitivity.weighted` says so.
 """
 
 from __future__ import annotations
@@ -19,20 +22,30 @@ from typing import Any
 import numpy as np
 
 from .results import Analysis
+from .weights import trial_weights, weighted_ks, weighted_pearson, weighted_ranks
 
 __all__ = ["Sensitivity", "ks_filtering", "rank_correlation", "sensitivity"]
 
 
-def rank_correlation(X: np.ndarray, F: np.ndarray) -> np.ndarray:
+def rank_correlation(X: np.ndarray, F: np.ndarray, w: np.ndarray | None = None) -> np.ndarray:
     """Spearman's ρ between the columns of ``X`` (n, p) and ``F`` (n, k) over the rows
     where ``F`` is finite. Returns (p, k); 0 where a column is constant, NaN where fewer than
-    3 rows are usable."""
+    3 rows are usable.
+
+    With importance weights ``w`` (n,), the weighted Pearson correlation of the weighted
+    mid-ranks: Spearman's ρ of the distribution the weighted sample stands for.
+    """
     X = np.asarray(X, float)
     F = np.asarray(F, float)
     ok = np.all(np.isfinite(F), axis=1) & np.all(np.isfinite(X), axis=1)
     p, k = X.shape[1], F.shape[1]
     if ok.sum() < 3:
         return np.full((p, k), np.nan)
+    if w is not None:
+        wo = np.asarray(w, float)[ok]
+        RX = np.column_stack([weighted_ranks(c, wo) for c in X[ok].T]) if p else X[ok]
+        RF = np.column_stack([weighted_ranks(c, wo) for c in F[ok].T])
+        return weighted_pearson(RX, RF, wo)
     from scipy import stats  # imported where used: it loads slowly
 
     RX = np.column_stack([stats.rankdata(c) for c in X[ok].T]) if p else np.empty((ok.sum(), 0))
@@ -46,20 +59,24 @@ def rank_correlation(X: np.ndarray, F: np.ndarray) -> np.ndarray:
     return np.clip(z(RX).T @ z(RF), -1.0, 1.0)
 
 
-def ks_filtering(X: np.ndarray, behavioural: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def ks_filtering(
+    X: np.ndarray, behavioural: np.ndarray, w: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """Two-sample KS statistic and p-value per parameter between behavioural rows and the
-    others. Returns ``(statistic (p,), pvalue (p,))``; NaN when a group is empty."""
+    others. Returns ``(statistic (p,), pvalue (p,))``; NaN when a group is empty.
+
+    With importance weights ``w`` (n,): the weighted empirical CDFs, p-values from Kish's
+    effective sizes (:func:`~vectorid.analysis.weights.weighted_ks`)."""
     X = np.asarray(X, float)
     b = np.asarray(behavioural, bool)
     p = X.shape[1]
     stat = np.full(p, np.nan)
     pval = np.full(p, np.nan)
     if b.any() and (~b).any():
-        from scipy import stats
-
+        wb = None if w is None else np.asarray(w, float)[b]
+        wo = None if w is None else np.asarray(w, float)[~b]
         for j in range(p):
-            r = stats.ks_2samp(X[b, j], X[~b, j])
-            stat[j], pval[j] = float(r.statistic), float(r.pvalue)
+            stat[j], pval[j] = weighted_ks(X[b, j], X[~b, j], wb, wo)
     return stat, pval
 
 
@@ -75,6 +92,10 @@ class Sensitivity:
         KS statistic between D and its complement per parameter.
     ks_pvalue : (p,) float
     n_behavioural, n_other : int
+    weighted : bool
+        Both statistics use a sequential store's importance weights.
+    ess_behavioural, ess_other : float
+        Kish's effective sizes of the two groups (their counts when unweighted).
     """
 
     params: list[str]
@@ -84,6 +105,9 @@ class Sensitivity:
     ks_pvalue: np.ndarray
     n_behavioural: int
     n_other: int
+    weighted: bool = False
+    ess_behavioural: float = float("nan")
+    ess_other: float = float("nan")
 
     def ranking(self) -> list[tuple[str, float]]:
         """Parameters by decreasing KS statistic."""
@@ -99,20 +123,32 @@ class Sensitivity:
             "ks_pvalue": self.ks_pvalue.tolist(),
             "n_behavioural": self.n_behavioural,
             "n_other": self.n_other,
+            "weighted": self.weighted,
+            "ess_behavioural": self.ess_behavioural,
+            "ess_other": self.ess_other,
             "ranking": [{"param": n, "ks": v} for n, v in self.ranking()],
         }
 
 
 def sensitivity(a: Analysis) -> Sensitivity:
-    """Rank correlations over successful trials and KS filtering on D vs the rest."""
+    """Rank correlations over successful trials and KS filtering on D vs the rest
+    (importance-weighted on a sequential store)."""
+    from .weights import kish
+
     X, F = a.trials.X, a.trials.F
-    ks, pv = ks_filtering(X, a.feasible)
+    w = trial_weights(a)
+    ks, pv = ks_filtering(X, a.feasible, w)
+    wd = None if w is None else w[a.feasible]
+    wr = None if w is None else w[~a.feasible]
     return Sensitivity(
         params=a.spec.space.names,
         criteria=list(a.crit_names),
-        spearman=rank_correlation(X[a.ok], F[a.ok]),
+        spearman=rank_correlation(X[a.ok], F[a.ok], None if w is None else w[a.ok]),
         ks=ks,
         ks_pvalue=pv,
         n_behavioural=a.n_feasible,
         n_other=a.n - a.n_feasible,
+        weighted=w is not None,
+        ess_behavioural=kish(wd, a.n_feasible),
+        ess_other=kish(wr, a.n - a.n_feasible),
     )
