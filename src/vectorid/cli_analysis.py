@@ -358,6 +358,13 @@ def _cmd_report(args: argparse.Namespace) -> int:
             max_points=args.max_points,
             top=args.top,
         )
+        note = None
+        if study.spec.sampler == "sequential":
+            from .run.sequential import sample_note
+
+            note = sample_note(study.store, _analysis(study, args))
+    if note:
+        print(f"{note}; the report's densities of D are importance-weighted")
     print(
         f"report written to {res.path} ({res.size / 1e6:.1f} MB, {len(res.figures)} figures, "
         f"{res.seconds:.1f} s)"

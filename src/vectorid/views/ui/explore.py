@@ -47,6 +47,24 @@ def histograms_of(ctx: UIContext, a: Analysis) -> list[Any]:
     return hit
 
 
+def sampler_note(ctx: UIContext, a: Analysis) -> str | None:
+    """A sequential store's line under the constraints in force: evaluations, generations,
+    D's members and ESS, and that D's densities are importance-weighted (memoised per
+    analysis); None for a plain store."""
+    if ctx.spec.sampler != "sequential":
+        return None
+    memo = ctx.extra.setdefault("sampler_note", weakref.WeakKeyDictionary())
+    if a not in memo:
+        from ...run.sequential import sample_note
+
+        with ctx.cache.open() as st:
+            note = sample_note(st, a)
+        memo[a] = None if note is None else (
+            f"{note}. Histograms of D are importance-weighted; N, ND, NP count trials."
+        )
+    return memo[a]
+
+
 def counts_view(ctx: UIContext, limit_texts: Any, roles: Any, functional: Any = None) -> dict:
     """N, ND, NP, failed trials and trials meeting the functional constraints under the
     constraint fields (the fast path: nothing else is computed)."""
@@ -88,6 +106,9 @@ def summary_view(
     """
     a, c = analysis_of(ctx, limit_texts, roles, functional)
     messages = list(c.messages)
+    note = sampler_note(ctx, a)
+    if note:
+        messages.insert(0, note)
     if a.n == 0:
         messages.append("the store holds no trial yet; start a stage on the Refine tab")
     elif a.n_feasible == 0:
