@@ -39,7 +39,7 @@ def test_a_search_on_the_box_edge_blames_the_box_not_the_model(tmp_path):
     text = s.describe()
     assert not s.converged and s.search is not None and not s.search.met, text
     assert s.search.edges == [("x0", "high", 1.0)], s.search.edges
-    assert "x0 at its high edge 1" in text and "the box may be too narrow" in text, text
+    assert "against its high edge 1" in text and "the box may be too narrow" in text, text
     assert not BLAME.search(text), text
 
 
@@ -68,10 +68,23 @@ def test_only_a_search_that_also_misses_inside_the_box_may_blame_the_model():
         assert "D not reached" in text, (what, text)
         assert not BLAME.search(text), (what, text)
     edge = cases["search at the edge"].verdict()
-    assert "b at its low edge 0" in edge and "too narrow" in edge
+    assert "b=0.2 against its low edge 0" in edge and "too narrow" in edge
     inside = _summary(search=_search(1.2)).verdict()
     assert "also misses" in inside and "inside the box" in inside and BLAME.search(inside)
     assert "D reached" in _summary(members=150, ess=150.0, converged=True).verdict()
+
+
+def test_edges_are_those_within_a_percent_of_the_width():
+    from vectorid.run.sequential import search_edges
+
+    spec = StudySpec(
+        name="e", model=beyond_the_box, criteria=(Criterion("f", limit=0.05),),
+        space=Space([Continuous("a", 0.1, 3.0), Continuous("b", -1.0, 1.0),
+                     Continuous("c", 0.0, 1.0)]),
+    )  # fmt: skip
+    u = np.array([0.0006, 0.5, 0.995])  # the ETH search's Cnr: 0.1017 in [0.1, 3]
+    assert search_edges(spec, u) == [("a", "low", 0.1), ("c", "high", 1.0)]
+    assert search_edges(spec, np.array([0.02, 0.5, 0.98])) == []
 
 
 def test_no_other_message_blames_the_model_or_the_limits():
