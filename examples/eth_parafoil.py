@@ -592,9 +592,10 @@ def main(argv: list[str] | None = None) -> int:
             "faster canopy in less tailwind fits as well"
         )
     w = res["log_widths"]
-    box = {g: np.log(b[1] / b[0]) for g, b in GAIN_BOXES.items()}
-    box = ", ".join(f"{np.log(GAIN_BOX[1] / GAIN_BOX[0]):.2f}" if g not in box else
-                    f"{g} {box[g]:.2f}" for g in ("CnDanom", "Cnr"))  # fmt: skip
+    box = ", ".join(
+        f"{g} {np.log(b[1] / b[0]):.2f}"
+        for g, b in ((g, GAIN_BOXES.get(g, GAIN_BOX)) for g in ("CnDanom", "Cnr"))
+    )
     weighted = " (importance-weighted)" if trial_weights(res["step"].analysis) is not None else ""
     turn = ", ".join(f"{k} {w[k]:.2f}" for k in ("CnDanom", "Cnr", "CnDanom/Cnr"))
     print(
