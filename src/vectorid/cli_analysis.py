@@ -429,6 +429,7 @@ def _cmd_sensitivity(args: argparse.Namespace) -> int:
             + (
                 f"; {_weighted_words()}: effective sizes {s.ess_behavioural:.0f} and "
                 f"{s.ess_other:.0f}"
+                + (f" (1 in {s.stride:.3g} trials outside D weighed)" if s.stride > 1 else "")
                 if s.weighted
                 else ""
             )
