@@ -46,10 +46,14 @@ runs through the library's stage driver (``vectorid.identify.stages.run_stage``)
 sequential sampler: generations of trials move into D at these limits until it holds 200
 members, or the budget is spent; then a local search from the best trials says by how much the
 model misses the limits. Only then are the limits relaxed, as the named last resort (outer
-bounds). Measured (``--budget 50000``): D at the stated limits is not reached; the nearest
-generation and the local search both meet them only relaxed x1.08, with the CD0 and Cnr gains
-at the box's low edge (0.3 x stated) — the model misses these flights by 8 %, not by the x6
-that plain Sobol trials once suggested, and a wider box may close the gap.
+bounds). Measured (``--budget 50000``): D at the stated limits is not reached. With every gain
+in 0.3-3 x stated, the nearest generation and the local search met them only relaxed x1.08,
+with CD0 and Cnr at the box's low edge; with those two allowed down to their physical floors
+(``GAIN_BOXES``), x1.02, with Cnr against its new edge. Allowing yaw damping below the
+published range (``--box Cnr=0.02:3 --box CnDanom=0.1:3``), D holds 81 members after 50,000
+evaluations (ESS 21, not converged), all with Cnr 0.045-0.065 x stated: the flights ask for
+less yaw damping than small parafoils are known to have, not for six times the noise that
+plain Sobol trials once suggested.
 
 The script prints, per flight, the horizontal RMS error with the stated parameters (calm air,
 and with the wind fitted alone) and with the identified ones, then each design variable's
@@ -502,6 +506,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--budget", type=int, default=50_000,
                     help="most model evaluations of the sequential sampler")
     ap.add_argument("--out", default="eth-parafoil", help="folder of the stores")
+    ap.add_argument("--box", action="append", default=[], metavar="GAIN=LO:HI",
+                    help="a gain's box (x stated) instead of the example's, e.g. Cnr=0.02:3")
     args = ap.parse_args(argv)
     folder = Path(args.data)
     if not (folder / "flight1_states.csv").exists():
@@ -527,6 +533,21 @@ def main(argv: list[str] | None = None) -> int:
         "log's pattern; only delta_a was logged here)"
     )
     sys.stdout.flush()
+    for text in args.box:
+        name, _, rest = text.partition("=")
+        lo, _, hi = rest.partition(":")
+        try:
+            if name not in (*GLIDE, *TURN):
+                raise ValueError
+            pair = (float(lo), float(hi))
+            if not 0 < pair[0] < pair[1]:
+                raise ValueError
+        except ValueError:
+            print(f"error: --box: expected GAIN=LO:HI with GAIN one of {', '.join((*GLIDE, *TURN))}"
+                  f" and 0 < LO < HI, got {text!r}", file=sys.stderr)  # fmt: skip
+            return 2
+        GAIN_BOXES[name] = pair
+        print(f"  {name}'s box: {pair[0]:g}-{pair[1]:g} x stated (--box)")
     res = identify(folder, args.out, args.trials, args.budget)
     for n, fl in res["flights"].items():
         p = fl["position"]
