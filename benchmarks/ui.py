@@ -35,17 +35,20 @@ the action to the redrawn DOM (two animation frames after the last change):
 * ``brush -> counts``: releasing the mouse after a brush on an axis of the parallel
   coordinates (a band from a quarter of the axis to below its middle, one axis after the
   other, each on its own) to the selection's counts in the header (``#vid-sel``). plotly.js
-  emits the brush only after redrawing its WebGL lines, which is part of it; the parallel
-  coordinates are not redrawn by the server on a brush any more;
+  keeps the axes and brushes (its WebGL lines are two placeholders, hidden); the server
+  does not redraw the parallel coordinates on a brush;
+* ``brush -> lines redrawn``: the same mouse release to the page's last drawing of the
+  parallel coordinates' lines (a 2D canvas in a Web Worker; grey outside the brushes);
 * ``parallel tab -> drawn``: clicking the tab to its axes drawn and the page quiet;
 * ``longest task``: the longest main-thread task (``PerformanceObserver`` ``longtask``,
   recorded by the page itself) during page loads, typed limits and brushes;
 * ``MB per page load``: bytes transferred (document, scripts, callback answers; compressed
   sizes) for the first load and for later ones (scripts from the browser's cache);
 * ``server MB``: the server's resident memory at the end, and its ratio to the store's columns
-  (ids, sequence, stage, status, parameters, criteria, functionals, wall times as loaded).
-  The process's own imports (Python, numpy, numba, Dash, plotly) hold ~250 MB of it, which
-  dominates at 1e5.
+  (ids, sequence, stage, status, parameters, criteria, functionals, wall times as loaded);
+  and the same above an *idle server* (``vectorid ui`` on a 1,000-trial store after one page
+  load: the interpreter, numpy, numba's compiled code, Dash and plotly), what the store and
+  its views cost.
 
 Each action starts when the page is quiet (no callback loading for 0.8 s), so one change's
 requests do not overlap the next one's.
@@ -63,6 +66,7 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -240,6 +244,12 @@ for (const r of performance.getEntriesByType('resource')) b += r.transferSize ||
 return b;
 """
 _LONGEST = "return Math.max(0, ...(window.__vidLongTasks || []));"
+#: When the page last drew the parallel coordinates' lines, since the mouse was released.
+_DRAWN = """
+const c = document.querySelector('#par-graph canvas.vid-lines');
+if (!c || !c.dataset.at) return -1;
+return Number(c.dataset.at) - window.__t0;
+"""
 _RESET_LONG = "window.__vidLongTasks = [];"
 
 
@@ -297,28 +307,18 @@ def browser_latency(
     With ``shots``, a screenshot of every tab is saved there afterwards
     (``ui-<trials>-<tab>.png``)."""
     import shutil
-    import signal
-    import socket
-    import subprocess
-    import urllib.request
 
     from selenium.webdriver.common.action_chains import ActionChains
     from selenium.webdriver.common.by import By
     from selenium.webdriver.common.keys import Keys
 
-    with socket.socket() as so:
-        so.bind(("127.0.0.1", 0))
-        port = so.getsockname()[1]
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "vectorid.cli", "ui", str(path), "--port", str(port)],
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
-    )
+    proc, url = _start_server(path)
     out: dict[str, list[float]] = {
         "page load": [],
         "limit -> counts": [],
         "limit -> everything": [],
         "brush -> counts": [],
+        "brush -> lines redrawn": [],
         "parallel tab -> drawn": [],
         "longest task, page load (ms)": [],
         "longest task, limits (ms)": [],
@@ -329,16 +329,6 @@ def browser_latency(
     }
     drv = profile = None
     try:
-        url = f"http://127.0.0.1:{port}/"
-        deadline = time.monotonic() + 300
-        while True:
-            try:
-                with urllib.request.urlopen(url, timeout=5):
-                    break
-            except OSError:
-                if time.monotonic() > deadline:
-                    raise RuntimeError("vectorid ui did not start") from None
-                time.sleep(0.3)
         drv, profile = _driver()
         for i in range(loads + 1):  # the first load fills the browser's cache
             drv.get(url)
@@ -399,6 +389,8 @@ def browser_latency(
             ms = drv.execute_async_script(_WAIT, prev, "sel")
             out["brush -> counts"].append(ms / 1e3 if ms >= 0 else float("nan"))
             drv.execute_async_script(_QUIET)
+            drawn = drv.execute_script(_DRAWN)  # the last drawing of the lines since mouseup
+            out["brush -> lines redrawn"].append(drawn / 1e3 if drawn >= 0 else float("nan"))
             out["longest task, brushes (ms)"].append(drv.execute_script(_LONGEST))
             drv.find_element(By.ID, "par-clear").click()  # the next brush starts afresh
             drv.execute_async_script(_QUIET)
@@ -421,11 +413,70 @@ def browser_latency(
     finally:
         if drv is not None:
             drv.quit()
-        proc.send_signal(signal.SIGINT)
+        _stop_server(proc)
+        if profile:
+            shutil.rmtree(profile, ignore_errors=True)
+
+
+def _start_server(path: Path) -> tuple[Any, str]:
+    """``vectorid ui PATH`` on a free port, once it answers: the process and its URL."""
+    import socket
+    import subprocess
+    import urllib.request
+
+    with socket.socket() as so:
+        so.bind(("127.0.0.1", 0))
+        port = so.getsockname()[1]
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "vectorid.cli", "ui", str(path), "--port", str(port)],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    url = f"http://127.0.0.1:{port}/"
+    deadline = time.monotonic() + 300
+    while True:
         try:
-            proc.wait(20)
-        except subprocess.TimeoutExpired:
-            proc.kill()
+            with urllib.request.urlopen(url, timeout=5):
+                return proc, url
+        except OSError:
+            if time.monotonic() > deadline or proc.poll() is not None:
+                proc.kill()
+                raise RuntimeError("vectorid ui did not start") from None
+            time.sleep(0.3)
+
+
+def _stop_server(proc: Any) -> None:
+    import signal
+    import subprocess
+
+    proc.send_signal(signal.SIGINT)
+    try:
+        proc.wait(20)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+
+
+def idle_server_mb(folder: Path, criteria: int, params: int) -> float:
+    """Resident memory (MB) of ``vectorid ui`` serving a 1,000-trial store after one page
+    load in headless Chromium: the interpreter, numpy, numba's compiled code, Dash and
+    plotly, what every server holds whatever the store."""
+    import shutil
+
+    p = folder / "idle.db"
+    make_store(p, 1000, criteria, params)
+    proc, url = _start_server(p)
+    drv = profile = None
+    try:
+        drv, profile = _driver()
+        drv.get(url)
+        drv.execute_async_script(_LOADED)
+        drv.execute_async_script(_QUIET)
+        time.sleep(1.5)
+        return _rss_mb(proc.pid)
+    finally:
+        if drv is not None:
+            drv.quit()
+        _stop_server(proc)
         if profile:
             shutil.rmtree(profile, ignore_errors=True)
 
@@ -571,6 +622,8 @@ def main() -> None:
     from vectorid.views.ui.data import StoreCache
 
     rows = []
+    idle = idle_server_mb(Path(tmp.name), args.criteria, args.params)
+    print(f"  idle server (1,000 trials, one page load): {idle:.0f} MB resident")
     for n in args.browser_trials:
         p = Path(tmp.name) / f"browser-{n}.db"
         make_store(p, n, args.criteria, args.params)
@@ -586,6 +639,8 @@ def main() -> None:
             rows.append((n, key, med, max(vals) if vals else float("nan"), len(vals), goal))
             if key == "server MB":
                 rows.append((n, "server MB / store columns MB", med / cols, med / cols, 1, 2.0))
+                above = (med - idle) / cols
+                rows.append((n, "(server - idle server) / columns", above, above, 1, 2.0))
         print(f"  measured {n:,} trials; machine now: {_machine.describe()}")
     print("\nin headless Chromium (software WebGL), action to redrawn DOM, seconds (unless named):")
     print(f"{'trials':>10}  {'what':<32}{'median':>9}{'max':>9}{'n':>4}{'goal':>8}  verdict")

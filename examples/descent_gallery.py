@@ -38,9 +38,10 @@ RP = "rocketpy-descents"
 
 #: flight name -> (file relative to the data folder, plan keywords, note on the settings).
 #: Only what each flight's README states: the mass, the canopies, the triggers (with their lag),
-#: the pad elevation, and a unit the file does not state (Juno III's feet). Columns, repeated
-#: buffers and logging pauses are read from the content. No window,
-#: settling time or end is picked by hand: the phases come from the data.
+#: the pad elevation, and the units a file does not state where its README does (Juno III's
+#: s and feet, Valkyrie's s and m; the CATS exports' units are documented by CATS). Columns,
+#: repeated buffers and logging pauses are read from the content. No window, settling time or
+#: end is picked by hand: the phases come from the data.
 FLIGHTS: dict[str, tuple[str, dict[str, Any], str]] = {
     "Prometheus (TeleMega)": (
         "prometheus-2022/2022-06-24-serial-6583-flight-0003-TeleMega.csv",
@@ -86,7 +87,7 @@ FLIGHTS: dict[str, tuple[str, dict[str, Any], str]] = {
     "Camões": (
         f"{RP}/camoes/flight_data.csv",
         {"mass": 22.8, "drogue": Canopy(cds=0.33), "pad_altitude": 107.0},
-        "columns read from the header (units not stated there: m, s)",
+        "CATS Vega export, recognised from its header: units m and s as CATS documents them",
     ),
     "Genesis": (
         f"{RP}/genesis/flight_data_faraday.csv",
@@ -117,17 +118,18 @@ FLIGHTS: dict[str, tuple[str, dict[str, Any], str]] = {
     "Juno III": (
         f"{RP}/juno3/cots_GNSS.csv",
         {
-            # the one option beyond mass, canopy and trigger: the file does not state the unit
-            # of ALT (its README does: feet); read as metres, the descent check stops (2.5-3.3 ×
-            # too fast for the stated drogue), since units are never guessed
+            # the units, beyond mass, canopy and trigger: the file does not state them (its
+            # README does: time in s, ALT in feet); without them the run stops (units are never
+            # guessed), and read as metres the descent check stops (2.5-3.3 × too fast)
+            "time_unit": "s",
             "altitude_unit": "ft",
             "mass": 24.05,
             "drogue": Canopy(cds=0.885),
             "altitude_reference": "msl",
         },
-        "GNSS altitude above sea level in feet (README; the header says no unit, so "
-        "--altitude-unit ft is needed); the repeated pre-launch buffer and the 3-s logging "
-        "pauses are found from the time column",
+        "GNSS altitude above sea level in feet (README; the header states no unit, so "
+        "--time-unit s --altitude-unit ft are needed); the repeated pre-launch buffer and "
+        "the 3-s logging pauses are found from the time column",
     ),
     "Lince": (
         f"{RP}/lince/main_data.csv",
@@ -137,6 +139,9 @@ FLIGHTS: dict[str, tuple[str, dict[str, Any], str]] = {
     "Valkyrie": (
         f"{RP}/valkyrie/flightInfo_merged.csv",
         {
+            # the file's header states no units; its README does: time s, altitude m
+            "time_unit": "s",
+            "altitude_unit": "m",
             "mass": 5.65 + 0.6449,
             "drogue": Canopy(cds=0.258940616),
             "main": Canopy(cds=5.786483801),
@@ -145,7 +150,8 @@ FLIGHTS: dict[str, tuple[str, dict[str, Any], str]] = {
             "main_lag": 1.73,
             "pad_altitude": 592.0,
         },
-        "main at the stated 500 m trigger + 1.73 s lag",
+        "time and altitude units from the README (s, m; the header states none); main at "
+        "the stated 500 m trigger + 1.73 s lag",
     ),
 }
 
@@ -160,8 +166,36 @@ def run_flight(name: str, data: Path, out: Path, trials: int, seed: int = 1):
     return identify_descent(plan, out)
 
 
+def command(name: str, data: str = "../shared/data") -> str:
+    """The ``vectorid descent`` command of a flight of :data:`FLIGHTS`: the same plan, from
+    the command line (``--commands`` prints them all; docs/descent.md lists them)."""
+    rel, kw, _ = FLIGHTS[name]
+
+    def num(v: float) -> str:
+        return format(float(v), ".10g")
+
+    args = [".venv/bin/vectorid", "descent", f"{data}/{rel}"]
+    for key, value in kw.items():
+        if isinstance(value, Canopy):
+            if value.cds is not None:
+                args += [f"--{key}-cds", num(value.cds)]
+            else:
+                args += [f"--{key}-diameter", f"{num(value.diameter / INCH)}in"]
+                if value.cd is not None:
+                    args += [f"--{key}-cd", num(value.cd)]
+        elif isinstance(value, float | int):
+            args += [f"--{key.replace('_', '-')}", num(value)]
+        else:
+            args += [f"--{key.replace('_', '-')}", str(value)]
+    return " ".join(args) + f" --out {_slug(name)}"
+
+
 def _slug(name: str) -> str:
-    return "".join(c if c.isalnum() else "-" for c in name.lower()).strip("-")
+    import re
+    import unicodedata
+
+    plain = unicodedata.normalize("NFKD", name).encode("ascii", "ignore").decode()
+    return re.sub(r"[^a-z0-9]+", "-", plain.lower()).strip("-")
 
 
 def table(results: dict[str, Any]) -> str:
@@ -209,7 +243,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", default="descent-gallery", help="folder of the stores")
     ap.add_argument("--json", action="store_true", help="print every result as JSON")
     ap.add_argument("--only", nargs="*", help="flights to run (names of the table)")
+    ap.add_argument(
+        "--commands", action="store_true",
+        help="print each flight's `vectorid descent` command instead of running them",
+    )  # fmt: skip
     args = ap.parse_args(argv)
+    if args.commands:
+        for n in args.only or list(FLIGHTS):
+            print(f"# {n}\n{command(n)}")
+        return 0
     data = Path(args.data)
     if not data.is_dir():
         print(f"error: no shared data folder at {data}; give its path", file=sys.stderr)

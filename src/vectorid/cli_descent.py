@@ -1,7 +1,7 @@
 """The ``vectorid descent`` verb (loaded by :mod:`vectorid.cli`)::
 
     vectorid descent LOG --mass KG [--columns time=COL,altitude=COL[,event=COL]]
-                     [--time-unit s|ms] [--altitude-unit m|ft] [--altitude-reference pad|msl]
+                     [--time-unit s|ms|iso] [--altitude-unit m|ft] [--altitude-reference pad|msl]
                      [--strict-data]
                      [--pad-altitude M] [--first-line N] [--last-line N] [--max-gap S]
                      [--drogue-cds M2 | --drogue-diameter LEN [--drogue-cd CD] | --drogue]
@@ -83,13 +83,14 @@ def add_parsers(sub: Any) -> None:
     )
     d.add_argument(
         "--time-unit",
-        help="unit of a generic CSV's time column when its name states none: s (default), "
-        "ms, us, ns, min",
+        help="unit of a generic CSV's time column when its name states none (required then: "
+        "units are never guessed): s, ms, us, ns, min, or iso (ISO 8601 dates)",
     )
     d.add_argument(
         "--altitude-unit",
-        help="unit of a generic CSV's altitude column when its name states none: m "
-        "(default), ft, km (an error where the header or the format states the unit)",
+        help="unit of a generic CSV's altitude column when its name states none (required "
+        "then: units are never guessed): m, ft, km (an error where the header or a recognised "
+        "format states the unit)",
     )
     d.add_argument(
         "--strict-data",
@@ -272,10 +273,9 @@ def _noise(text: str) -> float | str:
     return v
 
 
-def _cmd_descent(args: argparse.Namespace) -> int:
-    from .cli import _print_json
-    from .descent import DescentPlan, identify_descent
-    from .errors import StudyDefinitionError, VectoridError
+def plan_from_args(args: argparse.Namespace):
+    """The :class:`~vectorid.descent.DescentPlan` of a parsed ``vectorid descent`` command."""
+    from .descent import DescentPlan
 
     windows = {}
     for c in ("drogue", "main"):
@@ -321,6 +321,15 @@ def _cmd_descent(args: argparse.Namespace) -> int:
         trials=args.trials,
         seed=args.seed,
     )
+    return plan
+
+
+def _cmd_descent(args: argparse.Namespace) -> int:
+    from .cli import _print_json
+    from .descent import identify_descent
+    from .errors import StudyDefinitionError, VectoridError
+
+    plan = plan_from_args(args)
     try:
         result = identify_descent(plan, args.out)
     except VectoridError:

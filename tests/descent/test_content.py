@@ -49,7 +49,7 @@ def _buffer_log(tmp_path: Path, repeats: int = 4) -> tuple[Path, int]:
     buf = [(round(-0.7 + 0.1 * k, 1), 0.0) for k in range(10)]
     t, h = _descent()
     rows = buf * repeats + list(zip(t + 0.3, h))
-    return _write(tmp_path / "buffer.csv", "time,alt", rows), 2 + 10 * (repeats - 1) + 10
+    return _write(tmp_path / "buffer.csv", "time (s),alt (m)", rows), 2 + 10 * (repeats - 1) + 10
 
 
 def test_a_repeated_buffer_is_cut_to_the_monotonic_flight_part(tmp_path):
@@ -77,7 +77,7 @@ def test_a_user_line_choice_wins_and_a_file_that_is_not_one_flight_is_not_cut(tm
     t, h = _descent()
     half = t.size // 2
     rows = list(zip(t[half:], h[half:])) + list(zip(t[:half], h[:half]))
-    lf = detect_format(_write(tmp_path / "halves.csv", "time,alt", rows))
+    lf = detect_format(_write(tmp_path / "halves.csv", "time (s),alt (m)", rows))
     assert "first_line" not in lf.mapping and "last_line" not in lf.mapping
 
 
@@ -85,7 +85,10 @@ def test_a_logging_pause_is_accepted_with_a_note_and_a_long_hole_is_not(tmp_path
     t, h = _descent(step=1.0)
     keep = ~((t > 50) & (t < 54)) & ~((t > 70) & (t < 73))  # pauses of 4 s and 3 s at 1 Hz
     path = _write(tmp_path / "pause.csv", "time,alt", list(zip(t[keep], h[keep])))
-    lf = detect_format(path)
+    with pytest.raises(StudyDefinitionError, match="'time' and the altitude column 'alt'.*no unit"):
+        detect_format(path)  # units are never guessed
+    units = {"time_unit": "s", "altitude_unit": "m"}
+    lf = detect_format(path, **units)
     assert lf.mapping["max_gap"] == pytest.approx(4.0)
     note = next(n for n in lf.notes if "logging pause" in n)
     assert "2 logging pause(s)" in note and "50-54 s" in note
@@ -93,12 +96,12 @@ def test_a_logging_pause_is_accepted_with_a_note_and_a_long_hole_is_not(tmp_path
     # a 40-s hole in a 1-Hz log is not a pause: the loader's gap rule stands
     keep = ~((t > 30) & (t < 70))
     path = _write(tmp_path / "hole.csv", "time,alt", list(zip(t[keep], h[keep])))
-    lf = detect_format(path)
+    lf = detect_format(path, **units)
     assert "max_gap" not in lf.mapping
     with pytest.raises(FlightDataError, match="max_gap"):
         load_flight(path, mapping=lf.mapping, format="csv")
     # the user's --max-gap wins
-    assert detect_format(path, extra={"max_gap": 50.0}).mapping["max_gap"] == 50.0
+    assert detect_format(path, extra={"max_gap": 50.0}, **units).mapping["max_gap"] == 50.0
 
 
 def test_two_altitude_columns_that_agree_are_one_and_that_differ_are_an_error(tmp_path):
@@ -121,26 +124,55 @@ def test_feet_without_a_unit_in_the_header_are_not_read_as_metres(tmp_path):
     t, h = _descent()
     path = _write(tmp_path / "feet.csv", "time,ALT", list(zip(t, h / FT)))
     plan = dict(mass=20.846, drogue=Canopy(cds=0.4378), pad_altitude=206.0, trials=16, seed=1)
-    with pytest.raises(StudyDefinitionError, match="feet read as metres"):
-        identify_descent(DescentPlan(file=path, name="feet", **plan), tmp_path / "out")
-    r = identify_descent(DescentPlan(file=path, name="feet", altitude_unit="ft", **plan),
+    # no unit in the header, none given: not guessed, a one-line error naming the column
+    with pytest.raises(StudyDefinitionError, match="'ALT' of feet.csv state.? no unit"):
+        identify_descent(DescentPlan(file=path, name="feet", time_unit="s", **plan),
                          tmp_path / "out")  # fmt: skip
+    # metres given by mistake: the descent check stops with the likely mistake
+    with pytest.raises(StudyDefinitionError, match="feet read as metres"):
+        identify_descent(DescentPlan(file=path, name="feet", time_unit="s", altitude_unit="m",
+                                     **plan), tmp_path / "out")  # fmt: skip
+    r = identify_descent(DescentPlan(file=path, name="feet", time_unit="s", altitude_unit="ft",
+                                     **plan), tmp_path / "out")  # fmt: skip
     assert 1000.0 < r.phases[0].altitude_loss < 1300.0  # metres: the feet were converted
 
 
 def test_juno_iii_is_read_from_its_content():
     path = _need(RP / "juno3" / "cots_GNSS.csv")
-    lf = detect_format(path)
-    assert lf.mapping["time"] == "time" and lf.mapping["altitude"]["column"] == "ALT"
+    # its README states s and feet, its header nothing: the units must be given
+    with pytest.raises(StudyDefinitionError, match="'time' and the altitude column 'ALT'"):
+        detect_format(path)
+    lf = detect_format(path, time_unit="s", altitude_unit="ft")
+    assert lf.mapping["time"] == "time" and lf.mapping["altitude"] == {
+        "column": "ALT",
+        "unit": "ft",
+    }
     assert lf.mapping["first_line"] == 46  # the last copy of the repeated buffer
     assert 3.0 <= lf.mapping["max_gap"] < 3.01  # its 3-s holes, as logging pauses
-    # its README states feet, its header nothing: read as metres, the descent check stops
+    # metres given by mistake: the descent check stops
     plan = dict(mass=24.05, drogue=Canopy(cds=0.885), altitude_reference="msl", trials=16, seed=1)
     with pytest.raises(StudyDefinitionError, match="feet read as metres"):
-        identify_descent(DescentPlan(file=path, name="juno", **plan), Path("/tmp") / "vid-juno")
+        identify_descent(DescentPlan(file=path, name="juno", time_unit="s", altitude_unit="m",
+                                     **plan), Path("/tmp") / "vid-juno")  # fmt: skip
 
 
-def test_andromeda_is_read_from_its_content():
-    lf = detect_format(_need(RP / "andromeda" / "flight_data.csv"))
-    assert lf.mapping["time"] == "t(s)"
-    assert lf.mapping["altitude"] == {"column": "alt(m)", "unit": "m"}
+@pytest.mark.parametrize(
+    ("folder", "file", "column"),
+    [("camoes", "flight_data.csv", "filtered_altitude_AGL"),
+     ("genesis", "flight_data_faraday.csv", "filtered_altitude_AGL"),
+     ("lince", "main_data.csv", "filtered_altitude_AGL"),
+     ("hedy", "cats_tust/filteredDataInfo.csv", "filteredAltitudeAGL")],
+)  # fmt: skip
+def test_cats_exports_are_a_named_format_with_documented_units(folder, file, column):
+    path = _need(RP / folder / file)
+    lf = detect_format(path)
+    assert lf.named is not None and "CATS" in lf.named
+    assert lf.mapping["time"] == "ts" and lf.mapping["time_unit"] == "s"
+    assert lf.mapping["altitude"] == {"column": column, "unit": "m"}
+    assert any("recognised from its header" in n and "CATS documentation" in n for n in lf.notes)
+    # its units are documented: a unit option does not apply
+    with pytest.raises(StudyDefinitionError, match="does not apply"):
+        detect_format(path, altitude_unit="ft")
+    # the same columns in a generic file (another column added) are not the CATS format
+    with pytest.raises(StudyDefinitionError, match="no unit"):
+        detect_format(path, format="csv")

@@ -100,7 +100,8 @@ def test_telemega_touchdown_with_a_noisy_ground_and_a_last_sample_outlier(tmp_pa
 def _bella_plan(path: Path) -> DescentPlan:
     return DescentPlan(
         file=path, mass=18.227, drogue=Canopy(cds=0.7854), pad_altitude=407.0,
-        columns={"time": "t", "altitude": "alt"}, altitude_unit="m", trials=48, seed=3,
+        columns={"time": "t", "altitude": "alt"}, time_unit="s", altitude_unit="m", trials=48,
+        seed=3,
     )  # fmt: skip
 
 

@@ -32,6 +32,10 @@ def _need(p: Path) -> Path:
     return p
 
 
+#: the units of the synthetic logs' columns ("t", "alt"), which their names do not state
+UNITS = ["--time-unit", "s", "--altitude-unit", "m"]
+
+
 def _cli(args, capsys) -> tuple[int, str]:
     code = main(["descent", *map(str, args), "--trials", "16"])
     err = capsys.readouterr().err
@@ -68,7 +72,7 @@ def _descent_csv(path: Path, *, header=("t", "alt"), scale=1.0, spike=None, flat
 def test_a_length_without_a_unit_is_an_error(tmp_path, capsys):
     log = _descent_csv(tmp_path / "d.csv")
     code, err = _cli([log, "--mass", 20.8, "--drogue-diameter", "24", "--pad-altitude", 200,
-                      "--out", tmp_path / "o"], capsys)  # fmt: skip
+                      *UNITS, "--out", tmp_path / "o"], capsys)  # fmt: skip
     line = _one_line_error(code, err)
     assert "24 — inches, or metres?" in line and "24in" in line
 
@@ -87,7 +91,7 @@ def test_a_bare_number_trigger_is_an_error(tmp_path, capsys):
     log = _descent_csv(tmp_path / "d.csv")
     code, err = _cli([log, "--mass", 20.8, "--drogue-cds", 0.44, "--main-cds", 16,
                       "--convention", "replaces", "--main-at", "550", "--pad-altitude", 200,
-                      "--out", tmp_path / "o"], capsys)  # fmt: skip
+                      *UNITS, "--out", tmp_path / "o"], capsys)  # fmt: skip
     line = _one_line_error(code, err)
     assert "a height or a time" in line and "550m" in line and "550s" in line
 
@@ -131,7 +135,7 @@ def test_ndrt_feet_header_is_read_as_feet():
 
 
 @pytest.mark.parametrize(
-    ("unit", "option"), [("parsec", "--altitude-unit"), ("iso", "--time-unit")]
+    ("unit", "option"), [("parsec", "--altitude-unit"), ("fortnight", "--time-unit")]
 )
 def test_invalid_units_are_errors(tmp_path, capsys, unit, option):
     log = _descent_csv(tmp_path / "d.csv")
@@ -141,10 +145,15 @@ def test_invalid_units_are_errors(tmp_path, capsys, unit, option):
 
 
 def test_feet_read_as_metres_stops_with_the_likely_mistake(tmp_path, capsys):
-    # a log in feet whose column name states no unit, read in metres by default
+    # a log in feet whose column name states no unit: not read at all without a unit ...
     log = _descent_csv(tmp_path / "d.csv", scale=1 / 0.3048)
     code, err = _cli([log, "--mass", 20.846, "--drogue-cds", 0.4378, "--pad-altitude", 206,
-                      "--out", tmp_path / "o"], capsys)  # fmt: skip
+                      "--time-unit", "s", "--out", tmp_path / "o"], capsys)  # fmt: skip
+    line = _one_line_error(code, err)
+    assert "'alt'" in line and "no unit" in line and "--altitude-unit m or ft" in line
+    # ... and read in metres by the user's mistake, the descent check stops
+    code, err = _cli([log, "--mass", 20.846, "--drogue-cds", 0.4378, "--pad-altitude", 206,
+                      *UNITS, "--out", tmp_path / "o"], capsys)  # fmt: skip
     line = _one_line_error(code, err)
     assert "feet read as metres" in line and "--altitude-unit ft" in line
 
@@ -152,14 +161,15 @@ def test_feet_read_as_metres_stops_with_the_likely_mistake(tmp_path, capsys):
 def test_metres_read_as_feet_stops_with_the_likely_mistake(tmp_path, capsys):
     log = _descent_csv(tmp_path / "d.csv")
     code, err = _cli([log, "--mass", 20.846, "--drogue-cds", 0.4378, "--altitude-unit", "ft",
-                      "--pad-altitude", 206, "--out", tmp_path / "o"], capsys)  # fmt: skip
+                      "--time-unit", "s", "--pad-altitude", 206, "--out", tmp_path / "o"],
+                     capsys)  # fmt: skip
     assert "metres read as feet" in _one_line_error(code, err)
 
 
 def test_a_flat_log_is_a_clear_error(tmp_path, capsys):
     log = _descent_csv(tmp_path / "d.csv", flat=True)
     code, err = _cli([log, "--mass", 20.8, "--drogue-cds", 0.44, "--pad-altitude", 200,
-                      "--out", tmp_path / "o"], capsys)  # fmt: skip
+                      *UNITS, "--out", tmp_path / "o"], capsys)  # fmt: skip
     assert "no descent" in _one_line_error(code, err)
 
 
@@ -191,7 +201,7 @@ def test_a_huge_height_sample_is_left_out_and_named(tmp_path):
 def test_strict_data_stops_at_a_spike(tmp_path, capsys):
     log = _descent_csv(tmp_path / "d.csv", spike=(500, 1e6))
     code, err = _cli([log, "--mass", 20.8, "--drogue-cds", 0.44, "--pad-altitude", 200,
-                      "--strict-data", "--out", tmp_path / "o"], capsys)  # fmt: skip
+                      "--strict-data", *UNITS, "--out", tmp_path / "o"], capsys)  # fmt: skip
     line = _one_line_error(code, err)
     assert "49.00 s" in line and "strict" in line
 

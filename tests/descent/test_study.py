@@ -24,6 +24,8 @@ from vectorid.identify import FlightDataError
 from vectorid.models.base import InitialState
 from vectorid.models.controls import ControlSchedule
 
+from .test_story import story_is_one
+
 PAD = 500.0  # m above sea level
 MASS = 12.0
 FT = 0.3048
@@ -124,6 +126,7 @@ def test_twin_drag_areas_lie_in_their_ranges_and_agree(adds_result, adds_log):
         assert p.cds == pytest.approx(truth, rel=0.03)
         assert p.alt_rms_m <= p.limits.alt_rms
         assert p.summary.startswith("agrees")
+    story_is_one(r)  # each number of each phase's story once (test_story.py)
     # windows: drogue ends before the trigger, main ends 1 s before the touchdown
     assert r.phase("drogue").window[1] == pytest.approx(t_trig - 1.0, abs=0.3)
     assert r.phase("main").window[1] == pytest.approx(td - 1.0, abs=0.3)
@@ -165,6 +168,7 @@ def test_a_main_that_did_not_open_is_said_so(tmp_path):
     r = identify_descent(_plan(path, convention="replaces"), tmp_path / "out")
     p = r.phase("main")
     assert "did not open" in p.verdict
+    story_is_one(r)  # each number of each phase's story once
     # the drogue's drag area, under the "main" (6 s of window: a range, maybe not a value)
     assert p.compared_cds == pytest.approx(0.5, rel=0.05)
     lo, hi = p.cds_feasible
@@ -179,6 +183,7 @@ def test_a_stated_drag_area_the_descent_does_not_fit_is_said_so(adds_log, tmp_pa
     assert p.cds == pytest.approx(0.5, rel=0.05)
     assert "does not fit the stated drag area" in p.verdict
     assert p.stated_alt_rms_m > p.limits.alt_rms
+    story_is_one(r)
 
 
 def test_one_canopy_from_apogee_in_feet(tmp_path):
@@ -274,7 +279,8 @@ def test_a_log_without_the_altitude_column_says_which(adds_log, tmp_path):
     path, _, _ = adds_log
     with pytest.raises(FlightDataError, match="'alt'.*alt_m"):
         identify_descent(
-            _plan(path, mapping={"time": "t_s", "altitude": {"column": "alt"}}), tmp_path
+            _plan(path, mapping={"time": "t_s", "altitude": {"column": "alt", "unit": "m"}}),
+            tmp_path,
         )
 
 

@@ -60,3 +60,25 @@ def test_parquet_has_no_lines(tmp_path):
     pq.write_table(pa.table({"t": [0.0, 1.0, 2.0], "h": [1.0, 2.0, 3.0]}), path)
     with pytest.raises(FlightDataError, match="CSV files only"):
         load_parquet(path, {**MAPPING, "first_line": 2})
+
+
+# -- header_line, decimal commas, rows without any value ---------------------------------------
+
+
+def test_header_line_decimal_commas_and_empty_rows(tmp_path):
+    path = tmp_path / "log.csv"
+    body = ["0,0;1,5", "0,5;2,5", ";", "nan;NaN", "1,0;3,5", "1,5;4,5", "2,0;5,5", "2,5;6,5",
+            "3,0;7,5", "3,5;8,5"]  # fmt: skip
+    path.write_text("Logger v2\nflight 3\nt;h\n" + "\n".join(body) + "\n")
+    fd = load_csv(path, {**MAPPING, "header_line": 3, "decimal": ",", "spikes": "keep"})
+    a = fd["altitude"]
+    assert a.t.tolist() == [0.0, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5]
+    assert a.values[:, 0].tolist() == [1.5, 2.5, 3.5, 4.5, 5.5, 6.5, 7.5, 8.5]
+    assert any("2 row(s) without any value (line(s) 6, 7)" in n for n in fd.notes)
+    # without them: the title is taken for the header, a clear error, nothing half-read
+    with pytest.raises(FlightDataError, match="fields but the header has"):
+        load_csv(path, MAPPING)
+    with pytest.raises(FlightDataError, match="integer >= 1"):
+        load_csv(path, {**MAPPING, "header_line": 0})
+    with pytest.raises(FlightDataError, match="'.' or ','"):
+        load_csv(path, {**MAPPING, "header_line": 3, "decimal": ";"})

@@ -274,3 +274,21 @@ def test_history_stage_lines_stay_on_the_trials_axis():
     (ann,) = fig.layout.annotations
     assert ann.text == "stage 2" and ann.x == pytest.approx(np.log10(32))
     assert not fig.layout.shapes
+
+
+def test_density_from_kept_cells_equals_histogram2d():
+    """A density counted from each point's kept grid cell (the browser UI) equals
+    np.histogram2d's over the same span, edges and non-finite values included."""
+    from vectorid.views.clouds import data_span, density_grid, density_of_cells, grid_cells
+
+    rng = np.random.default_rng(3)
+    x, y = rng.normal(size=5000), rng.uniform(0, 2, 5000)
+    x[:5], y[5:10] = np.nan, np.inf
+    x[10], y[11] = x[np.isfinite(x)].max(), 2.0  # points on the last edges
+    span = data_span(x, y)
+    cells = grid_cells(x, y, 40, span)
+    for m in (np.ones(5000, bool), rng.uniform(size=5000) < 0.3):
+        want = density_grid(x[m], y[m], 40, span=span)
+        got = density_of_cells(cells, m, 40, span)
+        for w, g in zip(want, got):
+            assert np.array_equal(w, g)

@@ -335,6 +335,16 @@ def _live_ranges(drv, axis: int):
     )
 
 
+def _lines(drv) -> dict[str, int]:
+    """What the page last drew on its parallel-coordinates canvas: lines, and how many
+    of them lie within the brushes (all without a brush)."""
+    d = drv.execute_script(
+        "const c = document.querySelector('#par-graph canvas.vid-lines');"
+        "return c ? Object.assign({}, c.dataset) : {};"
+    )
+    return {k: int(d.get(k, -1)) for k in ("lines", "selected")}
+
+
 def _brush(drv, axis: int, top: float, bottom: float) -> None:
     """Drag along axis ``axis`` from ``top`` to ``bottom`` (fractions of its height from
     its top)."""
@@ -357,6 +367,7 @@ def test_parallel_brushes_select_and_one_action_makes_a_constraint(browser, serv
     nd0 = _text(drv, "#count-nd")
     _tab(drv, "Parallel coordinates & history")
     _until(drv, lambda d: d.find_elements(By.CSS_SELECTOR, "#par-graph .axis-brush"), "the axes")
+    _until(drv, lambda d: _lines(d)["lines"] > 0, "the lines drawn")
     _brush(drv, 0, 0.30, 0.55)  # f1: a band in the middle, neither end of the axis
     _until(drv, lambda d: len(_live_ranges(d, 0)) == 1, "the first brush")
     _brush(drv, 0, 0.75, 0.90)  # a second band on the same axis
@@ -372,6 +383,13 @@ def test_parallel_brushes_select_and_one_action_makes_a_constraint(browser, serv
     want = f"selected {n:,} trials: {nd:,} in D, of which {npar:,} Pareto"
     _until(drv, lambda d: _text(d, "#vid-sel") == want, "the selection's counts")
     assert _text(drv, "#count-nd") == nd0  # a brush is a selection, not a constraint
+    # the page draws the lines itself (a 2D canvas, in a Web Worker): every line sent, those
+    # outside the brushes greyed; plotly.js's own WebGL lines are hidden
+    _until(drv, lambda d: 0 < _lines(d)["selected"] < _lines(d)["lines"], "lines redrawn")
+    assert drv.execute_script(
+        "return [...document.querySelectorAll('#par-graph .gl-canvas')]"
+        ".every(c => getComputedStyle(c).visibility === 'hidden');"
+    )
     drv.save_screenshot(str(ARTIFACTS / "ui_parallel.png"))
     # the selection as CSV: every selected trial once, with its D and Pareto flags
     href = drv.find_element(By.ID, "sel-csv").get_attribute("href")

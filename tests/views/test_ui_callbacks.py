@@ -316,6 +316,13 @@ def test_parallel_brushes_are_two_sided_selections_made_constraints_on_request(c
     dims = fig.data[0].dimensions
     assert [d.name for d in dims] == names
     assert all(d.constraintrange is None for d in dims)  # constraints are not brushes here
+    # the lines go to the page's own canvas (layout.meta.lines), plotly.js keeps the axes
+    lines = fig.layout.meta["lines"]
+    shown = sum(fig.data[0].meta["shown"].values())
+    assert set(lines["values"]) == set(names) and lines["mode"] == "set"
+    assert all(len(_arr(v)) == shown for v in lines["values"].values())
+    assert sorted(set(_arr(lines["color"]).tolist())) <= [0, 1, 2]
+    assert all(len(_arr(d.values)) == 2 for d in dims)
     # two ranges on f2 (both edges kept, not snapped to an end) and one on x1: a selection
     sel = {"kind": "ranges", "ranges": {"f2": [[5.0, 12.0], [20.0, 30.0]], "x1": [[1, 2]]}}
     a = _direct(bk, {"f1": 40.0})
@@ -904,3 +911,21 @@ def test_the_first_rows_of_a_test_table_are_those_of_the_full_sort(bk):
         for top in (0, 1, 5, 50, len(full.ids) + 3):
             t = a.test_table(name, top=top)
             assert np.array_equal(t.ids, full.ids[:top]) and (t.min, t.max) == (full.min, full.max)
+
+
+def test_histograms_counted_over_d_alone_match_the_plain_ones(ctx):
+    """The explorer's histograms (every-trial counts kept, D and Pareto counted over their
+    own rows) equal analysis.histograms under several constraint sets."""
+    from vectorid.analysis.histograms import histograms
+    from vectorid.views.ui.context import analysis_of
+    from vectorid.views.ui.explore import fast_histograms
+
+    for texts in (["40", ""], ["20", "30"], ["", ""]):
+        a, _ = analysis_of(ctx, texts, PURE2)
+        fast, plain = fast_histograms(ctx, a, min_trials=0), histograms(a)
+        assert [h.param for h in fast] == [h.param for h in plain]
+        for f, p in zip(fast, plain):
+            assert np.array_equal(f.edges, p.edges) and f.n_outside == p.n_outside
+            for k in ("all", "feasible", "pareto"):
+                assert np.array_equal(getattr(f, k), getattr(p, k)), (f.param, k)
+        assert sum(fast[0].feasible) == a.n_feasible > 0 or not texts[0]

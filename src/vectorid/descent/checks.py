@@ -2,6 +2,8 @@
 whose numbers would be silently wrong, with a message naming the likely mistake.
 
 - a log whose altitude hardly changes (a wrong column, a flat log);
+- a log that starts at rest far from 0 m with the altitude said to be above the pad (an
+  altitude above sea level);
 - a descent rate that the stated mass and canopies cannot give by a factor near 3.28 (an
   altitude in feet read as metres, or the other way round);
 - a trigger before the apogee, or above it.
@@ -62,6 +64,24 @@ def check_descent(
             f"({t[0]:.2f}-{t[-1]:.2f} s): there is no descent in it",
             "check that the altitude column is the height (--columns altitude=COL)",
         )
+    if plan.altitude_reference == "pad":
+        # a log that starts on the pad (at rest, or lifting off: under 30 m/s over its first
+        # 0.5 s, then a climb of more than 100 m to the apogee) reads ~0 there; far from 0, its
+        # altitude is above sea level (a GNSS log) or another zero, and the air density would
+        # be taken far too high up. A log that starts in the air (fast, or at its apogee) is
+        # not judged.
+        first = t <= t[0] + 0.5
+        if first.sum() >= 3 and apogee[0] > t[0] + 0.5:
+            h0 = float(np.median(h[first]))
+            rate = abs(float(np.polyfit(t[first], h[first], 1)[0]))
+            if rate < 30.0 and apogee[1] - h0 > 100.0 and abs(h0) > 50.0:
+                raise _err(
+                    "altitude reference",
+                    f"the log starts on the ground at {h0:.0f} m (apogee {apogee[1]:.0f} m), "
+                    "not near 0 m: its altitude is not above the pad",
+                    "an altitude above sea level (GNSS): give --altitude-reference msl (and no "
+                    "--pad-altitude); else check the altitude column",
+                )
     after = t >= apogee[0]
     ta, ha = t[after], h[after]
     drop = apogee[1] - float(np.min(ha)) if ha.size else 0.0
@@ -115,8 +135,8 @@ def check_descent(
         raise _err(
             "altitude unit",
             said,
-            "the altitude looks like metres read as feet: leave --altitude-unit ft out (or "
-            "check the mass and the drag areas)",
+            "the altitude looks like metres read as feet: give --altitude-unit m (or check the "
+            "mass and the drag areas)",
         )
 
 

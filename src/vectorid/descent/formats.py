@@ -11,8 +11,14 @@
   ``height_ft``, ``t [ms]``) is read, and an option that contradicts it is an error. Several
   altitude columns that state their units and agree after the conversion are one (the metres
   one is used). A time that goes back (a repeated buffer) and logging pauses are handled from
-  the time column (:func:`_flight_part`), each said in a note. A unit no column name states is
-  never guessed: the default (s, m) is said in a note and the descent checks stop on a wrong one.
+  the time column (:func:`_flight_part`), each said in a note.
+- A logger's CSV export whose documentation fixes its columns' units is recognised from its
+  header as a named format (:data:`NAMED_CSV`: the CATS Vega flight computer's filtered-data
+  export): its units are the documented ones, not a guess, and a unit option is refused.
+- A unit is never guessed: a generic CSV's time or altitude column whose name states no unit
+  needs ``--time-unit``/``--altitude-unit`` (the flight's documentation says which); without
+  it the run stops with a one-line message naming the column. A time column of ISO 8601 dates
+  states its unit by its content.
 """
 
 from __future__ import annotations
@@ -24,7 +30,7 @@ from typing import Any
 
 from vectorid.errors import StudyDefinitionError
 
-__all__ = ["LENGTH_UNITS", "TIME_UNITS", "LogFormat", "column_unit", "detect_format"]
+__all__ = ["LENGTH_UNITS", "NAMED_CSV", "TIME_UNITS", "LogFormat", "column_unit", "detect_format"]
 
 #: Length units a column name or an option may state, as the loaders spell them.
 LENGTH_UNITS = {
@@ -38,6 +44,75 @@ TIME_UNITS = {
     "ms": "ms", "millis": "ms", "milliseconds": "ms",
     "us": "us", "µs": "us", "ns": "ns", "min": "min", "minutes": "min",
 }  # fmt: skip
+
+
+@dataclass(frozen=True)
+class NamedCsv:
+    """A logger's CSV export recognised by its header, with the units its documentation states.
+
+    Attributes
+    ----------
+    name : str
+        The format's name as notes print it.
+    header : tuple of str
+        The exact column names (in any order; a leading unnamed index column is allowed).
+    time, altitude : str
+        The time and altitude columns.
+    time_unit, altitude_unit : str
+        Their documented units.
+    source : str
+        Where the units are documented.
+    """
+
+    name: str
+    header: tuple[str, ...]
+    time: str
+    altitude: str
+    time_unit: str
+    altitude_unit: str
+    source: str
+
+
+# CATS Vega flight computer (Control and Telemetry Systems, https://github.com/catsystems).
+# Its logs are exported to CSV by the cats-logs parser (catsystems/cats-logs,
+# catslogs/binary_parser.py: ``filtered_data_info`` rows {ts, filtered_altitude_AGL,
+# filtered_acceleration}, ts converted from the logger's ms ticks to s since liftoff,
+# ``scale_col(..., 'ts', 1000)``) and by the CATS Configurator (catsystems/cats-configurator,
+# ``filteredDataInfo`` {ts, filteredAltitudeAGL, filteredAcceleration}). The CATS team's flight
+# data README (catsystems/euroc21-team-data, Aris-Euler/CATS/README.md) states: "The state
+# estimation height is in m and the velocity in m/s"; the filtered altitude above ground is that
+# estimate, in m. The shared EuRoC 2023 logs (Camões, Genesis, Lince) and Hedy's (EuRoC 2025,
+# "CATS Vega Flight Data") are these exports; their READMEs say s and m as well.
+_CATS_SOURCE = (
+    "the CATS documentation (height in m: catsystems/euroc21-team-data; ts in s since "
+    "liftoff: catsystems/cats-logs)"
+)
+#: Logger exports recognised from their header, whose documentation fixes the units.
+NAMED_CSV: tuple[NamedCsv, ...] = (
+    NamedCsv(
+        "CATS Vega filtered data (cats-logs export)",
+        ("ts", "filtered_altitude_AGL", "filtered_acceleration"),
+        "ts", "filtered_altitude_AGL", "s", "m", _CATS_SOURCE,
+    ),
+    NamedCsv(
+        "CATS Vega filtered data (CATS Configurator export)",
+        ("ts", "filteredAltitudeAGL", "filteredAcceleration"),
+        "ts", "filteredAltitudeAGL", "s", "m", _CATS_SOURCE,
+    ),
+)  # fmt: skip
+
+
+def named_csv(names: list[str]) -> NamedCsv | None:
+    """The named format whose header ``names`` is (None: a generic CSV)."""
+    cols = list(names)
+    if cols and (cols[0] in ("", "index") or cols[0].lower().startswith("unnamed")):
+        cols = cols[1:]  # a pandas index column
+    for f in NAMED_CSV:
+        if sorted(cols) == sorted(f.header):
+            return f
+    return None
+
+
 _TIME_NAME = re.compile(r"^(t|ts|time|timestamp|time_s|elapsed)\b", re.IGNORECASE)
 _ALT_NAME = re.compile(r"(alt|height|^z$|^h$|^z\b|^h\b)", re.IGNORECASE)
 
@@ -97,14 +172,80 @@ class LogFormat:
         The CSV/Parquet mapping with every unit resolved (None for self-describing formats).
     notes : list of str
         What was read from the content (columns chosen, units read from the header).
+    named : str or None
+        The name of a recognised logger export (:data:`NAMED_CSV`) whose documentation states
+        the altitude's unit; None otherwise.
     """
 
     format: str
     mapping: dict[str, Any] | None = None
     notes: list[str] = field(default_factory=list)
+    named: str | None = None
+
+
+#: A field that reads as a number (a decimal point or comma), an ISO 8601 date, or no value.
+_NUMERIC = re.compile(
+    r"^\s*([-+]?(\d+([.,]\d*)?|[.,]\d+)([eE][-+]?\d+)?|\d{4}-\d\d-\d\d[T ][\d:.]+Z?"
+    r"|nan|NaN|NAN|)\s*$"
+)
+_DECIMAL_COMMA = re.compile(r"^\s*[-+]?\d+,\d+\s*$")
+
+
+@dataclass(frozen=True)
+class _Layout:
+    """Where a generic CSV's header is and how its fields are written."""
+
+    line: int  # the header's line number (1-based)
+    first: int  # the first non-empty, non-comment line (text before the header: line > first)
+    delimiter: str
+    decimal: str
+    names: list[str]
+
+
+def _split(line: str, delim: str) -> list[str]:
+    import csv
+
+    return next(csv.reader([line], delimiter=delim, skipinitialspace=True), [])
+
+
+def _layout(path: Path) -> _Layout | None:
+    """The header of a generic CSV: the first line of at least two fields, not all numbers,
+    followed by rows of as many fields, each with a number in it (text lines before it, as
+    loggers write a title or a date, are not the header); its delimiter; and whether the
+    numbers are written with a decimal comma (``12,5`` in a ``;``- or tab-separated file)."""
+    import csv
+
+    lines: list[tuple[int, str]] = []
+    with path.open(encoding="utf-8-sig", errors="replace", newline="") as fh:
+        for lineno, line in enumerate(fh, start=1):
+            if line.strip() and not line.lstrip().startswith("#"):
+                lines.append((lineno, line.rstrip("\r\n")))
+            if len(lines) >= 40:
+                break
+    for i, (lineno, line) in enumerate(lines[:30]):
+        try:
+            delim = csv.Sniffer().sniff(line, delimiters=",;\t").delimiter
+        except csv.Error:
+            delim = ","
+        names = _split(line, delim)
+        if len(names) < 2 or all(_NUMERIC.match(f) for f in names):
+            continue
+        rows = [_split(ln, delim) for _, ln in lines[i + 1 : i + 6]]
+        if not rows or any(
+            len(r) != len(names) or not any(_NUMERIC.match(f) and f.strip() for f in r)
+            for r in rows
+        ):
+            continue
+        comma = delim != "," and any(_DECIMAL_COMMA.match(f) for r in rows for f in r)
+        return _Layout(lineno, lines[0][0], delim, "," if comma else ".",
+                       [c.strip() for c in names])  # fmt: skip
+    return None
 
 
 def _header(path: Path) -> list[str]:
+    lay = _layout(path)
+    if lay is not None:
+        return lay.names
     import csv
 
     with path.open(encoding="utf-8-sig", errors="replace") as fh:
@@ -116,6 +257,33 @@ def _header(path: Path) -> list[str]:
                     delim = ","
                 return [c.strip() for c in next(csv.reader([line], delimiter=delim))]
     return []
+
+
+def _data_rows(path: Path, lay: _Layout | None):
+    """``(line number, fields)`` of the data rows after the header (decimal commas made
+    points)."""
+    import csv
+
+    with path.open(encoding="utf-8-sig", errors="replace", newline="") as fh:
+        header_seen = False
+        delim = "," if lay is None else lay.delimiter
+        for lineno, line in enumerate(fh, start=1):
+            if not line.strip() or line.lstrip().startswith("#"):
+                continue
+            if not header_seen:
+                if lay is None:
+                    try:
+                        delim = csv.Sniffer().sniff(line, delimiters=",;\t").delimiter
+                    except csv.Error:
+                        delim = ","
+                    header_seen = True
+                elif lineno == lay.line:
+                    header_seen = True
+                continue
+            row = next(csv.reader([line], delimiter=delim), [])
+            if lay is not None and lay.decimal == ",":
+                row = [c.replace(",", ".") for c in row]
+            yield lineno, row
 
 
 def detect_format(
@@ -157,10 +325,10 @@ def detect_format(
             "--altitude-unit", f"{altitude_unit!r} is not a unit of length",
             "write m, ft or km",
         )  # fmt: skip
-    if time_unit is not None and time_unit.strip().lower() not in TIME_UNITS:
+    if time_unit is not None and time_unit.strip().lower() not in (*TIME_UNITS, "iso"):
         raise _err(
             "--time-unit", f"{time_unit!r} is not a unit of time for a descent log",
-            "write s, ms, us, ns or min (a column of ISO dates: convert it to seconds)",
+            "write s, ms, us, ns, min, or iso (a column of ISO 8601 dates)",
         )  # fmt: skip
     fmt = {"telemega": "altusmetrum"}.get(format or "", format)
     ext = p.suffix.lower()
@@ -202,8 +370,28 @@ def detect_format(
             )  # fmt: skip
         return LogFormat(fmt, None, [])
     notes: list[str] = []
+    lay = _layout(p) if fmt == "csv" else None
     names = _header(p) if fmt == "csv" else []
+    if lay is not None:
+        if lay.line > lay.first:
+            extra.setdefault("header_line", lay.line)
+            notes.append(
+                f"the header is line {lay.line}: the text before it (from line {lay.first}) is "
+                "not data"
+            )
+        if lay.decimal == ",":
+            extra.setdefault("decimal", ",")
+            extra.setdefault("delimiter", lay.delimiter)
+            notes.append(
+                f"numbers written with a decimal comma (12,5), fields separated by "
+                f"{lay.delimiter!r}: read as such"
+            )
     cols = dict(columns or {})
+    named = named_csv(names) if fmt == "csv" and format is None else None
+    if named is not None:
+        cols.setdefault("time", named.time)
+        cols.setdefault("altitude", named.altitude)
+        notes.append(f"format: {named.name}, recognised from its header")
     if fmt == "csv" and ("time" not in cols or "altitude" not in cols):
         for key, pat in (("time", _TIME_NAME), ("altitude", _ALT_NAME)):
             if key in cols:
@@ -237,13 +425,28 @@ def detect_format(
         raise _err("--columns", f"a {fmt} log needs its time and altitude columns",
                    "give --columns time=COL,altitude=COL")  # fmt: skip
     units: dict[str, str] = {}
-    for key, kind, given_unit, opt, default in (
-        ("time", "time", time_unit, "--time-unit", "s"),
-        ("altitude", "length", altitude_unit, "--altitude-unit", "m"),
+    missing: list[tuple[str, str, str]] = []
+    for key, kind, given_unit, opt in (
+        ("time", "time", time_unit, "--time-unit"),
+        ("altitude", "length", altitude_unit, "--altitude-unit"),
     ):
         table = TIME_UNITS if kind == "time" else LENGTH_UNITS
         stated = column_unit(cols[key], kind)
-        given_u = None if given_unit is None else table[given_unit.strip().lower()]
+        g = None if given_unit is None else given_unit.strip().lower()
+        given_u = None if g is None else ("iso" if g == "iso" else table[g])
+        documented = None
+        if named is not None and cols[key] == getattr(named, key):
+            documented = getattr(named, f"{key}_unit")
+        if documented is not None:
+            if given_u is not None:
+                raise _err(
+                    opt, f"{p.name} is a {named.name} (recognised from its header), whose "  # type: ignore[union-attr]
+                    f"documentation states its units ({cols[key]!r} in {documented}): {opt} "
+                    "does not apply to it",
+                    f"leave {opt} out",
+                )  # fmt: skip
+            units[key] = documented
+            continue
         if stated is not None and given_u is not None and stated != given_u:
             raise _err(
                 opt, f"the column {cols[key]!r} states {stated}, {opt} says {given_u}",
@@ -254,12 +457,30 @@ def detect_format(
             notes.append(f"{key} unit {stated}, read from the column name {cols[key]!r}")
         elif given_u is not None:
             units[key] = given_u
+            notes.append(f"{key} unit {given_u}, as given by {opt}")
+        elif key == "time" and fmt == "csv" and _iso_times(p, cols[key]):
+            units[key] = "iso"
+            notes.append(f"time read as ISO 8601 dates from the column {cols[key]!r}")
         else:
-            units[key] = default
-            notes.append(
-                f"{key} unit {default}: the column name {cols[key]!r} states none and {opt} "
-                "was not given (the plausibility checks catch a wrong unit)"
-            )
+            missing.append((key, cols[key], opt))
+    if missing:
+        what = " and ".join(f"the {k} column {c!r}" for k, c, _ in missing)
+        fix = " and ".join(
+            "--time-unit s or ms" if k == "time" else "--altitude-unit m or ft"
+            for k, _, _ in missing
+        )
+        raise _err(
+            missing[0][2], f"{what} of {p.name} state{'s' if len(missing) == 1 else ''} no unit, "
+            "and units are never guessed",
+            f"give {fix} (the flight's documentation says which)",
+        )  # fmt: skip
+    if named is not None:
+        said = [f"{k} {cols[k]!r} in {units[k]}" for k in ("time", "altitude")
+                if cols[k] == getattr(named, k)]  # fmt: skip
+        notes[notes.index(f"format: {named.name}, recognised from its header")] = (
+            f"format: {named.name}, recognised from its header: {', '.join(said)}, as "
+            f"{named.source} states"
+        )
     if fmt == "csv":
         extra.update(_flight_part(p, cols["time"], units["time"], extra, notes))
     mapping: dict[str, Any] = {
@@ -270,7 +491,33 @@ def detect_format(
     }
     if "event" in cols:
         mapping["event_column"] = cols["event"]
-    return LogFormat(fmt, mapping, notes)
+    documented = named is not None and cols["altitude"] == named.altitude
+    return LogFormat(fmt, mapping, notes, named.name if documented else None)
+
+
+def _iso_times(path: Path, col: str) -> bool:
+    """Whether the column ``col`` holds ISO 8601 dates (its first five values parse as such)."""
+    import numpy as np
+
+    lay = _layout(path)
+    names = lay.names if lay is not None else _header(path)
+    if col not in names:
+        return False
+    k = names.index(col)
+    vals: list[str] = []
+    for _, row in _data_rows(path, lay):
+        if k < len(row):
+            vals.append(row[k].strip())
+        if len(vals) >= 5:
+            break
+    if not vals:
+        return False
+    try:
+        return all(re.match(r"^\d{4}-\d\d-\d\d[T ]\d", v) for v in vals) and all(
+            not np.isnat(np.datetime64(v.rstrip("Z").replace(" ", "T"))) for v in vals
+        )
+    except ValueError:
+        return False
 
 
 def _plain_unit(name: str, kind: str) -> bool:
@@ -306,7 +553,6 @@ def _flight_part(
 
     Options the user gave (``first_line``, ``last_line``, ``max_gap``) are kept as given.
     """
-    import csv
 
     from vectorid.identify.loaders import DEFAULT_MAX_GAP
 
@@ -315,30 +561,18 @@ def _flight_part(
         return {}
     lines: list[int] = []
     times: list[float] = []
-    with path.open(encoding="utf-8-sig", errors="replace", newline="") as fh:
-        header: list[str] | None = None
-        idx = -1
-        delim = ","
-        for lineno, line in enumerate(fh, start=1):
-            if not line.strip() or line.lstrip().startswith("#"):
-                continue
-            if header is None:
-                try:
-                    delim = csv.Sniffer().sniff(line, delimiters=",;\t").delimiter
-                except csv.Error:
-                    delim = ","
-                header = [c.strip() for c in next(csv.reader([line], delimiter=delim))]
-                if time_col not in header:
-                    return {}
-                idx = header.index(time_col)
-                continue
-            row = next(csv.reader([line], delimiter=delim), [])
-            try:
-                v = float(row[idx]) * factor
-            except (IndexError, ValueError):
-                continue
-            lines.append(lineno)
-            times.append(v)
+    lay = _layout(path)
+    names = lay.names if lay is not None else _header(path)
+    if time_col not in names:
+        return {}
+    idx = names.index(time_col)
+    for lineno, row in _data_rows(path, lay):
+        try:
+            v = float(row[idx]) * factor
+        except (IndexError, ValueError):
+            continue
+        lines.append(lineno)
+        times.append(v)
     if len(times) < 3:
         return {}
     import numpy as np
@@ -405,8 +639,14 @@ def _same_altitude(path: Path, cand: list[str]) -> str | None:
             return None
         units.append(u)
     try:
-        df = pd.read_csv(path, usecols=cand, sep=None, engine="python", encoding="utf-8-sig",
-                         comment="#")  # fmt: skip
+        lay = _layout(path)
+        if lay is None:
+            df = pd.read_csv(path, usecols=cand, sep=None, engine="python",
+                             encoding="utf-8-sig", comment="#")  # fmt: skip
+        else:
+            df = pd.read_csv(path, usecols=cand, sep=lay.delimiter, decimal=lay.decimal,
+                             skiprows=range(lay.line - 1), encoding="utf-8-sig",
+                             comment="#", skipinitialspace=True)  # fmt: skip
         df.columns = [str(c).strip() for c in df.columns]
         to_m = {"m": 1.0, "ft": 0.3048, "km": 1000.0}
         vals = [pd.to_numeric(df[c], errors="coerce").to_numpy(float) * to_m[u]

@@ -137,8 +137,10 @@ class DescentPlan:
         ``{"time": COL, "altitude": COL[, "event": COL]}`` of a generic CSV (default: from the
         header when it has one time-like and one altitude-like column).
     time_unit, altitude_unit : str, optional
-        The units of a generic CSV's columns when their names state none (an error when they
-        contradict the names, or when the format states its own units).
+        The units of a generic CSV's columns when their names state none: required then
+        (units are never guessed; ``time_unit = "iso"`` for ISO 8601 dates, which are also
+        read from the content); an error when they contradict the names, or when the format
+        states its own units (AltusMetrum, a CATS export).
     read : mapping, optional
         ``first_line``, ``last_line``, ``max_gap`` of a generic CSV.
     strict_data : bool

@@ -273,9 +273,16 @@ def _phase_lines(p: PhaseResult) -> list[str]:
             if p.cds_feasible is None
             else f"; constant-drag feasible {_fmt_range(p.cds_feasible)}"
         )
+        da = p.drag_along or {}
+        sub = (da.get("low"), da.get("high"))
+        own = (
+            f" {_fmt_range(sub)} m²"
+            if None not in sub and _fmt_range(sub) != _fmt_range(p.cds_range)
+            else ""
+        )
         out.append(
             f"  C_D S in {_fmt_range(p.cds_range)} m² (the drag area is not constant: the range "
-            f"covers the sub-windows{feas})"
+            f"covers the sub-windows{own}{feas})"
         )
     elif p.cds_feasible is not None:
         out.append(f"  C_D S in {_fmt_range(p.cds_feasible)} m² (feasible range, {p.status})")

@@ -63,19 +63,42 @@ def _load(plan: DescentPlan):
         raise _err("file", f"no such file: {path}", "check the path of the altimeter log")
     path = path.resolve()
     notes: list[str] = []
+    documented = False  # the altitude's unit is the one a recognised format documents
     if plan.mapping is not None:
         mapping: dict[str, Any] | None = dict(plan.mapping)
         fmt = plan.format
         alt = mapping.get("altitude")
+        if isinstance(alt, str):
+            alt = {"column": alt}
+            mapping["altitude"] = alt
         if isinstance(alt, Mapping) and "column" in alt:
             stated = column_unit(str(alt["column"]), "length")
-            unit = str(alt.get("unit", "m"))
+            if "unit" not in alt and stated is None:
+                raise _err(
+                    "mapping.altitude.unit",
+                    f"the altitude column {alt['column']!r} states no unit and the mapping gives "
+                    "none, and units are never guessed",
+                    "add unit = 'm' or 'ft' (the flight's documentation says which)",
+                )
+            unit = str(alt.get("unit", stated))
             if stated is not None and stated != unit:
                 raise _err(
                     "mapping.altitude.unit",
                     f"the column {alt['column']!r} states {stated}, the mapping says {unit}",
                     f"set unit = {stated!r} (or fix the column's name)",
                 )
+            mapping["altitude"] = {**alt, "unit": unit}
+        tcol = mapping.get("time")
+        if isinstance(tcol, str) and "time_unit" not in mapping:
+            t_stated = column_unit(tcol, "time")
+            if t_stated is None:
+                raise _err(
+                    "mapping.time_unit",
+                    f"the time column {tcol!r} states no unit and the mapping gives none "
+                    "(time_unit), and units are never guessed",
+                    "add time_unit = 's' or 'ms' (or 'iso' for ISO 8601 dates)",
+                )
+            mapping["time_unit"] = t_stated
     else:
         lf = detect_format(
             path,
@@ -86,6 +109,7 @@ def _load(plan: DescentPlan):
             extra=dict(plan.read),
         )
         fmt, mapping, notes = lf.format, lf.mapping, list(lf.notes)
+        documented = lf.named is not None
     # spikes are left out and named once, in the result's notes (not as warnings)
     spikes = "strict" if plan.strict_data else "note"
     if mapping is None and fmt in ("altusmetrum", "telemega"):
@@ -100,7 +124,7 @@ def _load(plan: DescentPlan):
             "map the altitude column: altitude = { column = ..., unit = 'm' or 'ft' }",
         )
     unit = None  # None: the format states its own unit
-    if mapping is not None and "altitude" in mapping:
+    if mapping is not None and "altitude" in mapping and not documented:
         alt = mapping.get("altitude")
         unit = str(alt.get("unit", "m")) if isinstance(alt, Mapping) else "m"
     notes.extend(f"the log: {n}" for n in flight.notes)

@@ -1,7 +1,14 @@
 """The verdict of each phase in words: agreement with the stated drag area (only when the
 stated value lies inside the printed range, or within the stated ±15 % tolerance, said as
 such), or the specific reason why not (the main did not open, a main-sized canopy, a descent
-rate that does not fit the stated value, an empty feasible set and what empties it)."""
+rate that does not fit the stated value, an empty feasible set and what empties it).
+
+One story per phase: the long verdict is printed under the phase's lines
+(:meth:`DescentResult.format_text`), which already give the window, the descent rate, the
+limits, the ranges, the best fit and the stated value with its residual; it refers to those
+("above") and adds only what they do not say (ratios, rates the stated value would give,
+where the drag area changes), so each number is printed once. The short form is a table
+cell of its own, with its numbers, each once as well."""
 
 from __future__ import annotations
 
@@ -29,14 +36,12 @@ def verdict(
         lim = r.limits
         crit = r.empty_by or "a constraint"
         if crit.startswith("alt_"):
-            what = (
-                f"an altitude RMS of {r.best_alt_rms_m:.1f} m against {lim.alt_rms:.1f} m allowed"
-            )
+            what = "an altitude RMS (above) over its limit"
             short.append(f"D empty ({crit}: {r.best_alt_rms_m:.1f} > {lim.alt_rms:.1f} m RMS)")
         else:
             what = (
-                f"a mean vertical-speed residual of at least {r.best_vz_mean_abs_ms:.2f} m/s "
-                f"against {lim.vz_mean_abs:.2f} m/s allowed"
+                f"a mean vertical-speed residual of at least {r.best_vz_mean_abs_ms:.2f} m/s, "
+                "over its limit"
             )
             short.append(
                 f"D empty ({crit}: {r.best_vz_mean_abs_ms:.2f} > {lim.vz_mean_abs:.2f} m/s)"
@@ -47,12 +52,7 @@ def verdict(
         )
     if not empty and r.status in ("weak", "not identified") and r.cds_feasible is not None:
         lo, hi = r.cds_feasible
-        why = (r.identifiability or {}).get("reason", "")
-        parts.append(
-            f"the data bound the drag area only to {lo:.4g}-{hi:.4g} m² (feasible range, "
-            f"{r.status}: {why}; {r.duration:.0f} s and {r.altitude_loss:.0f} m of descent in "
-            "the window)"
-        )
+        parts.append("the data bound the drag area only to the feasible range above")
         short.append(f"{r.status}: {lo:.3g}-{hi:.3g} m²")
     value = r.compared_cds
     stated = r.stated_cds
@@ -61,7 +61,9 @@ def verdict(
     if stated is not None and value is not None:
         ratio = value / stated
         pct = f"{100 * (ratio - 1):+.0f} %"
-        what = f"{label} {value:.4g} m²{corrected} is {ratio:.2f} × the stated {stated:.4g} m²"
+        # the value and the stated one are printed above; a hot-day corrected value is not
+        shown = f" {value:.4g} m²{corrected}" if corrected else ""
+        what = f"{label}{shown} is {ratio:.2f} × the stated value"
         dro = by_name.get("drogue")
         dval = None if dro is None else dro.compared_cds
         under = None
@@ -71,10 +73,19 @@ def verdict(
         k = r.height_ratio or 1.0
         rng = r.cds_feasible if (r.cds is None and not empty) else None
         inside = rng is not None and rng[0] / k <= stated <= rng[1] / k
+
+        def the_range(v) -> str:  # the feasible range: printed above, unless corrected
+            return f" {v[0] / k:.4g}-{v[1] / k:.4g} m²{corrected}" if corrected else " (above)"
+
+        over = (
+            r.stated_alt_rms_m is not None
+            and r.limits is not None
+            and r.stated_alt_rms_m > r.limits.alt_rms
+        )
         if inside and abs(ratio - 1) > AGREEMENT:
             parts.append(
-                f"the data do not exclude the stated {stated:.4g} m²: it lies inside the "
-                f"feasible range {rng[0] / k:.4g}-{rng[1] / k:.4g} m²{corrected}"
+                f"the data do not exclude the stated value: it lies inside the feasible "
+                f"range{the_range(rng)}"
             )
             short.append("stated value inside the feasible range")
         elif abs(ratio - 1) <= AGREEMENT:
@@ -82,31 +93,28 @@ def verdict(
             in_range = feas is not None and feas[0] / k <= stated <= feas[1] / k
             if r.cds is None:  # no value: D empty, or the drag area is not identified
                 parts.append(
-                    f"{label}, {value:.4g} m²{corrected}, is within the ±15 % tolerance of the "
-                    f"stated {stated:.4g} m² ({pct})"
+                    f"{label}{shown} is within the ±15 % tolerance of the stated value ({pct})"
                 )
                 short.append(f"{label.removeprefix('the ')} within ±15 % ({pct})")
             elif in_range:
-                parts.insert(0, f"agrees with the stated {stated:.4g} m² ({pct}){corrected}: it "
-                             "lies inside the feasible range")  # fmt: skip
+                parts.insert(0, f"agrees with the stated value ({pct}){corrected}: it lies "
+                             "inside the feasible range")  # fmt: skip
                 short.insert(0, f"agrees ({pct}{', hot-day corrected' if corrected else ''})")
             else:
                 text = (
-                    f"within the ±15 % tolerance of the stated {stated:.4g} m² ({pct}), but the "
-                    f"data exclude the stated value: it lies outside the feasible range "
-                    f"{feas[0] / k:.4g}-{feas[1] / k:.4g} m²{corrected}"
+                    f"within the ±15 % tolerance of the stated value ({pct}), but the data "
+                    f"exclude the stated value: it lies outside the feasible range"
+                    f"{the_range(feas)}"
                 )
-                if r.stated_alt_rms_m is not None and r.limits is not None:
-                    text += (
-                        f" (altitude RMS with it {r.stated_alt_rms_m:.1f} m, "
-                        f"{r.limits.alt_rms:.1f} m allowed)"
-                    )
+                if over:
+                    text += ", and its altitude RMS (above) is over the limit"
                 parts.insert(0, text)
                 short.insert(0, f"within ±15 % ({pct}) but outside the feasible range")
         elif under is not None and under < 2.0 * dval:
+            total = f", {under:.3g} m²," if plan.convention == "adds" else ""
             parts.append(
-                f"the main did not open (or not fully): {what}; the drag area under it, "
-                f"{under:.3g} m², is {under / dval:.2f} × the drogue phase's {dval:.3g} m²"
+                f"the main did not open (or not fully): {what}; the drag area under it{total} "
+                f"is {under / dval:.2f} × the drogue phase's {dval:.3g} m²"
             )
             short.append(
                 f"the main did not open (or not fully): {under / dval:.2f} × the drogue "
@@ -131,19 +139,12 @@ def verdict(
             v_stated = r.descent_rate * math.sqrt(value / stated)
             text = (
                 f"the descent rate does not fit the stated drag area: {what}; the measured "
-                f"mean descent rate, {r.descent_rate:.1f} m/s, would be about {v_stated:.1f} "
-                "m/s with it"
+                f"mean descent rate (above) would be about {v_stated:.1f} m/s with it"
             )
             if rng is not None:
-                text += (
-                    f"; the stated value lies outside the feasible range "
-                    f"{rng[0] / k:.4g}-{rng[1] / k:.4g} m²{corrected}"
-                )
-            if r.stated_alt_rms_m is not None and r.limits is not None:
-                text += (
-                    f" (altitude RMS with the stated value {r.stated_alt_rms_m:.0f} m, "
-                    f"{r.limits.alt_rms:.1f} m allowed)"
-                )
+                text += f"; the stated value lies outside the feasible range{the_range(rng)}"
+            if over:
+                text += "; the stated value's altitude RMS (above) is over the limit"
             parts.append(text)
             short.append(
                 f"the descent rate ({r.descent_rate:.1f} m/s) does not fit the stated value: "
@@ -177,10 +178,12 @@ def verdict(
             if rms > RMS_GOAL:
                 short.append(f"alt RMS {rms:.1f} m, within the noise floor ({floor:.1f} m)")
         elif rms > RMS_GOAL or rms > 1.5 * floor:  # say so in the table too
-            short.append(
-                f"alt RMS {rms:.1f} m (noise floor {floor:.1f} m, no constant drag area "
-                f"< {rb:.1f} m{'; baro error not in GPS' if baro else ''})"
+            said = empty and (r.empty_by or "").startswith("alt_")  # the D-empty clause has it
+            what = (
+                f"noise floor {floor:.1f} m, no constant drag area < {rb:.1f} m"
+                f"{'; baro error not in GPS' if baro else ''}"
             )
+            short.append(what if said else f"alt RMS {rms:.1f} m ({what})")
     if r.sensor_disagreement_m is not None and rms is not None and rms > 5.0:
         parts.append(
             f"the log's GPS and barometric heights disagree by {r.sensor_disagreement_m:.1f} "
@@ -191,9 +194,9 @@ def verdict(
         n, w = len(da["cds"]), da["windows"][0][1] - da["windows"][0][0]
         parts.insert(
             0,
-            f"drag area changes along the descent: {da['low']:.3g}-{da['high']:.3g} m² from the "
-            f"descent rate over {n} sub-windows of {w:.0f} s, beyond their noise; a constant drag "
-            "area is not what the data show, so no single value is given",
+            f"drag area changes along the descent (the range above) beyond the noise of the "
+            f"descent rate over {n} sub-windows of {w:.0f} s: a constant drag area is not what "
+            "the data show, so no single value is given",
         )
         short.insert(0, f"drag area changes along the descent: {da['low']:.3g}-{da['high']:.3g} m²")
     agrees = bool(short) and short[0].startswith("agrees")

@@ -1,12 +1,14 @@
 """Single-sample spikes in a measured series: found, reported with their times, left out.
 
 A spike is a sample that departs from the running median of its neighbours (5 samples; at the
-ends, the quadratic through the next inner samples) by more than ``k`` local robust
-standard deviations of those departures (1.4826 × their running median over 25 samples) and by
-more than an absolute floor. A real motion moves the neighbours with it; a
-corrupt sample, a radio glitch or a last row written half-way does not. Runs of up to two
-samples are caught; longer disturbances (an ejection's pressure pulse over a second) are not
-spikes and stay in the data, where the phase windows and the settling times deal with them.
+ends, the quadratic through the next inner samples) by more than ``k`` times the channel's own
+local noise (the robust σ of its second differences over 25 samples, 1.4826 × their median
+/ sqrt(6): relative to the channel's scatter there, so a noisy stretch's excursions stay and
+a quiet one's glitch does not) and by more than an absolute floor. A real motion moves the
+neighbours with it; a corrupt sample, a radio glitch or a last row written half-way does not.
+Runs of up to two samples are caught; longer disturbances (an ejection's pressure pulse over a
+second) are not spikes and stay in the data, where the phase windows and the settling times
+deal with them.
 """
 
 from __future__ import annotations
@@ -109,12 +111,24 @@ def find_spikes(t, x, *, k: float = 10.0, floor: float = 0.0, window: int = 5) -
             if fin.size == 0:
                 bad |= ~finite
                 continue
-            # the local scale: 1.4826 × the running median of |departure| over `span` samples
+            # the local noise: the robust σ of the second differences over `span` samples,
+            # / sqrt(6) per sample (white noise of σ gives second differences of σ sqrt(6)); a
+            # spike moves three second differences, the median of `span` not at all, and a
+            # trend or a slowly changing rate gives none, so the channel's own noise decides:
+            # a 12-m excursion of a barometer whose samples scatter by ±8 m after an ejection
+            # is its noise, a 12-m jump of a quiet one is a spike
             span = min(n, 25) | 1
-            g = float(np.median(fin))  # outside the series: its overall median departure
-            local = median_filter(np.where(np.isfinite(a), a, g), size=span, mode="constant",
-                                  cval=g)  # fmt: skip
-            scale = 1.4826 * local
+            cf = np.where(finite, col, m)
+            d2 = np.abs(cf[2:] - 2.0 * cf[1:-1] + cf[:-2])
+            d2 = np.where(np.isfinite(d2), d2, np.inf)
+            d2 = np.concatenate([d2[:1], d2, d2[-1:]])  # sample i: the difference centred on it
+            local = median_filter(d2, size=span, mode="nearest")
+            # at the ends, the median of the first (last) `span` differences, not of a window
+            # padded with the end value (a corrupt last row would set its own threshold)
+            hs = span // 2
+            local[:hs] = np.median(d2[:span])
+            local[n - hs :] = np.median(d2[-span:])
+            scale = 1.4826 * local / np.sqrt(6.0)
             spread = float(np.percentile(col[finite], 99) - np.percentile(col[finite], 1))
             thr = np.maximum(k * scale, floor if floor > 0 else spread)
             bad |= ~finite

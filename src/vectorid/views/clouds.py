@@ -45,7 +45,9 @@ __all__ = [
     "counts_title",
     "criterion_vs_parameter_figure",
     "density_grid",
+    "density_of_cells",
     "fitted_range",
+    "grid_cells",
     "histograms_figure",
     "limits_of",
     "scatter_figure",
@@ -236,6 +238,19 @@ def _legend(name: str, count: int, shown: int, n_failed: int, density: bool) -> 
     return text
 
 
+def _grid_edges(
+    x: np.ndarray, y: np.ndarray, bins: int, span: tuple[float, float, float, float] | None
+) -> tuple[np.ndarray, np.ndarray]:
+    x0, x1, y0, y1 = span or (float(x.min()), float(x.max()), float(y.min()), float(y.max()))
+    xe = np.linspace(x0, x1 or 1.0, bins + 1)
+    ye = np.linspace(y0, y1 or 1.0, bins + 1)
+    if xe[-1] <= xe[0]:
+        xe = np.linspace(xe[0] - 0.5, xe[0] + 0.5, bins + 1)
+    if ye[-1] <= ye[0]:
+        ye = np.linspace(ye[0] - 0.5, ye[0] + 0.5, bins + 1)
+    return xe, ye
+
+
 def density_grid(
     x: np.ndarray,
     y: np.ndarray,
@@ -249,14 +264,39 @@ def density_grid(
     x, y = x[ok], y[ok]
     if len(x) == 0:
         return np.zeros(0), np.zeros(0), np.zeros((0, 0))
-    x0, x1, y0, y1 = span or (float(x.min()), float(x.max()), float(y.min()), float(y.max()))
-    xe = np.linspace(x0, x1 or 1.0, bins + 1)
-    ye = np.linspace(y0, y1 or 1.0, bins + 1)
-    if xe[-1] <= xe[0]:
-        xe = np.linspace(xe[0] - 0.5, xe[0] + 0.5, bins + 1)
-    if ye[-1] <= ye[0]:
-        ye = np.linspace(ye[0] - 0.5, ye[0] + 0.5, bins + 1)
+    xe, ye = _grid_edges(x, y, bins, span)
     h, _, _ = np.histogram2d(x, y, bins=(xe, ye))
+    return 0.5 * (xe[1:] + xe[:-1]), 0.5 * (ye[1:] + ye[:-1]), h.T
+
+
+def grid_cells(
+    x: np.ndarray, y: np.ndarray, bins: int, span: tuple[float, float, float, float]
+) -> np.ndarray:
+    """Each point's cell of :func:`density_grid`'s grid over ``span`` (``ix * bins + iy``,
+    as ``np.histogram2d`` bins it: the last edge closed), ``bins * bins`` where the point is
+    not finite or off the grid; uint16 up to 255 bins. Kept per store, the density of any
+    subset is one ``bincount`` (:func:`density_of_cells`)."""
+    xe, ye = _grid_edges(x, y, bins, span)
+    out = None
+    for v, e in ((x, xe), (y, ye)):
+        with np.errstate(invalid="ignore"):
+            i = np.searchsorted(e, v, side="right")
+            i[v == e[-1]] -= 1
+            i -= 1
+            bad = (i < 0) | (i >= bins) | ~np.isfinite(v)
+        i[bad] = -1
+        out = i if out is None else np.where((out < 0) | (i < 0), -1, out * bins + i)
+    out = np.where(out < 0, bins * bins, out)
+    return out.astype(np.uint16 if bins < 256 else np.int32)
+
+
+def density_of_cells(
+    cells: np.ndarray, mask: np.ndarray, bins: int, span: tuple[float, float, float, float]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`density_grid` of the points ``mask`` picks, from their :func:`grid_cells`."""
+    xe, ye = _grid_edges(np.zeros(1), np.zeros(1), bins, span)
+    h = np.bincount(cells[mask], minlength=bins * bins + 1)[: bins * bins]
+    h = h.reshape(bins, bins).astype(float)
     return 0.5 * (xe[1:] + xe[:-1]), 0.5 * (ye[1:] + ye[:-1]), h.T
 
 
@@ -271,6 +311,15 @@ def _finite_range(v: np.ndarray) -> tuple[float, float]:
 def data_span(xv: np.ndarray, yv: np.ndarray) -> tuple[float, float, float, float]:
     """``(x low, x high, y low, y high)`` over the finite values."""
     return (*_finite_range(xv), *_finite_range(yv))
+
+
+def _memo(memo: dict[Any, Any] | None, key: Any, make: Any) -> Any:
+    if memo is None:
+        return make()
+    hit = memo.get(key)
+    if hit is None:
+        hit = memo[key] = make()
+    return hit
 
 
 def fitted_range(v: np.ndarray, pad: float = 0.04) -> list[float]:
@@ -298,16 +347,21 @@ def cloud_traces(
     selected: np.ndarray | None = None,
     gl: bool = True,
     enc: Any = _plain,
+    memo: dict[Any, Any] | None = None,
 ) -> list[dict[str, Any]]:
     """The traces (plain dicts) of one point cloud: infeasible density (or points), feasible
     and Pareto points (thinned per set), and, when ``selected`` is given, the selection in
-    the set colours on top. ``enc`` encodes arrays (:func:`b64` for the browser)."""
+    the set colours on top. ``enc`` encodes arrays (:func:`b64` for the browser). ``memo``
+    (a dict kept with the loaded trials, the browser UI) keeps the data's span and each
+    point's density cell per pair of columns, so a new constraint set counts its
+    densities with one ``bincount`` each."""
     pc = classes or point_classes(a)
     rows, counts = thin(pc, budget, seed)
     n_failed = int(pc.failed.sum())
     span = None
     if budget is not None and max(counts["infeasible"], counts["feasible"]) > budget:
-        span = data_span(xv, yv)  # the densities of both sets on one grid
+        # the densities of both sets on one grid
+        span = _memo(memo, ("span", xname, yname), lambda: data_span(xv, yv))
     out: list[dict[str, Any]] = []
     ids = a.trials.id
     kind = "scattergl" if gl else "scatter"
@@ -326,7 +380,15 @@ def cloud_traces(
         legend = _legend(name, counts[name], len(r), n_failed, density)
         if density:
             m = (pc.infeasible if name == "infeasible" else pc.feasible) & ~pc.failed
-            cx, cy, z = density_grid(xv[m], yv[m], bins, span=span)
+            if memo is None:
+                cx, cy, z = density_grid(xv[m], yv[m], bins, span=span)
+            else:
+                cells = _memo(
+                    memo,
+                    ("cells", xname, yname, span, bins),
+                    lambda: grid_cells(xv, yv, bins, span),
+                )
+                cx, cy, z = density_of_cells(cells, m, bins, span)
             zl = np.where(z > 0, np.log10(np.maximum(z, 1)) + 1, np.nan)
             out.append(
                 {
@@ -521,6 +583,7 @@ def scatter_figure(
     selected: np.ndarray | None = None,
     gl: bool = True,
     raw: bool = False,
+    memo: dict[Any, Any] | None = None,
 ) -> Any:
     """Criterion vs criterion (seed 001 Figs. 6, 11; seed 000 Fig. 8), or any two of
     criteria, functionals and parameters: every set in its colour, constraints as dashed
@@ -545,14 +608,28 @@ def scatter_figure(
     raw : bool
         Return the figure as a plain dict with base64 arrays (what the browser UI sends)
         instead of a ``go.Figure``.
+    memo : dict, optional
+        Kept with the loaded trials (the browser UI): spans, axis ranges and density cells
+        that do not depend on the constraints (see :func:`cloud_traces`).
     """
     xv, _ = column(a, x)
     yv, _ = column(a, y)
     enc = b64 if raw else _plain
     data = cloud_traces(
-        a, xv, yv, x, y, budget=max_points, seed=seed, selected=selected, gl=gl, enc=enc
+        a,
+        xv,
+        yv,
+        x,
+        y,
+        budget=max_points,
+        seed=seed,
+        selected=selected,
+        gl=gl,
+        enc=enc,
+        memo=memo,
     )
-    xr, yr = fitted_range(xv), fitted_range(yv)
+    xr = _memo(memo, ("range", x), lambda: fitted_range(xv))
+    yr = _memo(memo, ("range", y), lambda: fitted_range(yv))
     layout = _base_layout(
         title={"text": title or f"{y} vs {x}   ({counts_title(a)})", "font": {"size": 13}},
         xaxis={"title": {"text": axis_title(x, labels)}, "range": xr},

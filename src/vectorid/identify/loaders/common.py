@@ -58,6 +58,8 @@ _TOP_KEYS = {
     "channels",
     "first_line",
     "last_line",
+    "header_line",
+    "decimal",
     *STANDARD_CHANNELS,
 }
 

@@ -34,7 +34,12 @@ from vectorid.identify.outliers import drop_spikes
 
 
 def _read_csv(
-    path: Path, delimiter: str | None = None, comment: str | None = None, skip: int = 0
+    path: Path,
+    delimiter: str | None = None,
+    comment: str | None = None,
+    skip: int = 0,
+    decimal: str = ".",
+    header_line: int | None = None,
 ) -> _Table:
     source = str(path)
     try:
@@ -46,6 +51,15 @@ def _read_csv(
     lines = text.splitlines()
     # header: first non-empty line (after `skip` lines); a leading '#' on it is stripped
     # (AltusMetrum style)
+    if header_line is not None:
+        if isinstance(header_line, bool) or not isinstance(header_line, int) or header_line < 1:
+            raise FlightDataError(
+                f"mapping['header_line'] must be a line number of the file (an integer >= 1), "
+                f"got {header_line!r}"
+            )
+        skip = header_line - 1
+    if decimal not in (".", ","):
+        raise FlightDataError(f"mapping['decimal'] must be '.' or ',', got {decimal!r}")
     k = skip
     while k < len(lines) and (
         not lines[k].strip()
@@ -63,8 +77,13 @@ def _read_csv(
         except csv.Error:
             delimiter = ","
     names = _dedupe_names(next(csv.reader([head], delimiter=delimiter, skipinitialspace=True)))
+    if decimal == "," and delimiter == ",":
+        raise FlightDataError(
+            f"{source}: decimal commas need another delimiter than ',' (the header's is ',')"
+        )
     rows: list[list[str]] = []
     linenos: list[int] = []
+    empty: list[int] = []  # rows without any value: left out, said in a note
     for j in range(k + 1, len(lines)):
         line = lines[j]
         if not line.strip() or (comment and line.lstrip().startswith(comment)):
@@ -72,6 +91,11 @@ def _read_csv(
         row = next(csv.reader([line], delimiter=delimiter, skipinitialspace=True))
         if delimiter == " ":
             row = [c for c in row if c != ""]
+        if decimal == ",":
+            row = [c.replace(",", ".") for c in row]
+        if all(c.strip().lower() in _NO_VALUE for c in row):
+            empty.append(j + 1)
+            continue
         if len(row) != len(names):
             last = all(not ln.strip() for ln in lines[j + 1 :])
             cut = (
@@ -94,7 +118,12 @@ def _read_csv(
 
     table = _Table(source, names, get, len(rows), lambda i: f"line {linenos[i]}")
     table.lines = np.asarray(linenos)  # file line number of each row (first_line/last_line)
+    table.empty_lines = empty
     return table
+
+
+#: Field contents that hold no value (a row of only these is left out, with a note).
+_NO_VALUE = {"", "nan", "na", "null", "none", "-"}
 
 
 def _cut_lines(table: _Table, mapping: Mapping[str, Any]) -> _Table:
@@ -129,6 +158,7 @@ def _cut_lines(table: _Table, mapping: Mapping[str, Any]) -> _Table:
 
     out = _Table(base.source, base.names, get, keep.size, lambda i: base.row_label(keep[i]))
     out.lines = lines[keep]
+    out.empty_lines = [n for n in getattr(base, "empty_lines", []) if lo <= n <= hi]
     return out
 
 
@@ -562,8 +592,15 @@ def _build(table: _Table, mapping: Mapping[str, Any], name: str | None) -> Fligh
                 f"{table.source}: event {k!r} at t={v:.6g} s is outside the data [{lo:.6g}, "
                 f"{hi:.6g}] s; events are times on the loaded time axis (after time_unit)"
             )
+    notes = []
+    empty = getattr(table, "empty_lines", [])
+    if empty:
+        where = ", ".join(map(str, empty[:8])) + (f" and {len(empty) - 8} more" if len(empty) > 8
+                                                   else "")  # fmt: skip
+        notes.append(f"{len(empty)} row(s) without any value (line(s) {where}): left out")
     fd = FlightData(
-        str(mapping.get("name") or name or Path(table.source).stem), channels, events, origin
+        str(mapping.get("name") or name or Path(table.source).stem), channels, events, origin,
+        notes,
     )
     fd = drop_spikes(fd, table.source, str(mapping.get("spikes", "drop")))
     if mapping.get("check_units", True):
@@ -585,8 +622,10 @@ def load_csv(path: str | os.PathLike[str], mapping: Mapping[str, Any]) -> Flight
     Parameters
     ----------
     path : path-like
-        CSV file with one header line (a leading ``#`` on it is ignored); the delimiter is
-        detected (``,``, ``;``, tab, space) unless ``mapping["delimiter"]`` says.
+        CSV file with one header line (a leading ``#`` on it is ignored; the first non-empty
+        line, or line ``mapping["header_line"]``); the delimiter is detected (``,``, ``;``,
+        tab, space) unless ``mapping["delimiter"]`` says; ``mapping["decimal"] = ","`` reads
+        decimal commas (``12,5``). Rows without any value are left out, with a note.
     mapping : mapping
         Which column holds what, in which unit; see ``docs/identify.md``. Example::
 
@@ -608,7 +647,10 @@ def load_csv(path: str | os.PathLike[str], mapping: Mapping[str, Any]) -> Flight
         gaps longer than ``max_gap``, unit mistakes; nothing is returned half-loaded.
     """
     p = Path(path)
-    table = _read_csv(p, mapping.get("delimiter"), mapping.get("comment"))
+    table = _read_csv(
+        p, mapping.get("delimiter"), mapping.get("comment"),
+        decimal=str(mapping.get("decimal", ".")), header_line=mapping.get("header_line"),
+    )  # fmt: skip
     return _build(_cut_lines(table, mapping), mapping, p.stem)
 
 

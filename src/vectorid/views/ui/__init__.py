@@ -51,6 +51,9 @@ def serve(
     import logging
     import sys
 
+    from .data import limit_allocator_arenas
+
+    limit_allocator_arenas()
     app, ctx = create_app(store, executor=executor, workers=workers, max_points=max_points)
     if host not in LOCAL_HOSTS:
         print(

@@ -21,7 +21,7 @@ from typing import Any
 
 from . import callbacks as cb
 from . import client
-from .data import StoreCache
+from .data import FreedMemoryReleaser, StoreCache
 from .jobs import JobManager
 from .pages import detail, explore, sets
 from .pages.common import Wiring, err
@@ -76,6 +76,7 @@ font-size:12px;background:#fff}
 .verdict{border:1px solid #999;border-radius:3px;padding:0 5px;white-space:nowrap}
 .v-identified{font-weight:700;background:#e9e9e9}.v-weak{font-style:italic}
 .v-not-identified{border-style:dashed;color:#444}
+#par-graph .gl-canvas{visibility:hidden}#par-graph .gl-canvas-pick{pointer-events:none !important}
 .busy{visibility:hidden;color:#a15c00;font-size:13px}
 body:has([data-dash-is-loading="true"]) .busy{visibility:visible}
 #vid-counts[data-dash-is-loading="true"] b{opacity:.4}
@@ -219,7 +220,7 @@ def create_app(
         progress_of=lambda: cache.version()[0],
     )
     ctx = cb.UIContext(cache=cache, jobs=jobs, max_points=max_points)
-    cache.analysis()  # load and compile (numba) before the first request
+    _warm(ctx)  # load, compile (numba) and keep what the first page needs
     jobs.warm()  # the job worker imports vectorid while the page loads
 
     server = flask.Flask("vectorid.ui", static_folder=None)
@@ -242,6 +243,12 @@ def create_app(
         return f"bad request: {type(exc).__name__}", 400
 
     server.register_error_handler(Exception, _bad_request)
+    releaser = FreedMemoryReleaser()
+
+    @server.teardown_request
+    def _release(_exc: Any = None) -> None:  # freed temporaries back after a burst
+        releaser.poke()
+
     _compress(server)
 
     bundle = PLOTLY_BUNDLE.read_bytes()
@@ -285,6 +292,23 @@ def create_app(
     detail.register(app, ctx, w)
     _register_jobs(app, ctx, w)
     return app, ctx
+
+
+def _warm(ctx: cb.UIContext) -> None:
+    """Before the first request: the store loaded and analysed (numba compiled), each
+    trial's histogram bin and the default criterion plot's density cells kept (see
+    :func:`~vectorid.views.ui.explore.fast_histograms`, :func:`~vectorid.views.clouds.
+    cloud_traces`), so that the first page and the first typed limit count only D."""
+    from .. import clouds
+    from .explore import histograms_of, trials_memo
+
+    a = ctx.cache.analysis()
+    if a.n:
+        histograms_of(ctx, a)
+        x, y = explore.default_axes(ctx)
+        clouds.scatter_figure(
+            a, x, y, max_points=ctx.max_points, raw=True, memo=trials_memo(ctx, a, "scatter")
+        )
 
 
 #: The fields of the view's state besides the constraints, in the order of the URL callbacks.

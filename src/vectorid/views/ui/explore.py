@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from ...analysis.histograms import histogram, histograms
+from ...analysis.histograms import Histogram, _edges, default_bins, histogram, histograms
 from ...analysis.results import Analysis
 from ...errors import StudyDefinitionError, VectoridError
 from .. import clouds
@@ -22,6 +22,7 @@ from .verdicts import limit_sources, verdict_line, verdicts_of
 __all__ = [
     "box_to_limits",
     "counts_view",
+    "fast_histograms",
     "panel_view",
     "scatter_view",
     "selection_counts_view",
@@ -42,7 +43,7 @@ def histograms_of(ctx: UIContext, a: Analysis) -> list[Any]:
     memo = ctx.extra.setdefault("hists", weakref.WeakKeyDictionary())
     hit = memo.get(a)
     if hit is None:  # two requests at once may both count: the same answer, no lock held
-        hit = histograms(a)
+        hit = fast_histograms(ctx, a)
         memo[a] = hit
     return hit
 
@@ -63,6 +64,64 @@ def sampler_note(ctx: UIContext, a: Analysis) -> str | None:
             f"{note}. Histograms of D are importance-weighted; N, ND, NP count trials."
         )
     return memo[a]
+
+
+def trials_memo(ctx: UIContext, a: Analysis, name: str) -> dict[Any, Any]:
+    """A dict kept with the loaded trials of ``a`` (emptied when the store's trials are
+    reloaded): what a view computes from the trials alone, whatever the constraints."""
+    kept = ctx.extra.get(f"memo-{name}")  # (weak reference to the trials, the dict)
+    if kept is None or kept[0]() is not a.trials:
+        kept = ctx.extra[f"memo-{name}"] = (weakref.ref(a.trials), {})
+    return kept[1]
+
+
+def fast_histograms(ctx: UIContext, a: Analysis, min_trials: int = 50_000) -> list[Any]:
+    """:func:`~vectorid.analysis.histograms.histograms` of ``a`` (every parameter over the
+    study's box, bins from ND), the same counts, counted faster for a new constraint set:
+    each trial's bin (one byte at up to 255 bins) is kept per loaded trials and bins, so a
+    new D and Pareto set are two ``bincount`` calls over their rows per parameter. A store
+    of fewer than ``min_trials`` trials, or a sequential one (weighted D), goes the plain
+    way."""
+    t = a.trials
+    if a.n < min_trials or getattr(t, "log_weight", None) is not None:
+        return histograms(a)
+    nbins = default_bins(a.n_feasible)
+    per = trials_memo(ctx, a, "histograms")
+    rows_d, rows_p = np.flatnonzero(a.feasible), np.flatnonzero(a.pareto)
+    out = []
+    for j, var in enumerate(a.spec.space.variables):
+        edges = _edges(var, var.low, var.high, nbins)
+        m = len(edges) - 1
+        key = (var.name, edges.tobytes())
+        hit = per.get(key)
+        if hit is None:  # as analysis.histograms.histogram bins them; m: outside the box
+            v = t.X[:, j]
+            with np.errstate(invalid="ignore"):
+                inside = (v >= edges[0]) & (v <= edges[-1])
+            b = np.clip(np.searchsorted(edges, v, side="right") - 1, 0, m - 1)
+            b[~inside] = m
+            b = b.astype(np.uint8 if m < 255 else np.int32)
+            every = np.bincount(b, minlength=m + 1)
+            hit = per[key] = (b, every[:m].astype(np.int64), int(every[m]))
+        b, every, outside = hit
+
+        def count(rows: np.ndarray, b: np.ndarray = b, m: int = m) -> np.ndarray:
+            return np.bincount(b[rows], minlength=m + 1)[:m].astype(np.int64)
+
+        out.append(
+            Histogram(
+                param=var.name,
+                edges=edges,
+                all=every,
+                feasible=count(rows_d),
+                pareto=count(rows_p),
+                low=float(edges[0]),
+                high=float(edges[-1]),
+                stage=None,
+                n_outside=outside,
+            )
+        )
+    return out
 
 
 def counts_view(ctx: UIContext, limit_texts: Any, roles: Any, functional: Any = None) -> dict:
@@ -441,9 +500,10 @@ def _star(fig: dict, a: Analysis, xv: np.ndarray, yv: np.ndarray, row: int | Non
     """The chosen trial as an orange star (appended to a figure dict)."""
     if row is None or not (np.isfinite(xv[row]) and np.isfinite(yv[row])):
         return
+    gl = any(t.get("type") == "scattergl" for t in fig["data"])
     fig["data"].append(
         {
-            "type": "scattergl",
+            "type": "scattergl" if gl else "scatter",
             "x": [float(xv[row])],
             "y": [float(yv[row])],
             "customdata": [int(a.trials.id[row])],
@@ -456,6 +516,23 @@ def _star(fig: dict, a: Analysis, xv: np.ndarray, yv: np.ndarray, row: int | Non
             **kw,
         }
     )
+
+
+#: Up to this many points, the criterion plot draws SVG points, not WebGL: a plot at scale
+#: draws its bulk sets as densities and only the Pareto set (and a selection) as points, and
+#: a WebGL context (with plotly.js's shader set-up) cost the page 0.2-0.5 s of main thread
+#: at load in software WebGL.
+SVG_POINTS = 3000
+
+
+def _points_drawn(ctx: UIContext, a: Analysis, sel: np.ndarray) -> int:
+    """Points the criterion plot draws (sets under the budget, Pareto, the selection), as
+    :func:`~vectorid.views.clouds.cloud_traces` decides (an upper bound)."""
+    budget = ctx.max_points
+    n = min(a.n_pareto, budget)
+    for count in (a.n - a.n_feasible, a.n_feasible - a.n_pareto):
+        n += count if count <= budget else 0
+    return n + min(int(sel.sum()), 3 * budget)
 
 
 def scatter_view(
@@ -488,6 +565,8 @@ def scatter_view(
         labels=ctx.labels,
         selected=sel if sel.any() else None,
         raw=True,
+        memo=trials_memo(ctx, a, "scatter"),
+        gl=_points_drawn(ctx, a, sel) > SVG_POINTS,
     )
     xv, yv = clouds.column(a, x)[0], clouds.column(a, y)[0]
     _star(fig, a, xv, yv, chosen_row(ctx, chosen))

@@ -9,13 +9,21 @@ from collections import OrderedDict
 from collections.abc import Mapping, Sequence
 from typing import Any
 
+from ...analysis.classes import CLASS_COLOURS
 from ...errors import StudyDefinitionError
 from ..history import history, history_figure
 from ..parallel import parallel_figure
 from .context import UIContext, analysis_of, fmt
 from .explore import range_list
 
-__all__ = ["axis_order", "brushes_to_limits", "default_view", "history_view", "parallel_view"]
+__all__ = [
+    "axis_order",
+    "brushes_to_limits",
+    "default_view",
+    "history_view",
+    "lines_apart",
+    "parallel_view",
+]
 
 
 def _ranges(selection: Mapping[str, Any] | None) -> dict[str, list[tuple[float, float]]]:
@@ -66,8 +74,40 @@ def parallel_view(
         bounds_as_brushes=False,
         hidden=hide,
         colour=colour or "set",
+        raw=True,
     )
-    fig.update_layout(uirevision="parallel")
+    fig["layout"]["uirevision"] = "parallel"
+    return lines_apart(fig, by_set=colour in (None, "", "set"))
+
+
+def lines_apart(fig: dict[str, Any], by_set: bool = True) -> dict[str, Any]:
+    """The parallel coordinates' lines moved out of plotly.js's way: plotly.js keeps the
+    axes, their brushes and their order (two placeholder lines per axis, its WebGL canvases
+    hidden by the page's style), and the page draws the lines itself on a 2D canvas in a
+    Web Worker (``vid.par`` in :mod:`vectorid.views.ui.client`) from ``layout.meta.lines``:
+    ``values`` (axis name -> float32 values, one per line), ``color`` (set code 0/1/2, or
+    the colour-by column's values), ``cmin``/``cmax``, ``mode`` (``set`` or ``column``).
+
+    plotly.js redraws every line on its WebGL canvases at each brush move (software WebGL
+    in a headless or GPU-less browser: 0.3-1 s per redraw at 1,800 lines on a loaded
+    2-core machine, holding the page's main thread while it waits for the GPU process); the
+    page's own drawing takes a few milliseconds off the main thread."""
+    tr = fig["data"][0]
+    line = tr["line"]
+    lines = {
+        "values": {d["name"]: d["values"] for d in tr["dimensions"]},
+        "color": line["color"],
+        "cmin": line.get("cmin", 0),
+        "cmax": line.get("cmax", 2),
+        "mode": "set" if by_set else "column",
+        "colours": [CLASS_COLOURS[k] for k in ("infeasible", "feasible", "pareto")],
+        "unselected": tr.get("unselected", {}).get("line", {}),
+    }
+    for d in tr["dimensions"]:
+        lo, hi = d["range"]
+        d["values"] = [lo, hi]
+    tr["line"] = dict(line, color=[lines["cmin"], lines["cmax"]])
+    fig["layout"]["meta"] = dict(fig["layout"].get("meta") or {}, lines=lines)
     return fig
 
 
