@@ -106,6 +106,8 @@ def test_ui_on_a_sequential_store(store):
     with serve(path, folder) as url, chrome(url) as drv:
         until(drv, lambda d: text_of(d, "#count-nd") == str(a.n_feasible), "the initial ND")
         assert text_of(drv, "#count-n") == str(a.n) and a.n == sum(state.counts)
+        # the message line comes with the summary, a callback after the counts' own
+        until(drv, lambda d: "sequential sampler:" in text_of(d, "#messages"), "the sampler line")
         msg = text_of(drv, "#messages")
         assert f"{sum(state.counts)} evaluations in {len(gens)} generations" in msg, msg
         assert f"D holds {int(state.members.sum())} members, ESS {state.ess:.0f}" in msg, msg
