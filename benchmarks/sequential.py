@@ -21,7 +21,8 @@ noise; criteria constraints Φ** = each criterion's noise floor, joint 95 %, ``l
 Methods (each run until D at the stated limits holds ``--population`` members, or its budget):
 
 * ``sobol`` — the plain PSI table: Sobol points through a store (``Study.run``, executor
-  ``serial``, batches of 1024), counted after each batch; "evaluations" is the index of the
+  ``inline``: the model evaluated in this process, as pyABC's is, so that the comparison is of
+  samplers, not of a worker process's start and stop; batches of 1024), counted after each batch; "evaluations" is the index of the
   population-th member, the wall time that of the batch that holds it.
 * ``sequential`` — vectorid's sequential sampler (``[study] sampler = "sequential"``,
   ``budget``, ``population``) through a store, the same executor.
@@ -205,7 +206,7 @@ def run_sobol(p: Problem, folder: Path, population: int, budget: int) -> Outcome
         n = 0
         while True:
             n = min(n + SOBOL_BATCH, budget)
-            st.run(trials=n, executor="serial", progress=False)
+            st.run(trials=n, executor="inline", progress=False)
             a = st.analysis()
             rows = _members(a)
             if len(rows) >= population or n >= budget:
@@ -239,7 +240,7 @@ def run_sequential(p: Problem, folder: Path, population: int, budget: int) -> Ou
     store.unlink(missing_ok=True)
     t0 = time.perf_counter()
     with Study.create(spec, store) as st:
-        summary = st.run(executor="serial", progress=False)
+        summary = st.run(executor="inline", progress=False)
         wall = time.perf_counter() - t0
         a = st.analysis()
     rows = _members(a)
