@@ -283,8 +283,9 @@ def test_mapping_mistakes(tmp_path):
     with pytest.raises(FlightDataError, match="has no 'unit'"):
         load_csv(path, {"time": "t", "time_unit": "s", "euler": ["roll", "pitch", "yaw"]})
     with pytest.raises(FlightDataError, match="unknown angle unit 'degs'.*'deg'"):
-        load_csv(path, {"time": "t", "time_unit": "s", "euler": {"columns": ["roll", "pitch", "yaw"],
-                                               "unit": "degs"}})  # fmt: skip
+        load_csv(path, {"time": "t", "time_unit": "s",
+                        "euler": {"columns": ["roll", "pitch", "yaw"],
+                                  "unit": "degs"}})  # fmt: skip
     with pytest.raises(FlightDataError, match="exactly one of 'down' or 'up'"):
         load_csv(path, {"time": "t", "time_unit": "s", "velocity": {"north": "vn", "east": "ve"}})
     with pytest.raises(FlightDataError, match="names no channel"):
@@ -453,8 +454,8 @@ def test_iso_time_column(tmp_path):
         "when": ["2022-06-24T15:17:16.00", "2022-06-24T15:17:16.50", "2022-06-24T15:17:17.25"],
         "h": ["10", "9", "8"],
     }
-    fd = load_csv(write(tmp_path / "i.csv", cols), {"time": "when", "time_unit": "iso",
-                                                     "altitude": {"column": "h", "unit": "m"}})  # fmt: skip
+    mapping = {"time": "when", "time_unit": "iso", "altitude": {"column": "h", "unit": "m"}}
+    fd = load_csv(write(tmp_path / "i.csv", cols), mapping)
     assert fd["altitude"].t == pytest.approx([0.0, 0.5, 1.25])
 
 

@@ -682,10 +682,11 @@ def load_csv(path: str | os.PathLike[str], mapping: Mapping[str, Any]) -> Flight
         Which column holds what, in which unit; see ``docs/identify.md``. Example::
 
             {"time": "t", "time_unit": "s",
-             "position": {"lat": "lat_deg", "lon": "lon_deg", "alt": "alt_m"},
+             "position": {"lat": "lat_deg", "lon": "lon_deg", "alt": "alt_m",
+                          "angle_unit": "deg", "alt_unit": "m"},
              "velocity": {"north": "vn", "east": "ve", "down": "vd", "unit": "m/s"},
              "euler": {"columns": ["roll", "pitch", "yaw"], "unit": "deg"},
-             "controls": {"columns": ["left", "right"]},
+             "controls": {"columns": ["left", "right"], "unit": "1"},
              "events": {"canopy_deployed": 3.2}}
 
     Returns
