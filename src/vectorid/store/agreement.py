@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import hashlib
 import itertools
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -336,7 +337,11 @@ def _stated_unit(path: str, held: Any, given: Any) -> str:
     """Why a unit newly stated in a flight-data mapping is taken ("" if it is not): the unit
     the store's trials were read in (the former default), or the unit of a channel that is
     not converted (controls, other channels: a label)."""
-    if held is not _MISSING or ".mapping." not in path:
+    if held is not _MISSING:
+        return ""
+    if re.fullmatch(r"identification\.data\[\d+\]\.time_unit", path) and given == "s":
+        return "states the unit the store's trials read the record's time in (it was s)"
+    if ".mapping." not in path:
         return ""
     key = path.rsplit(".mapping.", 1)[1]
     if _FORMER_DEFAULT_UNITS.get(key) == given:
