@@ -240,8 +240,8 @@ def _parser() -> argparse.ArgumentParser:
     d.add_argument("--analytic", action="store_true", help="the analytic Binh–Korn demo instead")
     d.add_argument("--quiet", action="store_true", help="no progress bar")
     d.add_argument(
-        "--budget", type=positive_int, default=20_000,
-        help="parafoil: stage 2's sequential sampler, most model evaluations (default 20000, "
+        "--budget", type=positive_int, default=30_000,
+        help="parafoil: stage 2's sequential sampler, most model evaluations (default 30000, "
         "a few minutes; 250000 is the full-size run, about 20 minutes on 2 cores)",
     )  # fmt: skip
     d.add_argument(
@@ -492,6 +492,23 @@ def _analysis(args: argparse.Namespace):
         study.close()
 
 
+def _sequential_note(args: argparse.Namespace, a: Any) -> str | None:
+    """A sequential store's line for table/pareto: its sampler, D's members and ESS, and that
+    the counts above are trials (weights change densities, not which trials are in D)."""
+    if a.spec.sampler != "sequential":
+        return None
+    from .run.sequential import sample_note
+
+    study = _open_study(args.store)
+    try:
+        note = sample_note(study.store, a)
+    finally:
+        study.close()
+    if note is None:
+        return None
+    return f"{note}\n  N, ND, NP count trials (unweighted); densities of D use the weights"
+
+
 def _save_limits(args: argparse.Namespace, a: Any) -> None:
     """Save the constraints in force (``--save``) into the study held by the store."""
     from .errors import StudyDefinitionError
@@ -701,7 +718,8 @@ def _cmd_info(args: argparse.Namespace) -> int:
             )
             print(
                 f"sequential {len(sq.counts)} generations; D: {int(sq.members.sum())} members "
-                f"(wanted {spec.sequential_population}), ESS {sq.ess:.0f} (importance weights)"
+                f"(wanted {spec.sequential_population}), ESS {sq.ess:.0f} "
+                + ("(distinct particles)" if sq.particles is not None else "(importance weights)")
             )
         else:
             print(f"trials     {held} stored of {spec.trials} wanted; {a.n_failed} failed")
@@ -853,6 +871,9 @@ def _cmd_table(args: argparse.Namespace) -> int:
         f"N = {a.n}   ND = {a.n_feasible}   NP = {a.n_pareto}   (failed {a.n_failed}, "
         f"meeting functional constraints {a.n_functional})"
     )
+    note = _sequential_note(args, a)
+    if note:
+        print(note)
     crit = {c.name: c for c in a.criteria}
     for b in a.active_bounds():
         print(f"  constraint {b}{_source(crit.get(b.name), b.value)}")
@@ -902,6 +923,9 @@ def _cmd_pareto(args: argparse.Namespace) -> int:
         _print_json(a.pareto_json())
         return 0
     print(f"N = {a.n}   ND = {a.n_feasible}   NP = {a.n_pareto}   (failed {a.n_failed})")
+    note = _sequential_note(args, a)
+    if note:
+        print(note)
     for b in a.active_bounds():
         print(f"  constraint {b}")
     pure = [a.crit_names[i] for i in a.pure]
