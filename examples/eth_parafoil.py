@@ -198,6 +198,7 @@ def load(folder: Path, name: str) -> FlightData:
         folder / f"{name}_states.csv",
         mapping={
             "time": "t_s",
+            "time_unit": "s",
             "position": {"north": "x_north_m", "east": "y_east_m", "down": "z_down_m",
                          "unit": "m"},
         },

@@ -237,6 +237,7 @@ def _drop_table(kind: str, truth: dict) -> list[str]:
     """The [[identification.drops]] table of one embedded drop."""
     gps = {
         "time": "time_s",
+        "time_unit": "s",
         "position": {"north": "north_m", "east": "east_m", "down": "down_m", "unit": "m"},
         "velocity": {
             "north": "v_north_ms",
@@ -249,6 +250,7 @@ def _drop_table(kind: str, truth: dict) -> list[str]:
     }
     imu = {
         "time": "time_s",
+        "time_unit": "s",
         "euler": {"columns": ["roll_deg", "pitch_deg", "yaw_deg"], "unit": "deg"},
         "rates": {"columns": ["p_rads", "q_rads", "r_rads"], "unit": "rad/s"},
     }
@@ -262,7 +264,11 @@ def _drop_table(kind: str, truth: dict) -> list[str]:
                 "file": f"data/{kind}_controls.csv",
                 "mapping": {
                     "time": "time_s",
-                    "controls": {"columns": ["riser1", "riser2", "riser3", "riser4"]},
+                    "time_unit": "s",
+                    "controls": {
+                        "columns": ["riser1", "riser2", "riser3", "riser4"],
+                        "unit": "1",
+                    },
                 },
             }
         )

@@ -155,6 +155,7 @@ def _toml(v: Any) -> str:
 def _drop_lines(truth: Mapping[str, Any]) -> list[str]:
     gps = {
         "time": "time_s",
+        "time_unit": "s",
         "position": {"north": "north_m", "east": "east_m", "down": "down_m", "unit": "m"},
         "velocity": {
             "north": "v_north_ms",
@@ -167,10 +168,15 @@ def _drop_lines(truth: Mapping[str, Any]) -> list[str]:
     }
     imu = {
         "time": "time_s",
+        "time_unit": "s",
         "euler": {"columns": ["roll_deg", "pitch_deg", "yaw_deg"], "unit": "deg"},
         "rates": {"columns": ["p_rads", "q_rads", "r_rads"], "unit": "rad/s"},
     }
-    controls = {"time": "time_s", "controls": {"columns": ["flap_left", "flap_right"]}}
+    controls = {
+        "time": "time_s",
+        "time_unit": "s",
+        "controls": {"columns": ["flap_left", "flap_right"], "unit": "1"},
+    }
     files = [
         {"file": "data/gps.csv", "mapping": gps},
         {"file": "data/imu.csv", "mapping": imu},

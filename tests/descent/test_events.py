@@ -250,48 +250,74 @@ def test_detectors_refuse_bad_series():
 REAL = {
     "EPFL_Bella_Lui": (
         "EPFL_Bella_Lui/bella_lui_flight_data_filtered.csv",
-        {"time": "time aprox (s)", "altitude": {"column": "z (m)"}},
+        {"time": "time aprox (s)", "time_unit": "s", "altitude": {"column": "z (m)", "unit": "m"}},
         35.25,
     ),
     "NDRT_2020": (
         "NDRT_2020/ndrt_2020_flight_data.csv",
-        {"time": "Time (s)", "altitude": {"column": "Altitude (Ft-AGL)", "unit": "ft"}},
+        {
+            "time": "Time (s)",
+            "time_unit": "s",
+            "altitude": {"column": "Altitude (Ft-AGL)", "unit": "ft"},
+        },
         85.84,
     ),
     "camoes": (
         "camoes/flight_data.csv",
-        {"time": "ts", "altitude": {"column": "filtered_altitude_AGL"}},
+        {
+            "time": "ts",
+            "time_unit": "s",
+            "altitude": {"column": "filtered_altitude_AGL", "unit": "m"},
+        },
         139.93,
     ),
     "genesis": (
         "genesis/flight_data_faraday.csv",
-        {"time": "ts", "altitude": {"column": "filtered_altitude_AGL"}},
+        {
+            "time": "ts",
+            "time_unit": "s",
+            "altitude": {"column": "filtered_altitude_AGL", "unit": "m"},
+        },
         176.09,
     ),
     "lince": (
         "lince/main_data.csv",
-        {"time": "ts", "altitude": {"column": "filtered_altitude_AGL"}},
+        {
+            "time": "ts",
+            "time_unit": "s",
+            "altitude": {"column": "filtered_altitude_AGL", "unit": "m"},
+        },
         431.67,
     ),
     "valkyrie": (
         "valkyrie/flightInfo_merged.csv",
-        {"time": "time", "altitude": {"column": "altitude"}},
+        {"time": "time", "time_unit": "s", "altitude": {"column": "altitude", "unit": "m"}},
         123.39,
     ),
     "hedy": (
         "hedy/cats_tust/filteredDataInfo.csv",
-        {"time": "ts", "altitude": {"column": "filteredAltitudeAGL"}},
+        {
+            "time": "ts",
+            "time_unit": "s",
+            "altitude": {"column": "filteredAltitudeAGL", "unit": "m"},
+        },
         None,
     ),
     "andromeda": (
         "andromeda/flight_data.csv",
-        {"time": "t(s)", "altitude": {"column": "alt(m)"}, "last_line": 1138},
+        {
+            "time": "t(s)",
+            "time_unit": "s",
+            "altitude": {"column": "alt(m)", "unit": "m"},
+            "last_line": 1138,
+        },
         None,
     ),
     "juno3": (
         "juno3/cots_GNSS.csv",
         {
             "time": "time",
+            "time_unit": "s",
             "altitude": {"column": "ALT", "unit": "ft"},
             "first_line": 46,
             "max_gap": 4.0,

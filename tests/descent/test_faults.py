@@ -36,7 +36,10 @@ def _series(name: str) -> tuple[np.ndarray, np.ndarray]:
     path = RP / rel
     if not path.exists():
         pytest.skip(f"shared data not found at {path}")
-    fd = load_csv(path, {"time": tc, "altitude": {"column": ac, "unit": "m"}, "spikes": "note"})
+    fd = load_csv(
+        path,
+        {"time": tc, "time_unit": "s", "altitude": {"column": ac, "unit": "m"}, "spikes": "note"},
+    )
     a = fd["altitude"]
     return a.t, a.values[:, 0]
 

@@ -128,7 +128,8 @@ def test_ndrt_feet_header_is_read_as_feet():
 
     plan = DescentPlan(
         file=log, mass=20.846, drogue=Canopy(cds=0.4378), pad_altitude=206,
-        mapping={"time": "Time (s)", "altitude": {"column": "Altitude (Ft-AGL)", "unit": "m"}},
+        mapping={"time": "Time (s)", "time_unit": "s",
+                 "altitude": {"column": "Altitude (Ft-AGL)", "unit": "m"}},
     )  # fmt: skip
     with pytest.raises(StudyDefinitionError, match="states ft"):
         _load(plan)
@@ -177,7 +178,12 @@ def test_a_flat_altitude_beside_a_moving_position_is_not_a_zero_division(tmp_pat
     t = np.arange(0, 60, 0.5)
     rows = ["t,n,e,d,alt"] + [f"{a},{a},{0},{-20 * a},{5.0}" for a in t]
     (tmp_path / "f.csv").write_text("\n".join(rows) + "\n")
-    m = {"time": "t", "position": {"north": "n", "east": "e", "down": "d"}, "altitude": "alt"}
+    m = {
+        "time": "t",
+        "time_unit": "s",
+        "position": {"north": "n", "east": "e", "down": "d", "unit": "m"},
+        "altitude": {"column": "alt", "unit": "m"},
+    }
     with pytest.raises(FlightDataError, match="holds no height"):
         load_csv(tmp_path / "f.csv", m)
 
@@ -190,7 +196,9 @@ def test_a_huge_height_sample_is_left_out_and_named(tmp_path):
 
     log = _descent_csv(tmp_path / "d.csv", spike=(500, 1e6))
     with pytest.warns(UserWarning, match="single-sample spike at 49.00 s"):
-        fd = load_csv(log, {"time": "t", "altitude": {"column": "alt", "unit": "m"}})
+        fd = load_csv(
+            log, {"time": "t", "time_unit": "s", "altitude": {"column": "alt", "unit": "m"}}
+        )
     assert any("49.00 s" in n for n in fd.notes)
     a = fd["altitude"]
     assert a.values.max() < 1400
@@ -212,7 +220,8 @@ def test_a_1e300_position_in_an_identification_file_is_left_out(tmp_path):
     down[100] = 1e300
     rows = ["t,n,e,d"] + [f"{a},{0.5 * a},{0.2 * a},{float(b)!r}" for a, b in zip(t, down)]
     (tmp_path / "gps.csv").write_text("\n".join(rows) + "\n")
-    m = {"time": "t", "position": {"north": "n", "east": "e", "down": "d"}}
+    m = {"time": "t", "time_unit": "s",
+         "position": {"north": "n", "east": "e", "down": "d", "unit": "m"}}  # fmt: skip
     with pytest.warns(UserWarning, match="25.00 s"):
         fd = load_csv(tmp_path / "gps.csv", m)
     p = fd["position"].values
@@ -297,6 +306,6 @@ def test_columns_from_the_header_or_a_clear_error(tmp_path):
     lf = detect_format(log)
     assert lf.mapping["altitude"] == {"column": "alt(m)", "unit": "m"}
     assert any("alt(ft)" in n and "same altitude" in n for n in lf.notes)
-    lf = detect_format(log, columns={"time": "t(s)", "altitude": "alt(m)"})
+    lf = detect_format(log, columns={"time": "t(s)", "time_unit": "s", "altitude": "alt(m)"})
     assert lf.mapping["altitude"]["unit"] == "m" and lf.mapping["time_unit"] == "s"
     assert math.isfinite(len(lf.notes))

@@ -86,7 +86,7 @@ def _plan(path, **kw):
     base = {
         "file": path,
         "mass": MASS,
-        "mapping": {"time": "t_s", "altitude": {"column": "alt_m", "unit": "m"}},
+        "mapping": {"time": "t_s", "time_unit": "s", "altitude": {"column": "alt_m", "unit": "m"}},
         "drogue": Canopy(cds=0.5),
         "main": Canopy(cds=6.0),
         "convention": "adds",
@@ -192,7 +192,11 @@ def test_one_canopy_from_apogee_in_feet(tmp_path):
     r = identify_descent(
         _plan(
             path,
-            mapping={"time": "t_s", "altitude": {"column": "alt_ft", "unit": "ft"}},
+            mapping={
+                "time": "t_s",
+                "time_unit": "s",
+                "altitude": {"column": "alt_ft", "unit": "ft"},
+            },
             drogue=None,
             main=Canopy(cds=6.0),
             convention=None,
@@ -279,7 +283,14 @@ def test_a_log_without_the_altitude_column_says_which(adds_log, tmp_path):
     path, _, _ = adds_log
     with pytest.raises(FlightDataError, match="'alt'.*alt_m"):
         identify_descent(
-            _plan(path, mapping={"time": "t_s", "altitude": {"column": "alt", "unit": "m"}}),
+            _plan(
+                path,
+                mapping={
+                    "time": "t_s",
+                    "time_unit": "s",
+                    "altitude": {"column": "alt", "unit": "m"},
+                },
+            ),
             tmp_path,
         )
 

@@ -21,6 +21,7 @@ TELEMEGA = DATA / "prometheus-2022" / "2022-06-24-serial-6583-flight-0003-TeleMe
 
 MAPPING = {
     "time": "t",
+    "time_unit": "s",
     "altitude": {"column": "h", "unit": "m"},
     "velocity": {"north": "vn", "east": "ve", "down": "vd", "unit": "m/s"},
 }

@@ -37,7 +37,7 @@ def _write_phase(path, main: float, h0: float, seconds: float, seed: int) -> Non
 def _study(tmp_path, *, extra=None, criteria=None, constraints=None, trials=256) -> StudySpec:
     _write_phase(tmp_path / "drogue.csv", 0.0, 2500.0, 60.0, 1)
     _write_phase(tmp_path / "main.csv", 1.0, 400.0, 40.0, 2)
-    mapping = {"time": "t", "altitude": {"column": "height", "unit": "m"}}
+    mapping = {"time": "t", "time_unit": "s", "altitude": {"column": "height", "unit": "m"}}
     drops = [
         {"name": n, "file": f"{n}.csv", "mapping": mapping, "window": [1.0, s],
          "inputs": {"main": u}, "origin_altitude": ORIGIN}
@@ -174,3 +174,55 @@ def test_failed_simulation_is_a_failed_trial_not_an_error(tmp_path):
     spec = _study(tmp_path)
     res = spec.problem().evaluate(np.array([[-1.0, 2.6], [1.7, 2.6]]))
     assert res.status[0] != 0 and res.status[1] == 0
+
+
+def _as_before_units_were_stated(store) -> None:
+    """Rewrite the store's definition as a store made before mappings had to state units:
+    no ``time_unit``, ``altitude`` as a bare column name (then read as s and m)."""
+    import json
+    import sqlite3
+    import zlib
+
+    con = sqlite3.connect(store)
+    with con:
+        data = json.loads(con.execute("SELECT value FROM meta WHERE key='study'").fetchone()[0])
+        for d in data["identification"]["drops"]:
+            m = d["mapping"]
+            del m["time_unit"]
+            m["altitude"] = m["altitude"]["column"]
+        text = json.dumps(data)
+        con.execute("UPDATE meta SET value=? WHERE key='study'", (text,))
+        crc = f"{zlib.crc32(text.encode()):08x}"
+        con.execute("UPDATE meta SET value=? WHERE key='study_checksum'", (crc,))
+    con.close()
+
+
+def test_a_store_made_before_units_were_stated_resumes_from_a_file_that_states_them(tmp_path):
+    from vectorid.errors import StoreError, VectoridError, VectoridNote
+
+    spec = _study(tmp_path, trials=8)
+    store = tmp_path / "old.db"
+    with Study.create(spec, store) as st:
+        st.run(trials=4, executor="serial")
+        before = st.analysis().trials.F
+    _as_before_units_were_stated(store)
+    # the stored definition alone no longer loads: the loader says which unit is missing
+    with Study.open(store, write=True) as st:
+        with pytest.raises(VectoridError, match=r"mapping\['altitude'\] \(column\(s\) 'height'"):
+            st.run(trials=8, executor="serial")
+    # the study file that states s and m (the units the trials were read in) is taken, the
+    # definition in the store is updated, and the run goes on without repeating a trial
+    with pytest.warns(VectoridNote, match="time_unit.*the unit the store's trials read"):
+        st = Study.create_or_open(spec, store)
+    with st:
+        assert st.spec.to_dict()["identification"]["drops"][0]["mapping"]["time_unit"] == "s"
+        st.run(trials=8, executor="serial")
+        after = st.analysis().trials.F
+    assert after.shape[0] == 8 and np.array_equal(after[:4], before)
+    # a unit other than the one the trials were read in would change them: refused
+    _as_before_units_were_stated(store)
+    data = _study(tmp_path, trials=8).to_dict()
+    for d in data["identification"]["drops"]:
+        d["mapping"] = {**d["mapping"], "altitude": {"column": "height", "unit": "ft"}}
+    with pytest.raises(StoreError, match="altitude.unit"):
+        Study.create_or_open(StudySpec.from_dict(data, base_dir=tmp_path), store)

@@ -26,12 +26,13 @@ COLS = ["t", "lat", "lon", "alt", "vn", "ve", "vd", "roll", "pitch", "yaw", "p",
         "left", "right", "state"]  # fmt: skip
 MAPPING = {
     "time": "t",
-    "position": {"lat": "lat", "lon": "lon", "alt": "alt"},
+    "time_unit": "s",
+    "position": {"lat": "lat", "lon": "lon", "alt": "alt", "angle_unit": "deg", "alt_unit": "m"},
     "velocity": {"north": "vn", "east": "ve", "down": "vd", "unit": "m/s"},
     "euler": {"columns": ["roll", "pitch", "yaw"], "unit": "deg"},
     "rates": {"p": "p", "q": "q", "r": "r", "unit": "deg/s"},
     "altitude": {"column": "h", "unit": "m"},
-    "controls": {"columns": ["left", "right"]},
+    "controls": {"columns": ["left", "right"], "unit": "1"},
     "event_column": "state",
     "events": {"canopy_deployed": 1.0},
 }
@@ -90,7 +91,9 @@ def test_geodetic_to_ned_by_hand(tmp_path):
         "lon": ["-106.900", "-106.900", "-106.899"],
         "alt": ["1500", "1500", "1510"],
     }
-    geo = {"time": "t", "position": {"lat": "lat", "lon": "lon", "alt": "alt"}}
+    geo = {"time": "t", "time_unit": "s",
+           "position": {"lat": "lat", "lon": "lon", "alt": "alt", "angle_unit": "deg",
+                        "alt_unit": "m"}}  # fmt: skip
     fd = load_csv(write(tmp_path / "g.csv", cols), geo)
     v = fd["position"].values
     assert v[1] == pytest.approx([110.9, 0.0, 0.0], abs=0.2)
@@ -190,9 +193,77 @@ def test_feet_and_sign_mistakes(tmp_path):
         load_csv(path, MAPPING)
     assert load_csv(path, {**MAPPING, "altitude": {"column": "h", "unit": "ft"}})
     path = write(tmp_path / "up.csv", table())
-    up = {**MAPPING, "velocity": {"north": "vn", "east": "ve", "up": "vd"}}
+    up = {**MAPPING, "velocity": {"north": "vn", "east": "ve", "up": "vd", "unit": "m/s"}}
     with pytest.raises(FlightDataError, match="'up' given as 'down'"):
         load_csv(path, up)
+
+
+def _without(mapping: dict, key: str, sub: str | None) -> dict:
+    """``mapping`` with ``key`` (or ``mapping[key][sub]``) left out."""
+    out = {k: (dict(v) if isinstance(v, dict) else v) for k, v in mapping.items()}
+    if sub is None:
+        del out[key]
+    else:
+        del out[key][sub]
+    return out
+
+
+@pytest.mark.parametrize(
+    ("key", "sub", "cols", "valid", "fix"),
+    [
+        ("time_unit", None, "'t'", "s | ms", 'time_unit = "s"'),
+        ("position", "angle_unit", "'lat', 'lon'", "rad | deg", 'angle_unit = "deg"'),
+        ("position", "alt_unit", "'alt'", "m | ft | km", 'alt_unit = "m"'),
+        ("velocity", "unit", "'vn', 've', 'vd'", "m/s | ft/s", 'unit = "m/s"'),
+        ("euler", "unit", "'roll', 'pitch', 'yaw'", "rad | deg", 'unit = "rad"'),
+        ("rates", "unit", "'p', 'q', 'r'", "rad/s | deg/s", 'unit = "rad/s"'),
+        ("altitude", "unit", "'h'", "m | ft | km", 'altitude = { column = "h", unit = "m" }'),
+        ("controls", "unit", "'left', 'right'", "'1' if dimensionless", 'unit = "1"'),
+    ],
+)
+def test_a_missing_unit_is_a_one_line_error_naming_key_column_units_and_fix(
+    tmp_path, key, sub, cols, valid, fix
+):
+    # units are never guessed: each physical quantity's unit is said in the mapping
+    path = write(tmp_path / "d.csv", table())
+    with pytest.raises(FlightDataError) as err:
+        load_csv(path, _without(MAPPING, key, sub))
+    msg = str(err.value)
+    assert "\n" not in msg
+    where = "time" if key == "time_unit" else key
+    need = "time_unit" if sub is None else sub
+    assert f"mapping['{where}'] (column(s) {cols}) has no '{need}'" in msg
+    assert valid in msg and fix in msg and "never guessed" in msg
+
+
+def test_an_other_channel_needs_its_unit_and_a_shorthand_gets_no_default(tmp_path):
+    path = write(tmp_path / "d.csv", table())
+    with pytest.raises(FlightDataError, match=r"mapping\['channels.brake'\].*has no 'unit'"):
+        load_csv(path, {"time": "t", "time_unit": "s", "channels": {"brake": ["left"]}})
+    fd = load_csv(
+        path, {"time": "t", "time_unit": "s", "channels": {"brake": {"column": "left",
+                                                                     "unit": "1"}}}
+    )  # fmt: skip
+    assert fd["brake"].unit == "1"
+    # a bare column name (the short form) states no unit: an error, not metres
+    with pytest.raises(FlightDataError, match=r"altitude = \{ column = \"h\", unit = \"m\" \}"):
+        load_csv(path, {"time": "t", "time_unit": "s", "altitude": "h"})
+
+
+def test_stated_units_give_the_numbers_the_old_defaults_gave(tmp_path):
+    # the defaults that were dropped (s, m, m/s, deg for lat/lon, 1 for controls) stated
+    # explicitly give the SI values of the file, unconverted
+    cols = table()
+    fd = load_csv(write(tmp_path / "d.csv", cols), MAPPING)
+    assert fd["altitude"].values[:, 0] == pytest.approx([float(x) for x in cols["h"]])
+    assert fd["velocity"].values[:, 2] == pytest.approx([float(x) for x in cols["vd"]])
+    assert fd["altitude"].t == pytest.approx([float(x) for x in cols["t"]])
+    assert fd["controls"].values[:, 0] == pytest.approx([float(x) for x in cols["left"]])
+    assert fd["controls"].unit == "1"
+    # and a stated non-SI unit is converted
+    ft = load_csv(write(tmp_path / "d.csv", cols), {**MAPPING, "check_units": False,
+                                                    "altitude": {"column": "h", "unit": "ft"}})
+    assert ft["altitude"].values[:, 0] == pytest.approx(fd["altitude"].values[:, 0] * 0.3048)
 
 
 def test_time_in_milliseconds(tmp_path):
@@ -208,14 +279,15 @@ def test_time_in_milliseconds(tmp_path):
 def test_mapping_mistakes(tmp_path):
     path = write(tmp_path / "d.csv", table())
     with pytest.raises(FlightDataError, match="unknown mapping key 'eulr'.*did you mean 'euler'"):
-        load_csv(path, {"time": "t", "eulr": ["roll", "pitch", "yaw"]})
-    with pytest.raises(FlightDataError, match="needs a 'unit'"):
-        load_csv(path, {"time": "t", "euler": ["roll", "pitch", "yaw"]})
+        load_csv(path, {"time": "t", "time_unit": "s", "eulr": ["roll", "pitch", "yaw"]})
+    with pytest.raises(FlightDataError, match="has no 'unit'"):
+        load_csv(path, {"time": "t", "time_unit": "s", "euler": ["roll", "pitch", "yaw"]})
     with pytest.raises(FlightDataError, match="unknown angle unit 'degs'.*'deg'"):
-        load_csv(path, {"time": "t", "euler": {"columns": ["roll", "pitch", "yaw"],
-                                               "unit": "degs"}})  # fmt: skip
+        load_csv(path, {"time": "t", "time_unit": "s",
+                        "euler": {"columns": ["roll", "pitch", "yaw"],
+                                  "unit": "degs"}})  # fmt: skip
     with pytest.raises(FlightDataError, match="exactly one of 'down' or 'up'"):
-        load_csv(path, {"time": "t", "velocity": {"north": "vn", "east": "ve"}})
+        load_csv(path, {"time": "t", "time_unit": "s", "velocity": {"north": "vn", "east": "ve"}})
     with pytest.raises(FlightDataError, match="names no channel"):
         load_csv(path, {"time": "t"})
     with pytest.raises(FlightDataError, match="event 'late'.*outside the data"):
@@ -365,11 +437,16 @@ def test_vertical_sign_checked_when_horizontal_motion_dominates(tmp_path):
         "vn": [15.0] * 21, "ve": [0.0] * 21, "vd": [4.0] * 21,
     }  # fmt: skip
     path = write(tmp_path / "v.csv", cols)
-    base = {"time": "t", "position": {"north": "n", "east": "e", "down": "d"}}
-    ok = load_csv(path, {**base, "velocity": {"north": "vn", "east": "ve", "down": "vd"}})
+    base = {"time": "t", "time_unit": "s",
+            "position": {"north": "n", "east": "e", "down": "d", "unit": "m"}}  # fmt: skip
+    ok = load_csv(
+        path, {**base, "velocity": {"north": "vn", "east": "ve", "down": "vd", "unit": "m/s"}}
+    )
     assert ok["velocity"].values[0] == pytest.approx([15.0, 0.0, 4.0])
     with pytest.raises(FlightDataError, match="'up' given as 'down'"):
-        load_csv(path, {**base, "velocity": {"north": "vn", "east": "ve", "up": "vd"}})
+        load_csv(
+            path, {**base, "velocity": {"north": "vn", "east": "ve", "up": "vd", "unit": "m/s"}}
+        )
 
 
 def test_iso_time_column(tmp_path):
@@ -377,8 +454,8 @@ def test_iso_time_column(tmp_path):
         "when": ["2022-06-24T15:17:16.00", "2022-06-24T15:17:16.50", "2022-06-24T15:17:17.25"],
         "h": ["10", "9", "8"],
     }
-    fd = load_csv(write(tmp_path / "i.csv", cols), {"time": "when", "time_unit": "iso",
-                                                     "altitude": "h"})  # fmt: skip
+    mapping = {"time": "when", "time_unit": "iso", "altitude": {"column": "h", "unit": "m"}}
+    fd = load_csv(write(tmp_path / "i.csv", cols), mapping)
     assert fd["altitude"].t == pytest.approx([0.0, 0.5, 1.25])
 
 
@@ -409,6 +486,7 @@ def _gps_descent(tmp_path: Path, seed: int, *, correlated: bool, factor: float =
 
 GPS_MAPPING = {
     "time": "t",
+    "time_unit": "s",
     "position": {"north": "n", "east": "e", "down": "d", "unit": "m"},
     "velocity": {"north": "vn", "east": "ve", "down": "vd", "unit": "m/s"},
 }

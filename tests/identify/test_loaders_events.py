@@ -16,7 +16,12 @@ from vectorid.identify import FlightDataError, load_csv, load_telemega
 DATA = Path(__file__).resolve().parents[2].parent / "shared" / "data"
 TELEMEGA = DATA / "prometheus-2022" / "2022-06-24-serial-6583-flight-0003-TeleMega.csv"
 
-MAPPING = {"time": "t", "altitude": {"column": "h", "unit": "m"}, "event_column": "state"}
+MAPPING = {
+    "time": "t",
+    "time_unit": "s",
+    "altitude": {"column": "h", "unit": "m"},
+    "event_column": "state",
+}
 
 
 def _write(path: Path, rows: list[tuple[float, float, str]]) -> Path:
@@ -84,6 +89,7 @@ def test_real_telemega_states_through_the_generic_loader():
         TELEMEGA,
         {
             "time": "time",
+            "time_unit": "s",
             "altitude": {"column": "height", "unit": "m"},
             "event_column": "state_name",
         },

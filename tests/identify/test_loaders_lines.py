@@ -7,7 +7,7 @@ import pytest
 
 from vectorid.identify import FlightDataError, load_csv, load_parquet
 
-MAPPING = {"time": "t", "altitude": {"column": "h", "unit": "m"}}
+MAPPING = {"time": "t", "time_unit": "s", "altitude": {"column": "h", "unit": "m"}}
 
 
 def _log(tmp_path):

@@ -332,7 +332,11 @@ def _study(tmp_path, ident_extra: dict, criteria=None) -> StudySpec:
                 {
                     "name": "d",
                     "file": "drop.csv",
-                    "mapping": {"time": "t", "altitude": {"column": "height", "unit": "m"}},
+                    "mapping": {
+                        "time": "t",
+                        "time_unit": "s",
+                        "altitude": {"column": "height", "unit": "m"},
+                    },
                     "window": [2.0, 32.0],
                     "origin_altitude": ORIGIN,
                     "inputs": {"main": 1.0},

@@ -78,6 +78,8 @@ def test_own_criteria_definitions_and_functions(own):
     ("old", "new", "message"),
     [
         (r"^units = .*$", "", r"data\[0\]\.units.*must be stated"),
+        (r"^time_unit = .*$", "", r"data\[0\]\.time_unit.*time column 't' is not stated.*s, ms"),
+        (r"^time_unit = .*$", 'time_unit = "sec"', r"data\[0\]\.time_unit.*unknown time unit"),
         (r"^columns = .*$", 'columns = { x = "x_cm", a = "a" }', r"no column 'x_cm'"),
         (r"^units = .*$", 'units = { x = "inch", a = "m/s^2" }', r"'inch'.*no conversion"),
         (r'^name = "x_rms".*$', 'name = "x_mean"', r"neither <channel>_<kind>"),
@@ -202,6 +204,7 @@ def test_library_criteria_apply_to_an_output_of_their_channel(tmp_path):
 
             [[identification.data]]
             file = "h.csv"
+            time_unit = "s"
             columns = { altitude = "h" }
             units = { altitude = "m" }
             """
@@ -247,3 +250,19 @@ def test_estimated_noise_is_close_to_the_stated_one(own):
     # tutorial says to sample well above the motion's frequencies for "estimate")
     assert s["x_rms"] <= c["x_rms"].limit < 3 * s["x_rms"]
     assert s["a_rms"] * 0.7 <= c["a_rms"].limit < 3 * s["a_rms"]
+
+
+def test_a_time_column_in_ms_stated_as_ms_gives_the_numbers_of_the_one_in_s(own):
+    spec = prepare_spec(load_study(own / "study.toml"))
+    x = np.array([[TRUTH[v] for v in spec.space.names], [1.5 * TRUTH[v] for v in spec.space.names]])
+    f_s = spec.problem().evaluate(x).criteria
+    rec = own / "run1.csv"
+    lines = rec.read_text(encoding="utf-8").splitlines()
+    head = next(i for i, ln in enumerate(lines) if ln.startswith("t,"))
+    for i in range(head + 1, len(lines)):
+        t, rest = lines[i].split(",", 1)
+        lines[i] = f"{float(t) * 1000:.3f},{rest}"
+    rec.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    _edit(own, r'^time_unit = "s".*$', 'time_unit = "ms"')
+    spec_ms = prepare_spec(load_study(own / "study.toml"))
+    np.testing.assert_allclose(spec_ms.problem().evaluate(x).criteria, f_s, rtol=1e-12)

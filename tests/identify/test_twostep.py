@@ -49,8 +49,9 @@ def _write_drop(path, controlled: bool, seed: int) -> None:
 def _spec(tmp_path, kind: str, variables) -> StudySpec:
     mapping = {
         "time": "t",
-        "position": {"north": "n", "east": "e", "down": "d"},
-        "velocity": {"north": "vn", "east": "ve", "down": "vd"},
+        "time_unit": "s",
+        "position": {"north": "n", "east": "e", "down": "d", "unit": "m"},
+        "velocity": {"north": "vn", "east": "ve", "down": "vd", "unit": "m/s"},
         "origin": [32.0, -106.0, ORIGIN],
         "euler": {"columns": ["phi", "theta", "psi"], "unit": "rad"},
         "rates": {"columns": ["p", "q", "r"], "unit": "rad/s"},
@@ -59,6 +60,7 @@ def _spec(tmp_path, kind: str, variables) -> StudySpec:
         mapping["controls"] = {
             "columns": ["r1", "r2", "r3", "r4"],
             "components": ["riser1", "riser2", "riser3", "riser4"],
+            "unit": "1",
         }
     data = {
         "study": {"name": f"twin-{kind}", "model": "parachute6dof", "trials": 128},

@@ -40,6 +40,7 @@ def _spec(tmp_path, variables, trials=256) -> StudySpec:
     _write(tmp_path / "drop.csv")
     mapping = {
         "time": "t",
+        "time_unit": "s",
         "altitude": {"column": "height", "unit": "m"},
         "events": {"main_logged": LOGGED},
     }

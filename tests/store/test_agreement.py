@@ -148,3 +148,38 @@ def test_data_file_moved_with_the_same_content_is_taken_edited_is_refused(tmp_pa
         open_again(moved, store)
     with Study.open(store) as st:
         np.testing.assert_array_equal(st.trials().F, before.F)
+
+
+def test_units_newly_stated_are_taken_when_they_are_the_ones_the_trials_were_read_in(tmp_path):
+    # stores made before mappings had to state units read them in s, m, m/s, deg (lat/lon)
+    import copy
+
+    from vectorid.own_model import write_own_model
+    from vectorid.spec import StudySpec
+    from vectorid.store.agreement import _MISSING, _flatten, _long_mappings, _stated_unit, compare
+
+    write_own_model(tmp_path / "own")
+    given = load_study(tmp_path / "own" / "study.toml")
+    data = copy.deepcopy(given.to_dict())
+    del data["identification"]["data"][0]["time_unit"]
+    held = StudySpec.from_dict(data, base_dir=tmp_path / "own")
+    ag = compare(held, given)
+    assert not ag.refused and [d.field for d in ag.taken] == ["identification.data[0].time_unit"]
+    data["identification"]["data"][0]["time_unit"] = "ms"
+    ag = compare(StudySpec.from_dict(data, base_dir=tmp_path / "own"), given)
+    assert [d.field for d in ag.refused] == ["identification.data[0].time_unit"]
+    # a flight mapping: the short form of a channel and the former defaults
+    m_old = {"time": "t", "altitude": "h", "position": {"north": "n", "east": "e", "up": "u"},
+             "controls": ["l", "r"]}  # fmt: skip
+    m_new = {"time": "t", "time_unit": "s", "altitude": {"column": "h", "unit": "m"},
+             "position": {"north": "n", "east": "e", "up": "u", "unit": "m"},
+             "controls": {"columns": ["l", "r"], "unit": "1"}}  # fmt: skip
+    fa: dict = {}
+    fb: dict = {}
+    _flatten("identification", _long_mappings({"drops": [{"mapping": m_old}]}), fa)
+    _flatten("identification", _long_mappings({"drops": [{"mapping": m_new}]}), fb)
+    new = sorted(set(fb) - set(fa))
+    assert set(fa) <= set(fb) and all(fa[k] == fb[k] for k in fa)
+    assert all(_stated_unit(k, fa.get(k, _MISSING), fb[k]) for k in new), new
+    assert not _stated_unit("identification.drops[0].mapping.altitude.unit", _MISSING, "ft")
+

@@ -44,7 +44,8 @@ The study file
     [[identification.data]]
     name = "run1"
     file = "run1.csv"                         # relative to the study file
-    time = "t"                                # time column, s (default "t")
+    time = "t"                                # time column (default "t")
+    time_unit = "s"                           # its unit: s | ms | us | ns | min (never guessed)
     columns = { x = "x_mm", a = "acc" }       # output channel -> column (default: same name)
     units = { x = "mm", a = "m/s^2" }         # unit of every column used: never guessed
     initial = { x = 0.05, v = 0.0 }           # state values at the window start
@@ -121,7 +122,8 @@ _FLIGHT_ONLY = {
 _DATA_KEYS = {
     "name": "record name",
     "file": "CSV file, relative to the study file",
-    "time": "time column, s (default 't')",
+    "time": "time column (default 't')",
+    "time_unit": "unit of the time column: s, ms, us, ns or min (required)",
     "columns": "output channel -> CSV column (default: the channel's name)",
     "units": "unit of every column used, by output channel",
     "initial": "state values at the window start, by state name",
@@ -575,7 +577,24 @@ def _build_record(
     cols = {ch: str(columns.get(ch, ch)) for ch in units}
     path = Path(t["file"])
     path = path if path.is_absolute() else base / path
-    tt, vals = read_record(path, str(t.get("time", "t")), cols, where)
+    time_col = str(t.get("time", "t"))
+    from .loaders.common import UNITS
+
+    time_unit = t.get("time_unit")
+    if time_unit is None:
+        raise _err(
+            f"{where}.time_unit",
+            f"the unit of the time column {time_col!r} is not stated",
+            f'add time_unit = "s" ({", ".join(UNITS["time"])}; units are never guessed)',
+        )
+    if time_unit not in UNITS["time"]:
+        raise _err(
+            f"{where}.time_unit",
+            f"unknown time unit {time_unit!r}",
+            f"{suggest(str(time_unit), list(UNITS['time']))} (one of {', '.join(UNITS['time'])})",
+        )
+    tt, vals = read_record(path, time_col, cols, where)
+    tt = tt * UNITS["time"][str(time_unit)]
     for ch, u in units.items():
         f = convert_unit(str(u), model.unit_of(ch))
         if f is None:

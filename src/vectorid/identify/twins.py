@@ -217,14 +217,14 @@ def write_twin(flight: FlightData, folder: str | Path, stem: str) -> list[dict[s
             comments="",
             fmt="%.10g",
         )
-        mapping: dict[str, Any] = {"time": "time_s"}
+        mapping: dict[str, Any] = {"time": "time_s", "time_unit": "s"}
         if ch in ("position", "velocity"):
             mapping[ch] = {
                 **{comp: col for comp, col in zip(c.components, cols)},
                 "unit": c.unit,
             }
         elif ch == "controls":
-            mapping[ch] = {"columns": cols, "components": list(c.components)}
+            mapping[ch] = {"columns": cols, "components": list(c.components), "unit": c.unit}
         else:
             mapping[ch] = {"columns": cols, "unit": c.unit}
         if ch == "position" and flight.origin is not None:

@@ -752,6 +752,7 @@ def control_step_spec(
     cols = {"time_s": t, "north_m": still[:, 0], "east_m": still[:, 1], "down_m": still[:, 2]}
     mapping: dict[str, Any] = {
         "time": "time_s",
+        "time_unit": "s",
         "position": {"north": "north_m", "east": "east_m", "down": "down_m", "unit": "m"},
     }
     if "velocity" in d.flight.channels:  # for the initial state only (criteria 1, 3 only)
@@ -792,7 +793,8 @@ def control_step_spec(
                 "file": f"data/{ctl_csv.name}",
                 "mapping": {
                     "time": "time_s",
-                    "controls": {"columns": comps, "components": comps},
+                    "time_unit": "s",
+                    "controls": {"columns": comps, "components": comps, "unit": c.unit},
                 },
             }
         )

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import hashlib
 import itertools
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -239,15 +240,18 @@ def compare(
         fa: dict[str, Any] = {}
         fb: dict[str, Any] = {}
         if x is not _MISSING:
-            _flatten(key, x, fa)
+            _flatten(key, _long_mappings(x), fa)
         if y is not _MISSING:
-            _flatten(key, y, fb)
+            _flatten(key, _long_mappings(y), fb)
         for path in sorted(set(fa) | set(fb)):
             vx, vy = fa.get(path, _MISSING), fb.get(path, _MISSING)
             if path in files_held or path in files_given:
                 continue  # data files: compared by content below
             if vx != vy:
-                if analysis_only(given, path):
+                said = _stated_unit(path, vx, vy)
+                if said:
+                    add(path, vx, vy, True, said)
+                elif analysis_only(given, path):
                     add(path, vx, vy, True, "what the criteria constraints derive from")
                 else:
                     add(path, vx, vy, False, "changes the trials")
@@ -284,6 +288,67 @@ def compare(
         elif old_path != new_path:
             add(name, shown_old, shown_new, True, "the same file content")
     return out
+
+
+#: Channels of a flight-data mapping whose short forms (a column name, a list of columns,
+#: ``column``) are the table ``{columns = [...]}``.
+_MAPPED = ("position", "velocity", "euler", "rates", "altitude", "controls")
+
+#: Units a flight-data mapping once defaulted to (before units had to be stated): a store made
+#: then read its files in these units, so stating the same unit now changes no trial.
+_FORMER_DEFAULT_UNITS = {
+    "time_unit": "s",
+    "position.unit": "m",
+    "position.angle_unit": "deg",
+    "position.alt_unit": "m",
+    "velocity.unit": "m/s",
+    "altitude.unit": "m",
+}
+
+
+def _long_mappings(value: Any) -> Any:
+    """``value`` with every flight-data ``mapping``'s channels in their table form, so that
+    ``altitude = "h"`` and ``altitude = { column = "h", unit = "m" }`` differ by the unit only."""
+    if isinstance(value, list | tuple):
+        return [_long_mappings(v) for v in value]
+    if not isinstance(value, Mapping):
+        return value
+    out = {k: _long_mappings(v) for k, v in value.items()}
+    m = out.get("mapping")
+    if isinstance(m, Mapping):
+        m = {k: (_table_form(v) if k in _MAPPED else v) for k, v in m.items()}
+        if isinstance(m.get("channels"), Mapping):
+            m["channels"] = {k: _table_form(v) for k, v in m["channels"].items()}
+        out["mapping"] = m
+    return out
+
+
+def _table_form(spec: Any) -> Any:
+    if isinstance(spec, str):
+        return {"columns": [spec]}
+    if isinstance(spec, list | tuple):
+        return {"columns": list(spec)}
+    if isinstance(spec, Mapping) and "column" in spec:
+        return {**{k: v for k, v in spec.items() if k != "column"}, "columns": [spec["column"]]}
+    return spec
+
+
+def _stated_unit(path: str, held: Any, given: Any) -> str:
+    """Why a unit newly stated in a flight-data mapping is taken ("" if it is not): the unit
+    the store's trials were read in (the former default), or the unit of a channel that is
+    not converted (controls, other channels: a label)."""
+    if held is not _MISSING:
+        return ""
+    if re.fullmatch(r"identification\.data\[\d+\]\.time_unit", path) and given == "s":
+        return "states the unit the store's trials read the record's time in (it was s)"
+    if ".mapping." not in path:
+        return ""
+    key = path.rsplit(".mapping.", 1)[1]
+    if _FORMER_DEFAULT_UNITS.get(key) == given:
+        return "states the unit the store's trials read the file in (it was the default)"
+    if key == "controls.unit" or (key.startswith("channels.") and key.endswith(".unit")):
+        return "the unit of a channel that is not converted: a label"
+    return ""
 
 
 def _data_files(spec: StudySpec) -> dict[str, Path]:

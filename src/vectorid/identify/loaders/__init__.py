@@ -100,6 +100,6 @@ def load_flight(
     if mapping is None:
         raise FlightDataError(
             f"{p}: a {fmt} file needs a mapping of columns to channels (see docs/identify.md), "
-            "e.g. {'time': 't', 'altitude': {'column': 'h', 'unit': 'm'}}"
+            "e.g. {'time': 't', 'time_unit': 's', 'altitude': {'column': 'h', 'unit': 'm'}}"
         )
     return load_csv(p, mapping) if fmt == "csv" else load_parquet(p, mapping)

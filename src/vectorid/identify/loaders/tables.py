@@ -233,6 +233,21 @@ def _check_keys(where: str, spec: Mapping[str, Any], allowed: set[str]) -> None:
             )
 
 
+def _required_unit(
+    where: str, spec: Mapping[str, Any], key: str, kind: str, columns: list[str], example: str
+) -> str:
+    """The unit ``spec[key]`` of mapping entry ``where``; a missing one is an error (units are
+    never guessed: a column of heights in feet read as metres is silently wrong)."""
+    if key in spec and spec[key] is not None and str(spec[key]).strip() != "":
+        return str(spec[key])
+    valid = " | ".join(UNITS[kind]) if kind in UNITS else "any unit name, '1' if dimensionless"
+    cols = ", ".join(repr(c) for c in columns)
+    raise FlightDataError(
+        f"mapping[{where!r}] (column(s) {cols}) has no {key!r}: units are never guessed; "
+        f"say the unit the column(s) hold ({valid}), e.g. {example}"
+    )
+
+
 def _ned_spec(name: str, spec: dict[str, Any], kind: str, max_gap: float) -> _Spec:
     """position/velocity: north/east/down|up, lat/lon/alt, or columns."""
     where = name
@@ -244,8 +259,17 @@ def _ned_spec(name: str, spec: dict[str, Any], kind: str, max_gap: float) -> _Sp
                 raise FlightDataError(
                     f"mapping['position'] with 'lat' also needs {k!r} (columns lat, lon, alt)"
                 )
-        af = _factor("angle", spec.get("angle_unit", "deg"), "position.angle_unit")
-        hf = _factor("length", spec.get("alt_unit", "m"), "position.alt_unit")
+        geo_cols = [str(spec[k]) for k in ("lat", "lon", "alt")]
+        geo_ex = (f'position = {{ lat = "{geo_cols[0]}", lon = "{geo_cols[1]}", alt = '
+                  f'"{geo_cols[2]}", angle_unit = "deg", alt_unit = "m" }}')  # fmt: skip
+        af = _factor(
+            "angle", _required_unit(name, spec, "angle_unit", "angle", geo_cols[:2], geo_ex),
+            "position.angle_unit",
+        )  # fmt: skip
+        hf = _factor(
+            "length", _required_unit(name, spec, "alt_unit", "length", geo_cols[2:], geo_ex),
+            "position.alt_unit",
+        )  # fmt: skip
         deg = af * 180.0 / math.pi
 
         def conv_geo(v: Array) -> Array:
@@ -281,7 +305,15 @@ def _ned_spec(name: str, spec: dict[str, Any], kind: str, max_gap: float) -> _Sp
             )
         cols = [spec["north"], spec["east"], spec.get("down", spec.get("up"))]
         sign = np.array([1.0, 1.0, 1.0 if "down" in spec else -1.0])
-    f = _factor(kind, spec.get("unit", default_unit), f"{name}.unit")
+    if "columns" in spec:
+        ex = f'{name} = {{ columns = {[str(c) for c in cols]}, unit = "{default_unit}" }}'
+    else:
+        vert = "down" if "down" in spec else "up"
+        ex = (f'{name} = {{ north = "{cols[0]}", east = "{cols[1]}", {vert} = "{cols[2]}", '
+              f'unit = "{default_unit}" }}')  # fmt: skip
+    ex = ex.replace("'", '"')
+    f = _factor(kind, _required_unit(name, spec, "unit", kind, [str(c) for c in cols], ex),
+                f"{name}.unit")  # fmt: skip
     return _Spec(
         name,
         [str(c) for c in cols],
@@ -313,12 +345,10 @@ def _named_spec(
         raise FlightDataError(
             f"mapping[{name!r}].columns needs {len(keys)} columns ({', '.join(keys)}), got {cols}"
         )
-    if "unit" not in spec:
-        raise FlightDataError(
-            f"mapping[{name!r}] needs a 'unit' ({' or '.join(UNITS[kind])}); angles are logged "
-            "in both, so there is no default"
-        )
-    f = _factor(kind, spec["unit"], f"{name}.unit")
+    si = "rad" if kind == "angle" else "rad/s"
+    ex = f'{name} = {{ columns = {[str(c) for c in cols]}, unit = "{si}" }}'.replace("'", '"')
+    f = _factor(kind, _required_unit(name, spec, "unit", kind, [str(c) for c in cols], ex),
+                f"{name}.unit")  # fmt: skip
     return _Spec(
         name,
         [str(c) for c in cols],
@@ -354,7 +384,13 @@ def _specs(mapping: Mapping[str, Any], max_gap: float) -> list[_Spec]:
             raise FlightDataError(
                 f"mapping['altitude'] needs one column ('column': name), got {spec.get('columns')}"
             )
-        f = _factor("length", spec.get("unit", "m"), "altitude.unit")
+        acol = str(spec["columns"][0])
+        f = _factor(
+            "length",
+            _required_unit("altitude", spec, "unit", "length", [acol],
+                           f'altitude = {{ column = "{acol}", unit = "m" }}'),
+            "altitude.unit",
+        )  # fmt: skip
         ref = spec.get("reference", "origin")
         if ref not in ("origin", "msl"):
             raise FlightDataError(
@@ -376,7 +412,12 @@ def _specs(mapping: Mapping[str, Any], max_gap: float) -> list[_Spec]:
             raise FlightDataError(
                 f"mapping['controls'].components needs one name per column: {cols} vs {comps}"
             )
-        out.append(_Spec("controls", cols, comps, str(spec.get("unit", "1")), lambda v: v,
+        cunit = _required_unit(
+            "controls", spec, "unit", "", cols,
+            f'controls = {{ columns = {cols}, unit = "1" }} for fractions of full travel, or '
+            '"deg"/"rad" for deflections'.replace("'", '"'),
+        )  # fmt: skip
+        out.append(_Spec("controls", cols, comps, cunit, lambda v: v,
                          float(spec.get("max_gap", max_gap))))  # fmt: skip
     extra = mapping.get("channels", {}) or {}
     if not isinstance(extra, Mapping):
@@ -395,7 +436,12 @@ def _specs(mapping: Mapping[str, Any], max_gap: float) -> list[_Spec]:
         if not cols:
             raise FlightDataError(f"mapping['channels'][{name!r}] needs 'columns'")
         comps = tuple(spec.get("components", cols))
-        out.append(_Spec(str(name), cols, comps, str(spec.get("unit", "")), lambda v: v,
+        xunit = _required_unit(
+            f"channels.{name}", spec, "unit", "", cols,
+            f'[...mapping.channels] {name} = {{ columns = {cols}, unit = "Pa" }} (the unit the '
+            'column holds, "1" if dimensionless; not converted)'.replace("'", '"'),
+        )  # fmt: skip
+        out.append(_Spec(str(name), cols, comps, xunit, lambda v: v,
                          float(spec.get("max_gap", max_gap))))  # fmt: skip
     for s in out:
         if not (math.isfinite(s.max_gap) and s.max_gap > 0):
@@ -410,8 +456,14 @@ def _time_axis(table: _Table, mapping: Mapping[str, Any]) -> Array:
             f"{table.source}: {', '.join(table.names)}"
         )
     col = str(mapping["time"])
-    unit = mapping.get("time_unit", "s")
     raw = table.raw(col, "time")
+    if raw.dtype.kind == "M":
+        unit = "iso"  # a timestamp column (Parquet): the format fixes the unit
+    else:
+        unit = _required_unit(
+            "time", {"time_unit": mapping.get("time_unit")}, "time_unit", "time", [col],
+            f'time = "{col}" with time_unit = "s" (or ms, us, ns, min; "iso" for ISO 8601 text)',
+        )
     if unit == "iso" or raw.dtype.kind == "M":
         if raw.dtype.kind == "M":
             dt64 = raw.astype("datetime64[ns]")
@@ -605,8 +657,8 @@ def _build(table: _Table, mapping: Mapping[str, Any], name: str | None) -> Fligh
     fd = drop_spikes(fd, table.source, str(mapping.get("spikes", "drop")))
     if mapping.get("check_units", True):
         units = {
-            key: str(_as_dict(key, mapping[key]).get("unit", default))
-            for key, default in (("velocity", "m/s"), ("altitude", "m"))
+            key: str(_as_dict(key, mapping[key])["unit"])
+            for key in ("velocity", "altitude")
             if key in mapping
         }
         check_units(fd, table.source, units)
@@ -630,10 +682,11 @@ def load_csv(path: str | os.PathLike[str], mapping: Mapping[str, Any]) -> Flight
         Which column holds what, in which unit; see ``docs/identify.md``. Example::
 
             {"time": "t", "time_unit": "s",
-             "position": {"lat": "lat_deg", "lon": "lon_deg", "alt": "alt_m"},
+             "position": {"lat": "lat_deg", "lon": "lon_deg", "alt": "alt_m",
+                          "angle_unit": "deg", "alt_unit": "m"},
              "velocity": {"north": "vn", "east": "ve", "down": "vd", "unit": "m/s"},
              "euler": {"columns": ["roll", "pitch", "yaw"], "unit": "deg"},
-             "controls": {"columns": ["left", "right"]},
+             "controls": {"columns": ["left", "right"], "unit": "1"},
              "events": {"canopy_deployed": 3.2}}
 
     Returns
