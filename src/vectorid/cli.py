@@ -492,6 +492,23 @@ def _analysis(args: argparse.Namespace):
         study.close()
 
 
+def _sequential_note(args: argparse.Namespace, a: Any) -> str | None:
+    """A sequential store's line for table/pareto: its sampler, D's members and ESS, and that
+    the counts above are trials (weights change densities, not which trials are in D)."""
+    if a.spec.sampler != "sequential":
+        return None
+    from .run.sequential import sample_note
+
+    study = _open_study(args.store)
+    try:
+        note = sample_note(study.store, a)
+    finally:
+        study.close()
+    if note is None:
+        return None
+    return f"{note}\n  N, ND, NP count trials (unweighted); densities of D use the weights"
+
+
 def _save_limits(args: argparse.Namespace, a: Any) -> None:
     """Save the constraints in force (``--save``) into the study held by the store."""
     from .errors import StudyDefinitionError
@@ -853,6 +870,9 @@ def _cmd_table(args: argparse.Namespace) -> int:
         f"N = {a.n}   ND = {a.n_feasible}   NP = {a.n_pareto}   (failed {a.n_failed}, "
         f"meeting functional constraints {a.n_functional})"
     )
+    note = _sequential_note(args, a)
+    if note:
+        print(note)
     crit = {c.name: c for c in a.criteria}
     for b in a.active_bounds():
         print(f"  constraint {b}{_source(crit.get(b.name), b.value)}")
@@ -902,6 +922,9 @@ def _cmd_pareto(args: argparse.Namespace) -> int:
         _print_json(a.pareto_json())
         return 0
     print(f"N = {a.n}   ND = {a.n_feasible}   NP = {a.n_pareto}   (failed {a.n_failed})")
+    note = _sequential_note(args, a)
+    if note:
+        print(note)
     for b in a.active_bounds():
         print(f"  constraint {b}")
     pure = [a.crit_names[i] for i in a.pure]

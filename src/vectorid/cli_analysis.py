@@ -184,6 +184,12 @@ def _write_fig(fig: Any, out: str) -> None:
     print(f"figure written to {path}", file=sys.stderr)
 
 
+def _weighted_words() -> str:
+    from .analysis.weights import WEIGHTED_NOTE
+
+    return WEIGHTED_NOTE
+
+
 # -- commands -------------------------------------------------------------------------------
 
 
@@ -352,6 +358,13 @@ def _cmd_report(args: argparse.Namespace) -> int:
             max_points=args.max_points,
             top=args.top,
         )
+        note = None
+        if study.spec.sampler == "sequential":
+            from .run.sequential import sample_note
+
+            note = sample_note(study.store, _analysis(study, args))
+    if note:
+        print(f"{note}; the report's densities of D are importance-weighted")
     print(
         f"report written to {res.path} ({res.size / 1e6:.1f} MB, {len(res.figures)} figures, "
         f"{res.seconds:.1f} s)"
@@ -363,15 +376,20 @@ def _cmd_report(args: argparse.Namespace) -> int:
 
 def _cmd_correlation(args: argparse.Namespace) -> int:
     from .analysis.correlation import correlation_of
+    from .run.sequential import sample_note
 
     study = _open(args.store)
     with study:
         a = _analysis(study, args)
+        note = None if args.json else sample_note(study.store, a)
     corr = correlation_of(a, args.set, method=args.method, threshold=args.threshold)
     if args.json:
         _json(corr.to_dict())
     else:
-        print(f"{corr.method} correlation over the {args.set} set ({corr.n} trials)")
+        if note:
+            print(note)
+        how = "; " + _weighted_words() if corr.weighted else ""
+        print(f"{corr.method} correlation over the {args.set} set ({corr.n} trials{how})")
         if not corr.pairs:
             print(f"no pair with |r| >= {corr.threshold:g}")
         for d in corr.pairs:
@@ -393,17 +411,28 @@ def _cmd_correlation(args: argparse.Namespace) -> int:
 
 def _cmd_sensitivity(args: argparse.Namespace) -> int:
     from .analysis.sensitivity import sensitivity
+    from .run.sequential import sample_note
 
     study = _open(args.store)
     with study:
         a = _analysis(study, args)
+        note = None if args.json else sample_note(study.store, a)
     s = sensitivity(a)
     if args.json:
         _json(s.to_dict())
     else:
+        if note:
+            print(note)
         print(
             f"KS statistic between D ({s.n_behavioural} trials) and the rest ({s.n_other}), "
             "and Spearman ρ with each criterion"
+            + (
+                f"; {_weighted_words()}: effective sizes {s.ess_behavioural:.0f} and "
+                f"{s.ess_other:.0f}"
+                + (f" (1 in {s.stride:.3g} trials outside D weighed)" if s.stride > 1 else "")
+                if s.weighted
+                else ""
+            )
         )
         print(f"{'parameter':<16}{'KS':>8}{'p':>10}" + "".join(f"{n:>12}" for n in s.criteria))
         for name, _ in s.ranking():
@@ -548,6 +577,7 @@ def _cmd_identifiability(args: argparse.Namespace) -> int:
         )
     if note:
         print(note)
+        print("  feasible ranges are min-max over D's members: the weights do not change them")
     crit = {c.name: c for c in spec.criteria}
     for b in a.active_bounds():
         c = crit.get(b.name)

@@ -844,7 +844,13 @@ def run_parafoil_demo(
         why = MECHANISMS.get((pr["a"], pr["b"])) or MECHANISMS.get((pr["b"], pr["a"])) or ""
         print(f"    {pr['a']:>8} ~ {pr['b']:<8} r = {pr['r']:+.2f}  {why}")
     verdict2 = {v.name: v for v in r2.verdicts}
-    med = dict(zip(names, np.median(a2.trials.X[a2.feasible], axis=0))) if a2.n_feasible else {}
+    med = {}
+    if a2.n_feasible:  # D's median, importance-weighted (the sequential sampler's trials)
+        from .analysis.weights import trial_weights, weighted_quantile
+
+        wd = trial_weights(a2, a2.feasible)
+        Xd = a2.trials.X[a2.feasible]
+        med = {n: float(weighted_quantile(Xd[:, j], 0.5, wd)) for j, n in enumerate(names)}
     fixed = {n: float(x_nom[names.index(n)]) for n in insensitive}
     for keep, drop, r in ties:
         if verdict2[drop].identified:

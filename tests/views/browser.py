@@ -149,6 +149,7 @@ def chrome(url: str, size: str = "1500,1400") -> Iterator[webdriver.Chrome]:
     profile = tempfile.mkdtemp(prefix="vectorid-ui-chrome-")
     opts.add_argument(f"--user-data-dir={profile}")
     opts.binary_location = CHROMIUM
+    opts.set_capability("goog:loggingPrefs", {"browser": "ALL"})  # console errors: get_log
     drv = webdriver.Chrome(service=Service(CHROMEDRIVER), options=opts)
     drv.set_page_load_timeout(WAIT)
     drv.get(url)

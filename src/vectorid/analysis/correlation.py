@@ -5,6 +5,10 @@ Over the feasible or Pareto trials, strongly correlated parameter pairs show tha
 criteria constrain a combination of the two rather than each one: such a pair could be
 merged into one parameter (the fitted line is reported). A parameter whose near-optimal
 values span a small part of its box is well determined and could be fixed at its median.
+
+On a sequential store the trials are not uniform in the box, so the correlation, the fitted
+line, the quantiles and the median use the trials' importance weights
+(:mod:`vectorid.analysis.weights`); :attr:`CorrelationResult.weighted` says so.
 """
 
 from __future__ import annotations
@@ -17,6 +21,7 @@ import numpy as np
 
 from ..errors import StudyDefinitionError
 from .results import Analysis
+from .weights import trial_weights, weighted_pearson, weighted_quantile, weighted_ranks
 
 __all__ = [
     "CorrelationResult",
@@ -51,6 +56,8 @@ class CorrelationResult:
         Parameters whose relative spread ``(Q95 − Q05) / box width`` is at most
         ``spread_threshold``: name, spread, median (candidates for fixing).
     relative_spread : (p,) float
+    weighted : bool
+        The statistics use a sequential store's importance weights.
     """
 
     names: list[str]
@@ -62,6 +69,7 @@ class CorrelationResult:
     groups: list[list[str]] = field(default_factory=list)
     fixed: list[dict[str, Any]] = field(default_factory=list)
     relative_spread: np.ndarray | None = None
+    weighted: bool = False
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -73,10 +81,20 @@ class CorrelationResult:
             "pairs": self.pairs,
             "groups": self.groups,
             "fixed": self.fixed,
+            "weighted": self.weighted,
         }
 
 
-def _corr(X: np.ndarray, method: str) -> np.ndarray:
+def _corr(X: np.ndarray, method: str, w: np.ndarray | None = None) -> np.ndarray:
+    if w is not None and method in ("pearson", "spearman"):
+        if method == "spearman":
+            X = np.column_stack([weighted_ranks(c, w) for c in X.T]) if len(X) else X
+        p = X.shape[1]
+        if len(X) < 2:
+            return np.eye(p)
+        R = np.nan_to_num(weighted_pearson(X, X, w) if len(X) >= 3 else np.eye(p))
+        np.fill_diagonal(R, 1.0)
+        return R
     if method == "spearman":
         from scipy import stats  # imported where used: it loads slowly
 
@@ -110,6 +128,7 @@ def correlation(
     lows: np.ndarray | None = None,
     highs: np.ndarray | None = None,
     spread_threshold: float = 0.1,
+    weights: np.ndarray | None = None,
 ) -> CorrelationResult:
     """Correlation matrix, strong pairs, merge groups and fixable parameters.
 
@@ -125,25 +144,31 @@ def correlation(
         The box, for the relative spread (default: the range of ``X``).
     spread_threshold : float
         Relative spread at or below which a parameter is proposed for fixing.
+    weights : (n,) float, optional
+        Importance weights of the rows (a sequential store's): the correlation, the fitted
+        lines, the quantiles and the median are weighted.
     """
     X = np.asarray(X, dtype=float)
+    w = None if weights is None else np.asarray(weights, dtype=float)
     if X.ndim != 2 or X.shape[1] != len(names):
         raise ValueError(f"expected X of shape (n, {len(names)}), got {X.shape}")
     if not 0.0 < threshold <= 1.0:
         raise StudyDefinitionError(
             "--threshold", f"expected 0 < threshold <= 1, got {threshold}", "e.g. 0.8"
         )
-    R = _corr(X, method)
+    R = _corr(X, method, w)
     p = len(names)
     pairs = []
     for i in range(p):
         for j in range(i + 1, p):
             r = float(R[i, j])
             if abs(r) >= threshold:
-                slope, intercept = np.polyfit(X[:, i], X[:, j], 1)
+                ww = np.ones(len(X)) if w is None else w
+                slope, intercept = np.polyfit(X[:, i], X[:, j], 1, w=np.sqrt(ww))
                 pred = intercept + slope * X[:, i]
-                ss = float(((X[:, j] - X[:, j].mean()) ** 2).sum())
-                r2 = 1.0 - float(((X[:, j] - pred) ** 2).sum()) / ss if ss > 0 else 1.0
+                mean_j = float(np.average(X[:, j], weights=ww))
+                ss = float((ww * (X[:, j] - mean_j) ** 2).sum())
+                r2 = 1.0 - float((ww * (X[:, j] - pred) ** 2).sum()) / ss if ss > 0 else 1.0
                 pairs.append(
                     {
                         "a": names[i],
@@ -175,9 +200,13 @@ def correlation(
     hi = X.max(axis=0) if highs is None else np.asarray(highs, float)
     width = np.where(hi - lo > 0, hi - lo, 1.0)
     if len(X):
-        q05, q95 = np.quantile(X, 0.05, axis=0), np.quantile(X, 0.95, axis=0)
+        if w is None:
+            q05, q95 = np.quantile(X, 0.05, axis=0), np.quantile(X, 0.95, axis=0)
+            med = np.median(X, axis=0)
+        else:
+            qs = np.array([weighted_quantile(c, [0.05, 0.5, 0.95], w) for c in X.T]).T
+            q05, med, q95 = qs[0], qs[1], qs[2]
         rel = (q95 - q05) / width
-        med = np.median(X, axis=0)
     else:
         rel = np.full(p, np.nan)
         med = np.full(p, np.nan)
@@ -196,6 +225,7 @@ def correlation(
         groups=groups,
         fixed=fixed,
         relative_spread=rel,
+        weighted=w is not None,
     )
 
 
@@ -208,7 +238,8 @@ def correlation_of(
     spread_threshold: float = 0.1,
 ) -> CorrelationResult:
     """:func:`correlation` over the Pareto (``subset="pareto"``) or feasible trials of an
-    analysis, with the study box for the relative spread."""
+    analysis, with the study box for the relative spread (importance-weighted on a
+    sequential store)."""
     if subset not in ("pareto", "feasible"):
         raise StudyDefinitionError(
             "--set", f"expected 'pareto' or 'feasible', got {subset!r}", "use --set feasible"
@@ -229,6 +260,7 @@ def correlation_of(
         lows=space.lows,
         highs=space.highs,
         spread_threshold=spread_threshold,
+        weights=trial_weights(a, mask),
     )
 
 

@@ -16,6 +16,7 @@ import numpy as np
 from ..space import Choice, Integer, Space, Variable
 from ..store.sqlite import Stage
 from .results import Analysis
+from .weights import trial_weights
 
 __all__ = ["Histogram", "default_bins", "histogram", "histograms", "stage_histograms"]
 
@@ -178,12 +179,7 @@ def histograms(
     nbins = bins or default_bins(int((a.feasible & sel).sum()))
     out = []
     d = a.feasible & sel
-    w = None
-    weigh = getattr(a.trials, "log_weight", None)
-    if weigh is not None and d.any():
-        lw = weigh(a.trials.X[d])
-        w = np.exp(lw - lw.max())
-        w *= d.sum() / w.sum()
+    w = trial_weights(a, d) if d.any() else None  # scaled to D's count
     for name in names:
         j = a.spec.space.index(name)
         var = space.variables[j]

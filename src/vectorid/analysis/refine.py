@@ -5,7 +5,9 @@ sample stage that keeps drawing from the same Sobol sequence.
 The rule (one variable at a time; "basis" is D, or the Pareto set with ``basis="pareto"``)
 --------------------------------------------------------------------------------------------
 1. Quantile envelope: ``lo = Q_q(basis values)``, ``hi = Q_{1-q}(basis values)``
-   (``q = quantile``, default 0.05; ``q = 0`` gives the basis's min and max).
+   (``q = quantile``, default 0.05; ``q = 0`` gives the basis's min and max); on a
+   sequential store the quantiles use the trials' importance weights
+   (:mod:`vectorid.analysis.weights`).
 2. Margin: widen both sides by ``margin · (hi − lo)`` (default 0.1).
 3. Never cut a Pareto trial: ``lo = min(lo, min over Pareto)``, ``hi = max(hi, max over
    Pareto)``.
@@ -36,6 +38,7 @@ from ..errors import StudyDefinitionError, suggest
 from ..space import Space
 from ..store.sqlite import Stage, Store
 from .results import Analysis
+from .weights import trial_weights, weighted_quantile
 
 __all__ = ["RefineProposal", "propose_refine", "refine_history"]
 
@@ -220,11 +223,12 @@ def propose_refine(
     old, hull_lo, hull_hi = _current_box(stages, spec_space)
     X = a.trials.X
     B = X[mask]
+    wb = trial_weights(a, mask)  # a sequential store's trials are not uniform in the box
     P = X[a.pareto]
     new_bounds: dict[str, tuple[float, float]] = {}
     for j, var in enumerate(spec_space):
         v = B[:, j]
-        lo, hi = (float(np.quantile(v, quantile)), float(np.quantile(v, 1.0 - quantile)))
+        lo, hi = (float(x) for x in weighted_quantile(v, [quantile, 1.0 - quantile], wb))
         pad = margin * (hi - lo)
         lo, hi = lo - pad, hi + pad
         if len(P):

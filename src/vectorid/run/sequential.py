@@ -26,8 +26,10 @@ computes, none lost or repeated.
 When the budget is spent before D holds the population, the summary says how far it got
 (the limits the last generation met, as a factor on Φ**). Only if a local search from the
 best trials (a compass search evaluated in batches, stored as an auxiliary stage of kind
-``"search"``) also fails to meet every limit does it say that the model or the limits may
-not fit the data, with the best vector found.
+``"search"``) also fails to meet every limit, with its best vector inside the box, does it
+say that the model or the limits may not fit the data, with the best vector found; a best
+vector on the box's edge means the box may be too narrow there (the variables and edges are
+named).
 """
 
 from __future__ import annotations
@@ -78,6 +80,10 @@ COLLAPSE_SHARE = 0.1
 SCALE = 2.0
 #: Most evaluations of the local search made when the budget is spent before D is reached.
 SEARCH_EVALUATIONS = 4000
+#: A search's best vector within this share of a variable's width from the box's side is
+#: "against the edge": the search was held there (on the ETH flights it stopped 0.06 % of
+#: the width from a side, its steps toward it no better).
+EDGE_SHARE = 0.01
 
 
 @dataclass
@@ -97,6 +103,10 @@ class LocalSearch:
         Model evaluations it made (stored in an auxiliary stage).
     stage : int
         The auxiliary stage (kind ``"search"``) holding them.
+    edges : list of (str, str, float)
+        Variables of ``x`` against the box's edge (within :data:`EDGE_SHARE` of its width):
+        ``(name, "low" or "high", the edge's value)``. A search that ends pressed against the
+        box says the box may be too narrow, not that the model misses.
     """
 
     start: int
@@ -105,6 +115,7 @@ class LocalSearch:
     x: np.ndarray
     evaluations: int
     stage: int
+    edges: list[tuple[str, str, float]] = field(default_factory=list)
 
     @property
     def met(self) -> bool:
@@ -193,11 +204,25 @@ class SequentialSummary(RunSummary):
                 f"{s.stage}): D is not empty, the sampler did not reach it within the budget — "
                 f"raise --budget. Vector: {best}"
             )
-        return (
+        missed = (
             f"{text}; a local search from the best trial ({s.start}) also misses: its best "
             f"vector meets the limits only relaxed ×{s.factor:.3g} ({s.evaluations} "
-            f"evaluations, stage {s.stage}), so the model or the limits may not fit the "
-            f"data. Best vector: {best}"
+            f"evaluations, stage {s.stage})"
+        )
+        if s.edges:
+            value = dict(zip(self.names, s.x))
+            at = ", ".join(
+                f"{n}={value.get(n, v):.6g} against its {side} edge {v:.6g}"
+                for n, side, v in s.edges
+            )
+            return (
+                f"{missed}, pressed against the box ({at}): the box may be too narrow there — "
+                f"widen it where the physics allows and run again; nothing yet says the model "
+                f"misses. Best vector: {best}"
+            )
+        return (
+            f"{missed}, inside the box, so the model or the limits may not fit the data (or D "
+            f"is smaller than both searches found). Best vector: {best}"
         )
 
     def describe(self) -> str:
@@ -753,8 +778,23 @@ def _local_search(store, spec, state: SequentialState, pool, say) -> LocalSearch
         else:
             step *= 0.5
     say(f"local search: {used} evaluations, best limits ×{s:.3g}")
+    edges = search_edges(spec, u)
     return LocalSearch(start_id, float(score[best]), s, spec.space.scale(u[None])[0], used,
-                       stage.stage)  # fmt: skip
+                       stage.stage, edges)  # fmt: skip
+
+
+def search_edges(
+    spec, u: np.ndarray, tol: float = EDGE_SHARE
+) -> list[tuple[str, str, float]]:
+    """Variables of the unit-coordinate vector ``u`` against the box's edge (within ``tol`` of
+    the width from a side): ``(name, "low" or "high", the edge in the study's unit)``."""
+    out = []
+    for j, var in enumerate(spec.space):
+        if u[j] <= tol:
+            out.append((var.name, "low", float(var.low)))
+        elif u[j] >= 1.0 - tol:
+            out.append((var.name, "high", float(var.high)))
+    return out
 
 
 def sample_note(store: Store, analysis) -> str | None:

@@ -728,11 +728,20 @@ HIST_SETS = ("all", "feasible", "pareto", "selected")
 
 
 def _step(
-    h: Histogram, counts: np.ndarray, set_label: str, cls: str, panel: int, enc: Any, **kw: Any
+    h: Histogram,
+    counts: np.ndarray,
+    set_label: str,
+    cls: str,
+    panel: int,
+    enc: Any,
+    density: np.ndarray | None = None,
+    **kw: Any,
 ) -> dict[str, Any]:
     """A histogram as a step line over the bin edges (one SVG path, cheap at any size).
-    Each point's customdata is ``[count, panel, set code, bin]`` (a click selects the bin)."""
-    share = _share(counts.astype(float))
+    Each point's customdata is ``[count, panel, set code, bin]`` (a click selects the bin).
+    ``density`` (a sequential store's importance-weighted counts) sets the height instead of
+    ``counts``; the hover still gives the trials in the bin."""
+    share = _share((counts if density is None else density).astype(float))
     x = np.repeat(h.edges, 2)[1:-1]
     y = np.repeat(share, 2)
     nb = len(counts)
@@ -750,8 +759,9 @@ def _step(
         "y": enc(compact(y)),
         "customdata": cd.tolist() if enc is not _plain else cd,
         "mode": "lines",
-        "hovertemplate": f"{h.param}=%{{x:.4g}}: %{{y:.3g}} % of the set "
-        f"(%{{customdata[0]}} trials)<extra>{set_label}</extra>",
+        "hovertemplate": f"{h.param}=%{{x:.4g}}: %{{y:.3g}} % of the set"
+        + (" (importance-weighted)" if density is not None else "")
+        + f" (%{{customdata[0]}} trials)<extra>{set_label}</extra>",
         "meta": {"class": cls, "total": int(counts.sum())},
     }
     out.update(kw)
@@ -817,15 +827,19 @@ def histograms_figure(
                     **common,
                 )
             )
+        weighted = h.feasible_weighted is not None
         data.append(
             _step(
                 h,
                 h.feasible,
-                "in D",
+                "in D, importance-weighted" if weighted else "in D",
                 "feasible",
                 i,
                 enc,
-                name=f"in D (ND {int(h.feasible.sum()):,})",
+                density=h.feasible_weighted,
+                name=f"in D, importance-weighted (ND {int(h.feasible.sum()):,})"
+                if weighted
+                else f"in D (ND {int(h.feasible.sum()):,})",
                 legendgroup="feasible",
                 line={"color": CLASS_COLOURS["feasible"], "width": 1.5},
                 fill="tozeroy",
@@ -912,6 +926,11 @@ def histograms_figure(
                     "meta": {"class": "box"},
                 }
             )
+    if any(h.feasible_weighted is not None for h in hists):
+        title += (
+            "; D's density importance-weighted (sequential sampler), all trials and Pareto "
+            "as sampled"
+        )
     layout.update(
         _base_layout(
             title={"text": title},

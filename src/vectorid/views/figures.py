@@ -534,7 +534,9 @@ def correlation_figure(corr: CorrelationResult) -> go.Figure:
     groups = "; ".join("{" + ", ".join(g) + "}" for g in corr.groups) or "none"
     fig.update_layout(
         template=TEMPLATE,
-        title=f"{corr.method.title()} correlation over {corr.n} trials; |r| ≥ "
+        title=f"{corr.method.title()} correlation over {corr.n} trials"
+        + (" (importance-weighted)" if corr.weighted else "")
+        + "; |r| ≥ "
         f"{corr.threshold:g} groups: {groups}",
         yaxis={"autorange": "reversed"},
         height=max(420, 24 * len(corr.names) + 160),
@@ -692,8 +694,10 @@ def sensitivity_figure(sens: Sensitivity) -> go.Figure:
         cols=2,
         column_widths=[0.6, 0.4],
         subplot_titles=[
-            "Spearman ρ (parameter, criterion)",
-            f"KS statistic: D ({sens.n_behavioural}) vs rest ({sens.n_other})",
+            "Spearman ρ (parameter, criterion)"
+            + (", importance-weighted" if sens.weighted else ""),
+            f"KS statistic: D ({sens.n_behavioural}) vs rest ({sens.n_other})"
+            + (", importance-weighted" if sens.weighted else ""),
         ],
         horizontal_spacing=0.18,
     )

@@ -283,6 +283,69 @@ def _counts(page: _Page, a: Analysis) -> None:
         page.add("<pre>" + _e(a.diagnose_empty().describe()) + "</pre>")
 
 
+def _sequential(page: _Page, a: Analysis, store: Store) -> None:
+    """A sequential store: the sampler, its generations, D's members and ESS under the
+    constraints in force, and what the weights apply to."""
+    if store.spec.sampler != "sequential" or not store.generations():
+        return
+    from ..run.sequential import ESS_SHARE, assess, sample_note
+
+    spec = store.spec
+    limits = {b.name: b.value for b in a.active_bounds() if b.name in a.crit_names}
+    state = assess(store, a.trials, limits or None)
+    gens = store.generations()
+    members = int(state.members.sum())
+    wanted = spec.sequential_population
+    reached = members >= wanted and state.ess >= ESS_SHARE * wanted
+    page.h2("Sampler: sequential")
+    page.add(
+        f'<p class="sampler">sampler <b>sequential</b>: {sum(state.counts):,} evaluations '
+        f"(budget {spec.sequential_budget:,}) in <b>{len(gens)}</b> generations; D at the "
+        f"constraints in force holds <b>{members}</b> members, effective sample size "
+        f"<b>ESS {state.ess:.0f}</b> (wanted {wanted} members, ESS ≥ "
+        f"{ESS_SHARE * wanted:.0f}): "
+        + ("<b>D reached</b>" if reached else "<b class=x>D not reached</b>")
+        + "</p>"
+    )
+    note = sample_note(store, a)
+    if note:
+        page.add(f"<p class=note>{_e(note)}</p>")
+    page.add(
+        "<p>Later generations are drawn around the accepted trials, so the trials are not "
+        "uniform in the box. Densities and statistics of D in this report (histograms, "
+        "correlation, quantiles of the double-tuning proposal, sensitivity) are "
+        "<b>importance-weighted</b>: each trial's weight makes D a uniform sample of the box "
+        "restricted to it, as a plain Sobol table with unboundedly many trials would give. "
+        "Counts (N, ND, NP), test tables, the Pareto set and feasible ranges are counts and "
+        "extremes of trials, which weights do not change.</p>"
+    )
+    rows = []
+    for g, n in zip(gens, state.counts):
+        sel = state.generation == g.gen
+        tol = g.proposal.get("tolerance") or {}
+        shown = ", ".join(f"{k} {_f(v)}" for k, v in tol.items() if v is not None)
+        rows.append(
+            [
+                str(g.gen),
+                "Sobol" if g.proposal.get("kind") == "sobol" else "kernel",
+                f"{n:,}",
+                f"{g.seq_start + 1}..{g.seq_start + g.n}",
+                str(int(np.sum(state.members & sel))),
+                _e(shown or "the stated limits" if g.gen else "-"),
+            ]
+        )
+    page.add(
+        _table(
+            ["generation", "proposal", "trials", "trial ids", "in D", "limits aimed at"],
+            rows,
+            left=0,
+        )
+    )
+    for st in store.stages():
+        if st.kind == "search":
+            page.add(f"<p>Local search: stage {st.stage}, {_e(st.note)}.</p>")
+
+
 def _test_tables(page: _Page, a: Analysis, top: int) -> None:
     page.h2(f"Test tables (top {top} rows per criterion)")
     tables = a.test_tables()
@@ -672,6 +735,7 @@ def build_report(
     page = _Page()
     _definition(page, a, store)
     _counts(page, a)
+    _sequential(page, a, store)
     _history(page, store)
     _test_tables(page, a, top)
     _pareto_table(page, a)
@@ -773,7 +837,8 @@ def build_report(
         except VectoridError as exc:
             page.add(f"<p class=note>{_e(exc)}</p>")
             continue
-        page.add(f"<h3>over the {subset} set ({corr.n} trials)</h3>")
+        how = ", importance-weighted" if corr.weighted else ""
+        page.add(f"<h3>over the {subset} set ({corr.n} trials{how})</h3>")
         if corr.pairs:
             page.add(
                 _table(

@@ -48,6 +48,24 @@ def histograms_of(ctx: UIContext, a: Analysis) -> list[Any]:
     return hit
 
 
+def sampler_note(ctx: UIContext, a: Analysis) -> str | None:
+    """A sequential store's line under the constraints in force: evaluations, generations,
+    D's members and ESS, and that D's densities are importance-weighted (memoised per
+    analysis); None for a plain store."""
+    if ctx.spec.sampler != "sequential":
+        return None
+    memo = ctx.extra.setdefault("sampler_note", weakref.WeakKeyDictionary())
+    if a not in memo:
+        from ...run.sequential import sample_note
+
+        with ctx.cache.open() as st:
+            note = sample_note(st, a)
+        memo[a] = None if note is None else (
+            f"{note}. Histograms of D are importance-weighted; N, ND, NP count trials."
+        )
+    return memo[a]
+
+
 def trials_memo(ctx: UIContext, a: Analysis, name: str) -> dict[Any, Any]:
     """A dict kept with the loaded trials of ``a`` (emptied when the store's trials are
     reloaded): what a view computes from the trials alone, whatever the constraints."""
@@ -147,6 +165,9 @@ def summary_view(
     """
     a, c = analysis_of(ctx, limit_texts, roles, functional)
     messages = list(c.messages)
+    note = sampler_note(ctx, a)
+    if note:
+        messages.insert(0, note)
     if a.n == 0:
         messages.append("the store holds no trial yet; start a stage on the Refine tab")
     elif a.n_feasible == 0:

@@ -4,6 +4,7 @@ checks, and its flight against the measured one (identification studies)."""
 
 from __future__ import annotations
 
+import weakref
 from collections.abc import Mapping
 from typing import Any
 
@@ -56,8 +57,8 @@ def trial_view(
     cls = "Pareto" if pc.pareto[row] else "feasible (in D)" if pc.feasible[row] else "infeasible"
     status = "ok" if t.status[row] == 0 else f"failed: {t.message(row) or 'no message'}"
     summary = (
-        f"trial {tid}: {cls}; stage {int(t.stage[row])}, sequence index {int(t.seq[row])}; "
-        f"{status}; model time {t.wall[row]:.3g} s"
+        f"trial {tid}: {cls}; stage {int(t.stage[row])}, sequence index {int(t.seq[row])}"
+        f"{generation_text(ctx, a, row)}; {status}; model time {t.wall[row]:.3g} s"
     )
     crit_rows = []
     for j, name in enumerate(a.crit_names):
@@ -135,6 +136,33 @@ def trial_view(
         "rms": rms,
         "drops": drop_names(ctx.spec),
     }
+
+
+def generation_text(ctx: UIContext, a: Any, row: int) -> str:
+    """A sequential store's trial: ``"; generation g, importance weight w"`` with ``w``
+    relative to the mean weight of D's members (of all trials when D is empty); empty for a
+    plain store or a trial outside the generations."""
+    t = a.trials
+    if ctx.spec.sampler != "sequential" or t.log_weight is None or int(t.stage[row]) != 0:
+        return ""
+    from scipy.special import logsumexp
+
+    with ctx.cache.open() as st:
+        gens = st.generations()
+    seq = int(t.seq[row])
+    gen = next((g.gen for g in gens if g.seq_start <= seq < g.seq_start + g.n), None)
+    if gen is None:
+        return ""
+    memo = ctx.extra.setdefault("log_mean_weight", weakref.WeakKeyDictionary())
+    if a not in memo:
+        ref = a.feasible & (t.stage == 0)
+        which = "D's members" if ref.any() else "all trials"
+        ref = ref if ref.any() else t.stage == 0
+        lw = np.asarray(t.log_weight(t.X[ref]), float)
+        memo[a] = (float(logsumexp(lw) - np.log(len(lw))), which)
+    mean, which = memo[a]
+    w = float(np.exp(t.log_weight(t.X[row : row + 1])[0] - mean))
+    return f"; generation {gen}, importance weight {w:.3g} (mean over {which} = 1)"
 
 
 def overlay_ids(ctx: UIContext, text: Any, tid: int) -> list[int]:
