@@ -21,8 +21,10 @@ noise; criteria constraints Φ** = each criterion's noise floor, joint 95 %, ``l
 Methods (each run until D at the stated limits holds ``--population`` members, or its budget):
 
 * ``sobol`` — the plain PSI table: Sobol points through a store (``Study.run``, executor
-  ``serial``, batches of 1024), counted after each batch; "evaluations" is the index of the
-  population-th member, the wall time that of the batch that holds it.
+  ``inline``: the model evaluated in this process, as pyABC's is, so that the comparison is of
+  samplers, not of a worker process's start and stop; batches of 1024), counted after each
+  batch; "evaluations" is the index of the population-th member, the wall time that of the
+  batch that holds it.
 * ``sequential`` — vectorid's sequential sampler (``[study] sampler = "sequential"``,
   ``budget``, ``population``) through a store, the same executor.
 * ``pyabc`` — pyABC 0.13 ABC-SMC, as an engineer would set it up: prior = the box (uniform),
@@ -93,6 +95,10 @@ class Outcome:
     reached: bool
     note: str = ""
     cpu: float = float("nan")  # CPU seconds of this process, all threads
+    #: evaluation at which D first held ``population`` distinct members at the stated limits
+    #: (Sobol's and pyABC's: their ``evaluations``; the sequential sampler goes on from there
+    #: until its population is a faithful sample of D, ESS >= population)
+    first: int | None = None
 
 
 def parachute_problem(folder: Path, free: int, seed: int = 0) -> Problem:
@@ -195,6 +201,19 @@ def _members(a) -> np.ndarray:
     return order[a.feasible[order]]
 
 
+def _first_members(a, rows: np.ndarray, population: int) -> int | None:
+    """The evaluation (1-based, in the order trials were made) at which ``rows`` first hold
+    ``population`` distinct vectors; None if they never do."""
+    order = np.argsort(a.trials.id, kind="stable")
+    seen: set[bytes] = set()
+    for k, i in enumerate(order):
+        if rows[i]:
+            seen.add(a.trials.X[i].tobytes())
+            if len(seen) >= population:
+                return k + 1
+    return None
+
+
 def run_sobol(p: Problem, folder: Path, population: int, budget: int) -> Outcome:
     from vectorid import Study
 
@@ -205,7 +224,7 @@ def run_sobol(p: Problem, folder: Path, population: int, budget: int) -> Outcome
         n = 0
         while True:
             n = min(n + SOBOL_BATCH, budget)
-            st.run(trials=n, executor="serial", progress=False)
+            st.run(trials=n, executor="inline", progress=False)
             a = st.analysis()
             rows = _members(a)
             if len(rows) >= population or n >= budget:
@@ -239,18 +258,22 @@ def run_sequential(p: Problem, folder: Path, population: int, budget: int) -> Ou
     store.unlink(missing_ok=True)
     t0 = time.perf_counter()
     with Study.create(spec, store) as st:
-        summary = st.run(executor="serial", progress=False)
+        summary = st.run(executor="inline", progress=False)
         wall = time.perf_counter() - t0
         a = st.analysis()
     rows = _members(a)
     X = a.trials.X[rows]
     members = len(np.unique(X, axis=0))
+    in_d = np.zeros(a.n, bool)
+    in_d[rows] = True
+    first = _first_members(a, in_d, population)
     ess = float(getattr(summary, "ess", float("nan")))
     reached = bool(getattr(summary, "converged", members >= population))
     evaluations = int(getattr(summary, "evaluations", a.n))
     note = "" if reached else summary.describe().splitlines()[0]
     return Outcome("sequential", evaluations, wall, members, ess,
-                   _inside(X, a.spec.space.names, p.truth), reached, note)  # fmt: skip
+                   _inside(X, a.spec.space.names, p.truth), reached, note,
+                   first=first)  # fmt: skip
 
 
 def run_pyabc(p: Problem, folder: Path, population: int, budget: int, seed: int = 1) -> Outcome:
@@ -411,15 +434,17 @@ def main(argv: list[str] | None = None) -> int:
             sys.stdout.flush()
         results[name] = out
     print()
-    print("| problem | method | evaluations | wall (s) | CPU (s) | members of D | ESS | "
-          "truth inside |")  # fmt: skip
-    print("|---|---|---|---|---|---|---|---|")
+    print(f"| problem | method | evaluations | {population}th member of D at | wall (s) | CPU (s) "
+          "| members of D | ESS | truth inside |")  # fmt: skip
+    print("|---|---|---|---|---|---|---|---|---|")
     for name, out in results.items():
         for o in out:
             inside = "-" if o.truth_inside is None else ("yes" if o.truth_inside else "no")
             ev = f"{o.evaluations:,}" + ("" if o.reached else " (not reached)")
-            print(f"| {name} | {o.method} | {ev} | {o.wall:.1f} | {o.cpu:.1f} | {o.members} | "
-                  f"{o.ess:.0f} | {inside} |")  # fmt: skip
+            first = o.first if o.method == "sequential" else (o.evaluations if o.reached else None)
+            at = "-" if first is None else f"{first:,}"
+            print(f"| {name} | {o.method} | {ev} | {at} | {o.wall:.1f} | {o.cpu:.1f} | {o.members} "
+                  f"| {o.ess:.0f} | {inside} |")  # fmt: skip
     if args.json:
         Path(args.json).write_text(json.dumps(
             {k: [o.__dict__ for o in v] for k, v in results.items()}, indent=1), encoding="utf-8")

@@ -240,8 +240,8 @@ def _parser() -> argparse.ArgumentParser:
     d.add_argument("--analytic", action="store_true", help="the analytic Binh–Korn demo instead")
     d.add_argument("--quiet", action="store_true", help="no progress bar")
     d.add_argument(
-        "--budget", type=positive_int, default=20_000,
-        help="parafoil: stage 2's sequential sampler, most model evaluations (default 20000, "
+        "--budget", type=positive_int, default=30_000,
+        help="parafoil: stage 2's sequential sampler, most model evaluations (default 30000, "
         "a few minutes; 250000 is the full-size run, about 20 minutes on 2 cores)",
     )  # fmt: skip
     d.add_argument(
@@ -718,7 +718,8 @@ def _cmd_info(args: argparse.Namespace) -> int:
             )
             print(
                 f"sequential {len(sq.counts)} generations; D: {int(sq.members.sum())} members "
-                f"(wanted {spec.sequential_population}), ESS {sq.ess:.0f} (importance weights)"
+                f"(wanted {spec.sequential_population}), ESS {sq.ess:.0f} "
+                + ("(distinct particles)" if sq.particles is not None else "(importance weights)")
             )
         else:
             print(f"trials     {held} stored of {spec.trials} wanted; {a.n_failed} failed")

@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from scipy.stats import kstwobign
 
 from vectorid import StudyDefinitionError
 from vectorid.problem import Criterion
@@ -122,8 +123,10 @@ def test_known_slab_is_reached_and_sampled_uniformly(tmp_path):
     for j in range(P):
         lo, hi = (CENTRES[j] - HALF, CENTRES[j] + HALF) if j < K else (0.0, 1.0)
         assert X[:, j].min() >= lo and X[:, j].max() <= hi
-        # 1.63: the Kolmogorov distribution's 99 % point, with the ESS as sample size
-        assert weighted_ks(X[:, j], w, lo, hi) * np.sqrt(state.ess) < 1.63, j
+        # the Kolmogorov distribution's point that all P axes together exceed with 1 %
+        # probability (Bonferroni: 1.92 for 8 axes; 1.63, each axis's own 99 % point, fails a
+        # faithful sampler on one of 8 axes about 8 % of the time), the ESS as sample size
+        assert weighted_ks(X[:, j], w, lo, hi) * np.sqrt(state.ess) < kstwobign.isf(0.01 / P), j
         # the free axes are covered end to end, not just around where D was first found
         if j >= K:
             assert X[:, j].min() < 0.1 and X[:, j].max() > 0.9

@@ -100,7 +100,12 @@ def print_stage_limits(st: Stage, indent: str = "  ") -> None:
     seq = st.sequential
     if seq is not None:
         print(f"{indent}sequential sampler: {seq.verdict()}")
-        weighted = "weighted" if seq.converged else "not weighted: D was not reached"
+        if not seq.converged:
+            weighted = "not weighted: D was not reached"
+        elif getattr(seq, "moves", False):
+            weighted = "distinct particles; members of D weigh the same"
+        else:
+            weighted = "importance-weighted"
         print(f"{indent}effective sample size {seq.ess:.0f} of {seq.members} members ({weighted})")
     faithful = seq is None or seq.converged
     enough = "" if st.factor > 1 else " (enough to read ranges from)"

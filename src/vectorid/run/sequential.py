@@ -17,6 +17,12 @@ trial; the parts that only compute live in :mod:`vectorid.sequential`.
    (:mod:`vectorid.sequential.kernel`) and draws ``GENERATION_FACTOR x population`` points
    inside the box from it. The generation (its points and kernel) is recorded *before* it
    is evaluated.
+4. With :data:`~vectorid.sequential.moves.MOVE_FROM` or more variables the importance
+   weights degenerate, so generations 1, 2, ... instead move ``PARTICLES_FACTOR x
+   population`` equally weighted particles by random-walk Metropolis steps inside the
+   current limits (:mod:`vectorid.sequential.moves`); the run has converged when the limits
+   are the stated ones, the particles have made ``FINAL_MOVES`` moves there and at least
+   ``population`` of them are distinct members of D (their number is the ESS printed).
 
 Resume: generation ``g``'s points are a deterministic function of the seed, ``g``, the study's
 limits and the stored trials of generations ``< g``; they are stored before evaluation, so a
@@ -46,7 +52,18 @@ from scipy.special import logsumexp
 
 from ..errors import StudyDefinitionError
 from ..problem import FAILED, OK, EvalResult
-from ..sequential.kernel import Proposal, fit_proposal
+from ..sequential.kernel import MASS_DRAWS, Proposal, _cholesky, fit_proposal
+from ..sequential.moves import (
+    DIVERSE,
+    FINAL_MOVES,
+    MOVE_FROM,
+    adapt_scale,
+    copy_evenly,
+    in_box_mass,
+    initial_scale,
+    move_draws,
+    particle_cov,
+)
 from ..sequential.tolerance import next_tolerance, oriented
 from ..sequential.weights import kish_ess, log_weights
 from ..store.sqlite import Generation, Store, Trials
@@ -67,9 +84,9 @@ __all__ = [
 ]
 
 #: Later generations propose this many times ``population`` points.
-GENERATION_FACTOR = 4
+GENERATION_FACTOR = 2
 #: Share of the accepted population that meets the next generation's limits.
-KEEP = 0.5
+KEEP = 0.3
 #: The run has converged when D's ESS reaches this share of ``population``.
 ESS_SHARE = 1.0
 #: Below this share of ``population``, D's ESS means the population has collapsed.
@@ -78,6 +95,11 @@ COLLAPSE_SHARE = 0.1
 #: the last generation was tried: more members per generation, but a far lower ESS on the
 #: 15-parameter quiet twin (13 against 124 at ~25,000 evaluations): D is covered more slowly.
 SCALE = 2.0
+#: With moves (:data:`~vectorid.sequential.moves.MOVE_FROM` or more variables): particles
+#: per ``population``.
+PARTICLES_FACTOR = 2
+#: With moves: share of the particles that meet the next generation's limits.
+MOVE_KEEP = 0.7
 #: Most evaluations of the local search made when the budget is spent before D is reached.
 SEARCH_EVALUATIONS = 4000
 #: A search's best vector within this share of a variable's width from the box's side is
@@ -149,6 +171,9 @@ class SequentialSummary(RunSummary):
         The local search made when D was not reached.
     names : list of str
         Variable names (to show the search's vector).
+    moves : bool
+        The run moved particles (many variables): ``ess`` is the number of distinct particles
+        in D, which weigh the same.
     """
 
     budget: int = 0
@@ -162,11 +187,12 @@ class SequentialSummary(RunSummary):
     tolerance: dict[str, float] = field(default_factory=dict)
     search: LocalSearch | None = None
     names: list[str] = field(default_factory=list)
+    moves: bool = False
 
     @property
     def collapsed(self) -> bool:
         """D holds members but their ESS is far below the population wanted."""
-        return self.members > 0 and self.ess < COLLAPSE_SHARE * self.population
+        return not self.moves and self.members > 0 and self.ess < COLLAPSE_SHARE * self.population
 
     def verdict(self) -> str:
         """One plain sentence: converged, collapsed, or how far it got."""
@@ -174,6 +200,12 @@ class SequentialSummary(RunSummary):
             f"{self.evaluations} evaluations, {self.generations} generations, "
             f"{self.members} members of D at the stated limits, ESS {self.ess:.0f}"
         )
+        if self.converged and self.moves:
+            return (
+                f"D reached: {head} (target {self.population} members; ESS = distinct particles "
+                f"after {FINAL_MOVES} or more moves at the stated limits, each a state of a "
+                "chain that samples D uniformly; successive states of one chain are correlated)"
+            )
         if self.converged:
             return (
                 f"D reached: {head} (target {self.population} members, ESS >= "
@@ -181,7 +213,13 @@ class SequentialSummary(RunSummary):
                 "importance weights"
             )
         if self.members >= self.population or (self.members and self.collapsed):
-            state = "collapsed" if self.collapsed else "not yet a faithful sample"
+            state = (
+                "not yet moved enough at the stated limits to be a faithful sample"
+                if self.moves
+                else "collapsed"
+                if self.collapsed
+                else "not yet a faithful sample"
+            )
             return (
                 f"D not reached after {self.evaluations} evaluations: {head}; the population "
                 f"is {state} (ESS {self.ess:.0f} against {ESS_SHARE * self.population:.0f} "
@@ -261,8 +299,13 @@ class SequentialState:
     members : (n,) bool array
         Members of D at the stated limits.
     log_w : (n,) float array
-        Log importance weights of the members (NaN elsewhere).
+        Log importance weights of the members (NaN elsewhere; all NaN when not computed).
     ess : float
+        Kish's effective sample size of the members' importance weights; with moves (many
+        variables, at the stated limits) the number of distinct particles in D instead: the
+        particles are D's equally weighted sample.
+    particles : (N,) int array or None
+        With moves: rows of the current particles (after the last generation's moves).
     """
 
     proposals: list[Proposal]
@@ -275,6 +318,7 @@ class SequentialState:
     members: np.ndarray
     log_w: np.ndarray
     ess: float
+    particles: np.ndarray | None = None
 
 
 def _unit(space, X: np.ndarray) -> np.ndarray:
@@ -335,7 +379,9 @@ def constrained_limits(spec, limits=None) -> tuple[list[int], np.ndarray]:
     return idx, np.array(floor, dtype=float)
 
 
-def assess(store: Store, trials: Trials | None = None, limits=None) -> SequentialState:
+def assess(
+    store: Store, trials: Trials | None = None, limits=None, *, weights: bool = True
+) -> SequentialState:
     """D at the stated limits (or at ``limits``), its importance weights and ESS.
 
     Parameters
@@ -347,6 +393,9 @@ def assess(store: Store, trials: Trials | None = None, limits=None) -> Sequentia
     limits : optional
         Bounds overriding the study's (as for :class:`~vectorid.analysis.Analysis`): D is
         taken at these, e.g. a limit loosened after the run.
+    weights : bool
+        Compute the members' importance weights (the moves' driver needs none; with many
+        generations they cost most of the time).
     """
     from ..analysis.results import Analysis
 
@@ -364,14 +413,22 @@ def assess(store: Store, trials: Trials | None = None, limits=None) -> Sequentia
     phi = oriented(trials.F[:, constrained], senses)
     usable = a.functional_ok & (generation >= 0)
     members = a.feasible & (generation >= 0)
+    stated = limits is None or _bounds(spec, limits).bounds == _bounds(spec).bounds
+    moved = bool(gens) and gens[-1].proposal.get("move") is not None and stated
+    weights = weights and not moved
     log_w = np.full(len(trials), np.nan)
-    if members.any():
+    if members.any() and weights:
         log_w[members] = _cached_log_weights(store, spec, trials, generation, proposals,
                                              counts, members)  # fmt: skip
-    ess = kish_ess(log_w[members])
-    return SequentialState(
+    ess = kish_ess(log_w[members]) if weights else 0.0
+    state = SequentialState(
         proposals, counts, generation, constrained, phi, floor, usable, members, log_w, ess
     )
+    if moved:  # every member is a state of a chain whose target is uniform on a set holding D
+        log_w[members] = 0.0
+        state.particles, _, _ = _moved_particles(spec, state, trials, gens[-1])
+        state.ess = float(len(np.unique(state.particles[members[state.particles]])))
+    return state
 
 
 #: Log proposal densities of stored trials, one block per (proposal, generation of trials);
@@ -513,6 +570,114 @@ def _propose(store: Store, spec, state: SequentialState, gens, n: int, trials: T
         "scale": scale,
     }
     return X, record, kernel
+
+
+def _rows_of(trials: Trials, seqs) -> np.ndarray:
+    """Rows of stage-0 trials with sequence indices ``seqs`` (-1 where none is stored)."""
+    seqs = np.asarray(seqs, dtype=np.int64)
+    out = np.full(len(seqs), -1, dtype=np.int64)
+    if not len(trials):
+        return out
+    pos = np.full(int(trials.seq.max()) + 1, -1, dtype=np.int64)
+    pos[trials.seq] = np.arange(len(trials))
+    inr = (seqs >= 0) & (seqs < len(pos))
+    out[inr] = pos[seqs[inr]]
+    return out
+
+
+def _moved_particles(spec, state: SequentialState, trials: Trials, gen: Generation):
+    """The particles after generation ``gen``'s moves: each draw that meets the generation's
+    limits replaces its particle. Returns (rows, share of moves accepted, limits)."""
+    mv = gen.proposal["move"]
+    P = _rows_of(trials, mv["particles"])
+    eps = _tolerance_of(gen, spec, state.constrained)
+    parents = np.asarray(mv["parents"], dtype=np.int64)[: gen.n]
+    draws = _rows_of(trials, gen.seq_start + np.arange(len(parents)))
+    ok = draws >= 0
+    with np.errstate(invalid="ignore"):
+        ok[ok] = state.usable[draws[ok]] & np.all(state.phi[draws[ok]] <= eps, axis=1)
+    P = P.copy()
+    P[parents[ok]] = draws[ok]
+    return P, float(ok.sum()) / max(len(P), 1), eps
+
+
+def _move_status(spec, state: SequentialState, trials: Trials, gen: Generation, population: int):
+    """(converged, distinct particles in D) after a generation of moves."""
+    P, _, eps = _moved_particles(spec, state, trials, gen)
+    distinct = len(np.unique(P))
+    in_d = len(np.unique(P[state.members[P]]))
+    at_floor = bool(np.all(eps <= state.floor))
+    done = (
+        at_floor
+        and int(gen.proposal["move"]["level_moves"]) >= FINAL_MOVES
+        and in_d >= population
+        and distinct >= DIVERSE * len(P)
+    )
+    return done, in_d
+
+
+def _propose_move(store: Store, spec, state: SequentialState, gens, n: int, trials: Trials,
+                  left: int):  # fmt: skip
+    """Generation ``len(gens)`` with moves (:mod:`vectorid.sequential.moves`): ``n``
+    particles, each moved once; at most ``left`` draws evaluated. A function of the seed, the
+    generation number, the limits and the stored trials of earlier generations only."""
+    g = len(gens)
+    rng = np.random.default_rng([int(spec.seed), g, 0x5E1])
+    p = len(spec.space)
+    last = gens[-1]
+    mv = last.proposal.get("move")
+    if mv is None:  # the first moves start from the Sobol table (generation 0)
+        eps_prev = _tolerance_of(last, spec, state.constrained)
+        P = np.flatnonzero(state.usable & (state.generation == 0))
+        scale, level_moves, tighten = initial_scale(p), 0, True
+    else:
+        P, accepted, eps_prev = _moved_particles(spec, state, trials, last)
+        scale = adapt_scale(float(mv["scale"]), accepted)
+        level_moves = int(mv["level_moves"])
+        tighten = len(np.unique(P)) >= DIVERSE * len(P)
+    if not len(P):
+        return None
+    eps = eps_prev
+    if tighten and not np.all(eps_prev <= state.floor):
+        eps = next_tolerance(state.phi[P], eps_prev, state.floor, MOVE_KEEP)
+        with np.errstate(invalid="ignore"):
+            alive = np.unique(P[np.all(state.phi[P] <= eps, axis=1)])
+        P = copy_evenly(alive, n, rng)
+        level_moves = 0
+    elif len(P) != n:
+        P = copy_evenly(np.unique(P), n, rng)
+    level_moves += 1
+    U = _unit(spec.space, trials.X[P])
+    cov = particle_cov(U)
+    for _ in range(12):
+        L = _cholesky(cov * scale)
+        draws, parents = move_draws(U, L, rng)
+        if len(draws):
+            break
+        scale *= 0.5
+    else:
+        return None
+    draws, parents = draws[:left], parents[:left]
+    rows, copies = np.unique(P, return_counts=True)
+    mass = in_box_mass(U, L, rng, MASS_DRAWS)
+    kernel = Proposal("mixture", _unit(spec.space, trials.X[rows]),
+                      np.log(copies / copies.sum()), L, math.log(mass), MASS_DRAWS)  # fmt: skip
+    record = {
+        "kind": "mixture",
+        "tolerance": _tolerance_json(spec, state.constrained, eps),
+        "log_mass": kernel.log_mass,
+        "draws": kernel.draws,
+        "centres_from": len(rows),
+        "keep": KEEP,
+        "scale": scale,
+        "move": {
+            "particles": [int(v) for v in trials.seq[P]],
+            "parents": [int(v) for v in parents],
+            "scale": scale,
+            "level_moves": level_moves,
+        },
+    }
+    return spec.space.scale(draws), record, kernel
 
 
 def run_sequential(
@@ -675,6 +840,8 @@ def run_sequential(
 def _drive(store, spec, gens, budget, population, evaluate, say, summary):
     """The generations loop; returns the last state (None when nothing succeeded)."""
     p = len(spec.space)
+    moves = p >= MOVE_FROM
+    summary.moves = moves
     while True:
         if not gens:
             n0 = min(spec.trials, budget)
@@ -685,14 +852,19 @@ def _drive(store, spec, gens, budget, population, evaluate, say, summary):
         for gen in gens:  # a resumed run first completes the generation it was in
             evaluate(gen)
         trials = store.load(stages=[0])
-        state = assess(store, trials)
+        state = assess(store, trials, weights=not moves)
+        moved = gens[-1].proposal.get("move") is not None
+        if moved:
+            done, state.ess = _move_status(spec, state, trials, gens[-1], population)
+        elif moves:  # the Sobol table alone: its members weigh the same
+            state.ess = float(state.members.sum())
         evaluations = int(np.sum(state.generation >= 0))
         members = int(state.members.sum())
         eps = _tolerance_of(gens[-1], spec, state.constrained)
         summary.generations = len(gens)
         summary.evaluations = evaluations
         summary.members = members
-        summary.ess = state.ess
+        summary.ess = float(state.ess)
         summary.tolerance = {
             k: v for k, v in _tolerance_json(spec, state.constrained, eps).items() if v is not None
         }
@@ -705,14 +877,21 @@ def _drive(store, spec, gens, budget, population, evaluate, say, summary):
             + (f"limits ×{rel:.3g} of Φ**, " if rel is not None else "")
             + f"{at_tol} trials within them; D: {members} members, ESS {state.ess:.0f}"
         )
-        summary.converged = members >= population and state.ess >= ESS_SHARE * population
+        if moved:
+            summary.converged = done and members >= population
+        else:
+            summary.converged = members >= population and state.ess >= ESS_SHARE * population
         if summary.converged or evaluations >= budget:
             return state if state.usable.any() else None
         if not state.usable.any():
             say("no trial succeeded and met the functional constraints: nothing to move toward")
             return None
-        n = min(GENERATION_FACTOR * population, budget - evaluations)
-        made = _propose(store, spec, state, gens, n, trials)
+        if moves:
+            made = _propose_move(store, spec, state, gens, PARTICLES_FACTOR * population,
+                                 trials, budget - evaluations)  # fmt: skip
+        else:
+            n = min(int(GENERATION_FACTOR * population), budget - evaluations)
+            made = _propose(store, spec, state, gens, n, trials)
         if made is None:
             say("the proposal puts almost no mass inside the box: stopped")
             return state
@@ -809,9 +988,10 @@ def sample_note(store: Store, analysis) -> str | None:
     wanted = store.spec.sequential_population
     head = (
         f"sequential sampler: {sum(state.counts)} evaluations in {len(state.counts)} "
-        f"generations; D holds {m} members, ESS {state.ess:.0f} (importance weights)"
+        f"generations; D holds {m} members, ESS {state.ess:.0f} "
+        + ("(distinct particles)" if state.particles is not None else "(importance weights)")
     )
-    if m and state.ess < COLLAPSE_SHARE * wanted:
+    if m and state.ess < COLLAPSE_SHARE * wanted and state.particles is None:
         return (
             f"{head}: the population has COLLAPSED (ESS far below the {wanted} wanted), so "
             "these trials are not a sample of D; run with a larger --budget"

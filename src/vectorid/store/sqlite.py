@@ -1501,7 +1501,9 @@ class Store:
         with self.snapshot():
             trials = self._load(stages, kinds)
             gens = self.generations() if "sample" in kinds else []
-        if gens:
+        # a sampler that moved its particles (many variables): D's members weigh the same
+        # (docs/sequential.md); its importance weights degenerate there, so none are attached
+        if gens and gens[-1].proposal.get("move") is None:
             trials.log_weight = _weigher(self.spec, gens)
         if trials.damaged:
             self._warn(_damage_warning(self.path, trials.damaged))
