@@ -348,18 +348,25 @@ def cloud_traces(
     gl: bool = True,
     enc: Any = _plain,
     memo: dict[Any, Any] | None = None,
+    density_above: int | None = None,
 ) -> list[dict[str, Any]]:
     """The traces (plain dicts) of one point cloud: infeasible density (or points), feasible
     and Pareto points (thinned per set), and, when ``selected`` is given, the selection in
     the set colours on top. ``enc`` encodes arrays (:func:`b64` for the browser). ``memo``
     (a dict kept with the loaded trials, the browser UI) keeps the data's span and each
     point's density cell per pair of columns, so a new constraint set counts its
-    densities with one ``bincount`` each."""
+    densities with one ``bincount`` each. ``density_above`` (default: ``budget``) is the
+    size above which the infeasible set and D's non-Pareto trials are drawn as a density
+    of every one of them instead of as points."""
     pc = classes or point_classes(a)
     rows, counts = thin(pc, budget, seed)
     n_failed = int(pc.failed.sum())
+    if density_above is None:
+        density_above = budget
+    elif budget is not None:
+        density_above = min(density_above, budget)
     span = None
-    if budget is not None and max(counts["infeasible"], counts["feasible"]) > budget:
+    if density_above is not None and max(counts["infeasible"], counts["feasible"]) > density_above:
         # the densities of both sets on one grid
         span = _memo(memo, ("span", xname, yname), lambda: data_span(xv, yv))
     out: list[dict[str, Any]] = []
@@ -370,7 +377,7 @@ def cloud_traces(
     for name in ("infeasible", "feasible", "pareto"):
         r = rows[name]
         # the bulk sets as densities where their points would overplot; Pareto as points
-        density = name != "pareto" and budget is not None and counts[name] > budget
+        density = name != "pareto" and density_above is not None and counts[name] > density_above
         meta = {
             "class": name,
             "count": counts[name],
@@ -584,6 +591,7 @@ def scatter_figure(
     gl: bool = True,
     raw: bool = False,
     memo: dict[Any, Any] | None = None,
+    density_above: int | None = None,
 ) -> Any:
     """Criterion vs criterion (seed 001 Figs. 6, 11; seed 000 Fig. 8), or any two of
     criteria, functionals and parameters: every set in its colour, constraints as dashed
@@ -611,6 +619,9 @@ def scatter_figure(
     memo : dict, optional
         Kept with the loaded trials (the browser UI): spans, axis ranges and density cells
         that do not depend on the constraints (see :func:`cloud_traces`).
+    density_above : int, optional
+        Draw the infeasible set and D's non-Pareto trials as a density above this many
+        points (default: ``max_points``; the Pareto set stays points).
     """
     xv, _ = column(a, x)
     yv, _ = column(a, y)
@@ -627,6 +638,7 @@ def scatter_figure(
         gl=gl,
         enc=enc,
         memo=memo,
+        density_above=density_above,
     )
     xr = _memo(memo, ("range", x), lambda: fitted_range(xv))
     yr = _memo(memo, ("range", y), lambda: fitted_range(yv))

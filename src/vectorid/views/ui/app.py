@@ -300,14 +300,20 @@ def _warm(ctx: cb.UIContext) -> None:
     :func:`~vectorid.views.ui.explore.fast_histograms`, :func:`~vectorid.views.clouds.
     cloud_traces`), so that the first page and the first typed limit count only D."""
     from .. import clouds
-    from .explore import histograms_of, trials_memo
+    from .explore import DENSITY_POINTS, histograms_of, trials_memo
 
     a = ctx.cache.analysis()
     if a.n:
         histograms_of(ctx, a)
         x, y = explore.default_axes(ctx)
         clouds.scatter_figure(
-            a, x, y, max_points=ctx.max_points, raw=True, memo=trials_memo(ctx, a, "scatter")
+            a,
+            x,
+            y,
+            max_points=ctx.max_points,
+            raw=True,
+            memo=trials_memo(ctx, a, "scatter"),
+            density_above=DENSITY_POINTS,
         )
 
 

@@ -524,14 +524,21 @@ def _star(fig: dict, a: Analysis, xv: np.ndarray, yv: np.ndarray, row: int | Non
 #: at load in software WebGL.
 SVG_POINTS = 3000
 
+#: Above this many points (or ``--max-points`` if smaller), the criterion plot draws the
+#: infeasible set and D's non-Pareto trials as a density of every one of them: 18,000
+#: WebGL points of D at 1e5 trials took the page 0.2-0.3 s to redraw after each limit in
+#: software WebGL, a density heatmap a few ms. The Pareto set stays points.
+DENSITY_POINTS = 3000
+
 
 def _points_drawn(ctx: UIContext, a: Analysis, sel: np.ndarray) -> int:
-    """Points the criterion plot draws (sets under the budget, Pareto, the selection), as
-    :func:`~vectorid.views.clouds.cloud_traces` decides (an upper bound)."""
+    """Points the criterion plot draws (sets under the density threshold, Pareto, the
+    selection), as :func:`~vectorid.views.clouds.cloud_traces` decides (an upper bound)."""
     budget = ctx.max_points
+    dense = min(budget, DENSITY_POINTS)
     n = min(a.n_pareto, budget)
     for count in (a.n - a.n_feasible, a.n_feasible - a.n_pareto):
-        n += count if count <= budget else 0
+        n += count if count <= dense else 0
     return n + min(int(sel.sum()), 3 * budget)
 
 
@@ -567,6 +574,7 @@ def scatter_view(
         raw=True,
         memo=trials_memo(ctx, a, "scatter"),
         gl=_points_drawn(ctx, a, sel) > SVG_POINTS,
+        density_above=DENSITY_POINTS,
     )
     xv, yv = clouds.column(a, x)[0], clouds.column(a, y)[0]
     _star(fig, a, xv, yv, chosen_row(ctx, chosen))

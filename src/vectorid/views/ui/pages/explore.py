@@ -311,6 +311,9 @@ def layout(ctx: UIContext) -> Any:
                                 className="muted",
                             ),
                             dcc.Graph(id="hist-graph", config={"displaylogo": False}),
+                            # the histograms' figure passes through here so that the page
+                            # draws it in a task of its own, after the criterion plot's
+                            dcc.Store(id="hist-fig"),
                         ],
                     ),
                     dcc.Tab(
@@ -541,8 +544,20 @@ def register(app: Any, ctx: UIContext, w: Wiring, tokens: Any) -> None:
         except Exception as exc:
             return no_update, err(exc)
 
-    @app.callback(
+    # The histogram grid (12 panels) is plotly.js's longest drawing: handed to the graph
+    # after a zero-delay timer, it is drawn in a task of its own instead of in the same
+    # task as the criterion plot when both answers arrive together (the main thread's
+    # longest task after a limit).
+    app.clientside_callback(
+        "function(fig) { if (!fig) { return dash_clientside.no_update; } "
+        "return new Promise(function(done) { setTimeout(function() { done(fig); }, 0); }); }",
         Output("hist-graph", "figure"),
+        Input("hist-fig", "data"),
+        prevent_initial_call=True,
+    )
+
+    @app.callback(
+        Output("hist-fig", "data"),
         Output("cvp-graph", "figure"),
         Output("panel-msg", "children"),
         GATE,
