@@ -25,8 +25,10 @@ def test_quick_run_reaches_d_and_prints_the_cpu_first(tmp_path, capsys):
     }
     assert set(rows) == {"sobol", "sequential", "pyabc"}
     for method in ("sobol", "sequential"):
-        _, _, evals, wall, cpu, members, ess, inside = rows[method]
+        _, _, evals, first, wall, cpu, members, ess, inside = rows[method]
         assert "not reached" not in evals, out
+        # D first held the population's distinct members no later than the run stopped
+        assert int(first.replace(",", "")) <= int(evals.replace(",", "")), out
         assert int(members) >= 50 and float(ess) >= 45
         assert inside == "yes", out  # the truth meets the limits: inside every range of D
     if importlib.util.find_spec("pyabc") is None:

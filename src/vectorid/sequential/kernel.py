@@ -21,7 +21,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.special import logsumexp
 
 __all__ = ["MASS_DRAWS", "Proposal", "fit_proposal"]
 
@@ -82,13 +81,22 @@ class Proposal:
         const = -0.5 * p * math.log(2.0 * math.pi) - log_det - self.log_mass
         from scipy.linalg import solve_triangular
 
-        C = solve_triangular(L, self.centres.T, lower=True).T  # whitened centres (m, p)
+        # whitening by L^-1 once (p x p), then matrix products: far cheaper than a
+        # triangular solve per chunk of points
+        Linv_t = solve_triangular(L, np.eye(p), lower=True).T
+        C = self.centres @ Linv_t  # whitened centres (m, p)
         c2 = np.einsum("ij,ij->i", C, C)
+        half_c = self.log_mix - 0.5 * c2  # (m,)
         for a in range(0, U.shape[0], _CHUNK):
-            Y = solve_triangular(L, U[a : a + _CHUNK].T, lower=True).T
-            d2 = np.einsum("ij,ij->i", Y, Y)[:, None] + c2[None, :] - 2.0 * (Y @ C.T)
-            np.maximum(d2, 0.0, out=d2)
-            out[a : a + _CHUNK] = logsumexp(self.log_mix[None, :] - 0.5 * d2, axis=1) + const
+            Y = U[a : a + _CHUNK] @ Linv_t
+            # log_mix - d2/2 with d2 = |y|^2 + |c|^2 - 2 y.c; |y|^2 is common to every centre
+            e = Y @ C.T
+            e += half_c[None, :]
+            top = e.max(axis=1)
+            e -= top[:, None]
+            np.exp(e, out=e)
+            y2 = np.einsum("ij,ij->i", Y, Y)
+            out[a : a + _CHUNK] = top + np.log(e.sum(axis=1)) - 0.5 * y2 + const
         out[~inside] = -np.inf
         return out
 
