@@ -102,7 +102,7 @@ def print_stage_limits(st: Stage, indent: str = "  ") -> None:
         print(f"{indent}sequential sampler: {seq.verdict()}")
         if not seq.converged:
             weighted = "not weighted: D was not reached"
-        elif getattr(seq, "moves", False):
+        elif seq.moves:
             weighted = "distinct particles; members of D weigh the same"
         else:
             weighted = "importance-weighted"
