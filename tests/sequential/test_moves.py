@@ -198,16 +198,16 @@ def test_interrupted_moves_resume_exactly(tmp_path):
 
     def stops(X):
         calls["n"] += len(X)
-        if calls["n"] > 9000:
+        if calls["n"] > 6000:
             raise KeyboardInterrupt
         return banana(X)
 
-    kw = {"budget": 12_000, "trials": 2048, "batch_size": 64}
+    kw = {"budget": 8_000, "trials": 2048, "batch_size": 64}
     with Store.create(tmp_path / "a.db", banana_spec(model=stops, **kw)) as st:
         with pytest.raises(RunInterrupted):
             run_store(st, executor="inline", progress=False)
         n_stopped = st.count()
-        assert 2048 < n_stopped < 12_000
+        assert 2048 < n_stopped < 8_000
         calls["n"] = -(10**9)
         run_store(st, executor="inline", progress=False)
     with Store.create(tmp_path / "b.db", banana_spec(**kw)) as st:

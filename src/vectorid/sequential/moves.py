@@ -141,7 +141,7 @@ def in_box_mass(U: np.ndarray, chol: np.ndarray, rng: np.random.Generator,
 #: chains' states are D's sample (the rest are kept: their holding-time counts are D's weights).
 WARMUP = 0.5
 #: Fewest moves at the stated limits before the chains' ESS is trusted.
-MIN_FINAL_MOVES = 30
+MIN_FINAL_MOVES = 50
 
 
 def kept_moves(m: int) -> int:
