@@ -172,6 +172,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--budget", type=int, default=60_000)
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--population", type=int, default=200, help="members of D wanted")
     ap.add_argument("--problems", nargs="*", default=["slab20", "banana24"])
     ap.add_argument("--moves", type=int, default=0, help="least moves at the stated limits")
     ap.add_argument("--every", type=int, default=10, help="analyse every this many moves")
@@ -201,7 +202,8 @@ def main() -> None:
             cdfs = cdfs_of()
             t0 = time.perf_counter()
             path = Path(tmp) / f"{name}.db"
-            with Store.create(path, make(budget=args.budget, seed=args.seed)) as st:
+            kw = {"budget": args.budget, "seed": args.seed, "population": args.population}
+            with Store.create(path, make(**kw)) as st:
                 summary = run_store(st, executor="inline", progress=False)
             wall = time.perf_counter() - t0
             print(f"{name} (seed {args.seed}): {wall:.0f} s; {summary.verdict()}")
