@@ -394,6 +394,28 @@ def test_history_counts_grow_with_the_trials(ctx, bk):
     assert nd[k] == a.feasible[order][: int(x[k])].sum() or not np.isfinite(nd[k])
 
 
+def test_history_pareto_counts_equal_a_scan_of_each_prefix(bk):
+    # history() carries the last prefix's Pareto set forward instead of scanning every
+    # prefix again: NP(n) must still be the Pareto set of the first n trials of D.
+    from vectorid.analysis.pareto import pareto_mask
+    from vectorid.views.history import history
+
+    for limits, roles in (({"f1": 40.0}, None), (None, None), ({"f2": 20.0}, {"f2": "pseudo"})):
+        a = _direct(bk, limits, roles)
+        h = history(a, points=25)
+        order = np.lexsort((a.trials.seq, a.trials.stage))
+        F = a.trials.F[order][:, a.pure]
+        feas = a.feasible[order]
+        senses = [a.senses[i] for i in a.pure]
+        want = [
+            int(pareto_mask(F[: int(n)][feas[: int(n)]], senses).sum())
+            if feas[: int(n)].any()
+            else 0
+            for n in h.n
+        ]
+        assert list(h.np_) == want and want[-1] == a.n_pareto > 0
+
+
 # -- plots, selection, box to constraints ---------------------------------------------------------
 
 
@@ -610,6 +632,33 @@ def test_saving_limits_updates_study_overview_and_reload(tmp_path):
     assert limits_text(c.spec) == texts and [list(p) for p in bounds_text(c.spec)] == g
     assert cb.summary_view(c, limits_text(c.spec), PURE2, bounds_text(c.spec))["counts"]["nd"] == nd
     assert cb.summary_view(c, None, None)["counts"]["nd"] == nd  # the study's defaults
+
+
+def test_the_server_filters_without_loading_numba(bk):
+    # vectorid ui asks for the numpy Pareto engine: counts after typed limits (narrowed and
+    # loosened), the history's prefixes and the test tables never load numba's ~120 MB.
+    import subprocess
+    import sys
+
+    pytest.importorskip("dash", reason="the UI needs the ui extra (dash)")
+    code = f"""
+import sys
+from vectorid.views.ui import callbacks as cb
+from vectorid.views.ui.app import create_app
+app, c = create_app({str(bk)!r})
+try:
+    for f1 in ("40", "20", "60", "", "10"):
+        cb.counts_view(c, [f1, ""], ["pure", "pure"])
+        cb.summary_view(c, [f1, ""], ["pure", "pure"])
+    cb.history_view(c, ["30", ""], ["pure", "pure"])
+    print(cb.counts_view(c, ["", ""], ["pure", "pure"])["np"])
+finally:
+    c.jobs.shutdown()
+assert "numba" not in sys.modules, "the UI server loaded numba"
+"""
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert int(out.stdout.split()[-1]) == _direct(bk).n_pareto
 
 
 def test_page_reload_starts_from_the_saved_limits(tmp_path):
