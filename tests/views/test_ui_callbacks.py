@@ -489,6 +489,57 @@ def test_box_to_limits_sets_worse_side(ctx, bkmax):
         cb.box_to_limits(ctx, box, ["", ""])
 
 
+@pytest.mark.parametrize("n", [1, 4, 5, 10])
+def test_histogram_rows_hold_the_grid_panel_by_panel(n):
+    # The page draws the histogram grid one row of 4 panels at a time: the rows together
+    # hold every trace (same bins, same heights, the panel's index in the customdata), every
+    # chosen-trial line on its panel, every panel title; the first row the title and legend.
+    from vectorid.analysis.histograms import Histogram
+    from vectorid.views import clouds
+
+    rng = np.random.default_rng(n)
+    hists = []
+    for j in range(n):
+        edges = np.linspace(j, j + 1, 9)
+        every = rng.integers(5, 50, 8)
+        feas = every // 2
+        hists.append(Histogram(f"x{j + 1}", edges, every, feas, feas // 3, j, j + 1.0, None))
+    fig = clouds.histograms_figure(
+        hists, selection=[h.pareto for h in hists], chosen=[j + 0.5 for j in range(n)], raw=True
+    )
+    fig["layout"]["meta"] = {"nd": 7, "rev": 3}
+    rows = cb.histogram_rows(fig)
+    assert len(rows) == -(-n // 4)
+    assert sum(len(r["data"]) for r in rows) == len(fig["data"])
+    flat = [t for r in rows for t in r["data"]]
+    for t, u in zip(fig["data"], flat, strict=True):  # the same traces, in the same order
+        assert _arr(t["y"]).tolist() == _arr(u["y"]).tolist() and t["name"] == u["name"]
+        assert t["customdata"] == u["customdata"]
+    for r, row in enumerate(rows):
+        lay = row["layout"]
+        panels = range(4 * r, min(n, 4 * r + 4))
+        axes = {k for k in lay if k.startswith(("xaxis", "yaxis"))}
+        assert len(axes) == 2 * len(panels)
+        for t in row["data"]:  # every trace on an axis of its row, at its panel's place
+            i = t["customdata"][0][1]
+            assert i in panels
+            k = "" if i == 4 * r else str(i - 4 * r + 1)
+            assert (t["xaxis"], t["yaxis"]) == (f"x{k}", f"y{k}")
+            assert (
+                lay[f"xaxis{k}"]["domain"]
+                == fig["layout"][f"xaxis{'' if i == 0 else i + 1}"]["domain"]
+            )
+        assert [a["text"] for a in lay["annotations"]] == [f"x{i + 1}" for i in panels]
+        assert [sh["x0"] for sh in lay["shapes"]] == [i + 0.5 for i in panels]
+        assert all(
+            f"{sh['yref'].split()[0]}" in {f"y{a[5:]}" for a in axes} for sh in lay["shapes"]
+        )
+        assert lay["meta"] == {"nd": 7, "rev": 3}
+        assert ("title" in lay) == (r == 0) and sum(t["showlegend"] for t in row["data"]) == (
+            3 + 1 if r == 0 else 0
+        )
+
+
 # -- chosen trial ---------------------------------------------------------------------------------
 
 
