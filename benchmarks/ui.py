@@ -48,7 +48,7 @@ the action to the redrawn DOM (two animation frames after the last change):
 * ``server MB``: the server's resident memory at the end, and its ratio to the store's columns
   (ids, sequence, stage, status, parameters, criteria, functionals, wall times as loaded);
   and the same above an *idle server* (``vectorid ui`` on a 1,000-trial store after one page
-  load: the interpreter, numpy, numba's compiled code, Dash and plotly), what the store and
+  load: the interpreter, numpy, Dash and plotly; the server loads no numba), what the store and
   its views cost.
 
 Each action starts when the page is quiet (no callback loading for 0.8 s), so one change's
@@ -478,7 +478,7 @@ def _stop_server(proc: Any) -> None:
 
 def idle_server_mb(folder: Path, criteria: int, params: int) -> float:
     """Resident memory (MB) of ``vectorid ui`` serving a 1,000-trial store after one page
-    load in headless Chromium: the interpreter, numpy, numba's compiled code, Dash and
+    load in headless Chromium: the interpreter, numpy, Dash and
     plotly, what every server holds whatever the store."""
     import shutil
 
