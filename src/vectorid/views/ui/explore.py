@@ -163,8 +163,9 @@ def histogram_rows(fig: Mapping[str, Any], cols: int = HIST_COLUMNS) -> list[dic
             for sh in lay.get("shapes", [])
             if sh.get("xref") in names
         ]
-        out_lay["height"] = 300 if r == 0 else 210
-        out_lay["margin"] = dict(lay.get("margin", {}), t=100 if r == 0 else 28, b=36)
+        # the rows below the first: their panel titles under the mode bar, not behind it
+        out_lay["height"] = 300 if r == 0 else 226
+        out_lay["margin"] = dict(lay.get("margin", {}), t=100 if r == 0 else 44, b=36)
         if r:
             out_lay.pop("title", None)
             out_lay["showlegend"] = False
