@@ -282,10 +282,9 @@ def free_axes(cov: np.ndarray, spread: float, n: float = math.inf) -> tuple[int,
         # adjusted for the regressors' number: n members regressed on k axes explain
         # k / (n - 1) of the variance by chance alone
         k = len(tied)
-        if n - k - 1 > 1:
-            r2 = 1.0 - (1.0 - r2) * (n - 1.0) / (n - k - 1.0)
-        else:
-            r2 = np.zeros_like(r2)
+        if math.isfinite(n):
+            dof = n - k - 1.0
+            r2 = 1.0 - (1.0 - r2) * (n - 1.0) / dof if dof > 1.0 else np.zeros_like(r2)
         worst = int(np.argmax(r2))
         if r2[worst] < FREE_R2:
             break
