@@ -17,8 +17,8 @@ trial; the parts that only compute live in :mod:`vectorid.sequential`.
    ``population`` trials; functional constraints are always hard), fits a Gaussian-mixture
    kernel on the trials of every generation that meet the new limits, its free axes
    uniform (:mod:`vectorid.sequential.kernel`), and draws ``GENERATION_FACTOR x
-   population`` points inside the box from it; once a generation met the stated limits, the
-   next draws only what the ESS still wanted needs at the last generation's rate. The
+   population`` points inside the box from it; a generation that aims at the stated limits
+   draws only what the ESS still wanted needs at the last generation's rate. The
    generation (its points and kernel) is recorded *before* it is evaluated.
 4. With :data:`~vectorid.sequential.moves.MOVE_FROM` or more variables the importance
    weights degenerate, so generations 1, 2, ... instead move ``PARTICLES_FACTOR x
@@ -89,8 +89,8 @@ __all__ = [
 #: Later generations propose this many times ``population`` points (2 was tried: the run
 #: stops a whole generation later than it needs; parachute15 twin 2,224 against 1,824).
 GENERATION_FACTOR = 1
-#: Once a generation met the stated limits, the next is sized to the ESS still wanted at the
-#: last generation's rate, with this margin ...
+#: A generation that aims at the stated limits is sized to the ESS still wanted at the last
+#: generation's rate, with this margin ...
 SIZE_MARGIN = 1.15
 #: ... and at least this share of ``population`` trials.
 MIN_GENERATION = 0.25
@@ -559,6 +559,8 @@ def _propose(store: Store, spec, state: SequentialState, gens, n: int, trials: T
     eps = next_tolerance(phi[in_prev], eps_prev, state.floor, keep)
     with np.errstate(invalid="ignore"):
         centres = state.usable & np.all(phi <= eps, axis=1)
+    if np.all(eps <= state.floor):
+        n = _final_size(state, gens, n, population)
     U = _unit(spec.space, trials.X[centres])
     log_w = _cached_log_weights(store, spec, trials, state.generation, state.proposals,
                                 state.counts, centres)  # fmt: skip
@@ -900,7 +902,7 @@ def _drive(store, spec, gens, budget, population, evaluate, say, summary):
             made = _propose_move(store, spec, state, gens, PARTICLES_FACTOR * population,
                                  trials, budget - evaluations)  # fmt: skip
         else:
-            n = min(_generation_size(state, gens, eps, population), budget - evaluations)
+            n = min(int(GENERATION_FACTOR * population), budget - evaluations)
             made = _propose(store, spec, state, gens, n, trials, population)
         if made is None:
             say("the proposal puts almost no mass inside the box: stopped")
@@ -913,12 +915,12 @@ def _drive(store, spec, gens, budget, population, evaluate, say, summary):
         gens = store.generations()
 
 
-def _generation_size(state: SequentialState, gens, eps: np.ndarray, population: int) -> int:
-    """Trials of the next mixture generation: ``GENERATION_FACTOR x population``; once the
-    last generation met the stated limits, only as many as the ESS still wanted needs at its
-    rate (members it added x D's ESS per member), with :data:`SIZE_MARGIN` to spare."""
-    full = int(GENERATION_FACTOR * population)
-    if len(gens) < 2 or not np.all(eps <= state.floor):
+def _final_size(state: SequentialState, gens, full: int, population: int) -> int:
+    """Trials of a generation that aims at the stated limits: as many as the ESS still wanted
+    needs at the rate of the last generation (members of D it added per trial x D's ESS per
+    member; a generation aiming at the stated limits does at least as well as one aiming
+    wider), with :data:`SIZE_MARGIN` to spare; ``full`` when the last generation added none."""
+    if len(gens) < 2:
         return full
     last = gens[-1].gen
     added = int(np.sum(state.members & (state.generation == last)))
