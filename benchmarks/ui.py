@@ -26,12 +26,13 @@ drives it (software WebGL, so pessimistic), each action ``--repeats`` times (def
 and max printed, the verdict against the issue's goal on the max). Measured in the page, from
 the action to the redrawn DOM (two animation frames after the last change):
 
-* ``page load``: navigation start to the counts, the criterion plot and the histograms drawn
-  (the first load, which fills the browser's cache, not counted);
+* ``page load``: navigation start to the counts, the criterion plot and the histograms (every
+  row of the grid) drawn (the first load, which fills the browser's cache, not counted);
 * ``limit -> counts``: Enter in the first criterion's limit field (``#vid-limit-f1``) to
   N/ND/NP redrawn (``#vid-counts``);
 * ``limit -> everything``: the same change to the criterion plot's title and the histograms'
-  legend showing the new ND, and nothing loading any more;
+  legend showing the new ND, every row of the histogram grid drawn from the new answer (its
+  ``layout.meta``), and nothing loading any more;
 * ``brush -> counts``: releasing the mouse after a brush on an axis of the parallel
   coordinates (a band from a quarter of the axis to below its middle, one axis after the
   other, each on its own) to the selection's counts in the header (``#vid-sel``). plotly.js
@@ -47,7 +48,7 @@ the action to the redrawn DOM (two animation frames after the last change):
 * ``server MB``: the server's resident memory at the end, and its ratio to the store's columns
   (ids, sequence, stage, status, parameters, criteria, functionals, wall times as loaded);
   and the same above an *idle server* (``vectorid ui`` on a 1,000-trial store after one page
-  load: the interpreter, numpy, numba's compiled code, Dash and plotly), what the store and
+  load: the interpreter, numpy, Dash and plotly; the server loads no numba), what the store and
   its views cost.
 
 Each action starts when the page is quiet (no callback loading for 0.8 s), so one change's
@@ -180,12 +181,26 @@ def server_side(path: Path, changes: int) -> None:
 
 # -- in the browser ------------------------------------------------------------------------------
 
+#: Every row of the histogram grid drawn from one answer (``layout.meta.rev``), with ND
+#: ``nd`` when given (a page without rows, an older one, passes).
+_HIST_DONE = """
+function histDone(nd) {
+  const gs = Array.from(document.querySelectorAll('.vid-hist .js-plotly-plot'));
+  if (!gs.length) return true;
+  const meta = g => g._fullLayout && g._fullLayout.meta;
+  const m0 = meta(gs[0]);
+  return !!m0 && gs.every(g => meta(g) && meta(g).rev === m0.rev &&
+    (nd === null || meta(g).nd === nd));
+}
+"""
+
 _WAIT = """
 const done = arguments[arguments.length - 1];
 const prev = arguments[0], what = arguments[1];
 function text(sel) { const e = document.querySelector(sel); return e ? e.textContent : null; }
 function fmt(n) { return Number(n).toLocaleString('en-US'); }
 function busy() { return document.querySelector('[data-dash-is-loading="true"]'); }
+${HIST_DONE}
 function check() {
   const dt = performance.now() - window.__t0;
   const nd = text('#count-nd');
@@ -199,7 +214,8 @@ function check() {
   if (ok && what === 'all') {
     const title = text('#scatter .gtitle') || '';
     const legend = text('#hist-graph .legend') || '';
-    ok = title.includes(fmt(nd)) && legend.includes(fmt(nd)) && !busy();
+    ok = title.includes(fmt(nd)) && legend.includes(fmt(nd)) && !busy() &&
+      histDone(Number(nd.replace(/,/g, '')));
   }
   if (ok) {
     requestAnimationFrame(() => requestAnimationFrame(() => done(performance.now() - window.__t0)));
@@ -207,6 +223,7 @@ function check() {
 }
 check();
 """
+_WAIT = _WAIT.replace("${HIST_DONE}", _HIST_DONE)
 
 _QUIET = """
 const done = arguments[arguments.length - 1];
@@ -223,17 +240,20 @@ check();
 
 _LOADED = """
 const done = arguments[arguments.length - 1];
+${HIST_DONE}
 function check() {
   const ok = document.querySelector('#count-nd') &&
     document.querySelector('#scatter .gtitle') &&
     document.querySelector('#hist-graph .legend') &&
-    !document.querySelector('[data-dash-is-loading="true"]');
+    !document.querySelector('[data-dash-is-loading="true"]') && histDone(null);
   const t = performance.now();
   if (ok) { requestAnimationFrame(() => requestAnimationFrame(() => done(performance.now()))); }
   else if (t > 120000) { done(-1); } else { requestAnimationFrame(check); }
 }
 check();
 """
+
+_LOADED = _LOADED.replace("${HIST_DONE}", _HIST_DONE)
 
 #: Bytes transferred for the page so far (document and every resource: the scripts, the
 #: callbacks' answers), as the browser counts them (compressed sizes; 0 from its cache).
@@ -458,7 +478,7 @@ def _stop_server(proc: Any) -> None:
 
 def idle_server_mb(folder: Path, criteria: int, params: int) -> float:
     """Resident memory (MB) of ``vectorid ui`` serving a 1,000-trial store after one page
-    load in headless Chromium: the interpreter, numpy, numba's compiled code, Dash and
+    load in headless Chromium: the interpreter, numpy, Dash and
     plotly, what every server holds whatever the store."""
     import shutil
 

@@ -719,7 +719,7 @@ def _cmd_info(args: argparse.Namespace) -> int:
             print(
                 f"sequential {len(sq.counts)} generations; D: {int(sq.members.sum())} members "
                 f"(wanted {spec.sequential_population}), ESS {sq.ess:.0f} "
-                + ("(distinct particles)" if sq.particles is not None else "(importance weights)")
+                + ("(particles' chains)" if sq.particles is not None else "(importance weights)")
             )
         else:
             print(f"trials     {held} stored of {spec.trials} wanted; {a.n_failed} failed")

@@ -349,7 +349,7 @@ def _sgn(F, senses):
     )
 
 
-@settings(max_examples=300, deadline=None)
+@settings(max_examples=150, deadline=None)
 @given(
     problems(values=st.sampled_from(TRICKY), max_n=60),
     st.sampled_from([0, 1, 3, 64]),
@@ -382,6 +382,74 @@ def test_numpy_engine_matches_the_compiled_one_on_large_inputs(kind, k):
     np.testing.assert_array_equal(pareto._mask_numpy(F, sgn, pareto._N_PIVOTS), compiled)
     small = pareto._mask_numpy(F, sgn, pareto._N_PIVOTS, max_pairs=0.0)  # compiled exact step
     np.testing.assert_array_equal(small, compiled)
+
+
+@settings(max_examples=30, deadline=None)
+@given(
+    problems(values=st.integers(0, 5).map(float), max_k=5, max_n=700, nan_rows=True),
+    st.sampled_from([0, 1, 8, 64]),
+)
+def test_numpy_engine_exact_over_several_blocks_with_ties(problem, n_pivots):
+    # Hundreds of rows on a coarse grid: the pivots run (more than 64 rows), equal keys are
+    # broken lexicographically, and the sort-filter-skyline spans several blocks.
+    F, senses = problem
+    got = pareto._mask_numpy(np.ascontiguousarray(F), _sgn(F, senses), n_pivots, np.inf)
+    np.testing.assert_array_equal(got, lexsort_mask(F, senses))
+
+
+@pytest.mark.parametrize("k", [2, 3, 4, 6])
+def test_numpy_engine_on_a_large_front_same_with_or_without_the_compiled_step(k):
+    # 'anti': thousands of mutually non-dominated rows. With no budget the numpy
+    # sort-filter-skyline does it all; with the default budget it hands over to the compiled
+    # exact kernels; a budget of 0 hands over at once. All three give the compiled mask.
+    F = _large("anti", 4_000, k, seed=7 * k)
+    F[::97, 0] = np.nan
+    F[5::211] = F[3::211][: len(F[5::211])]  # exact duplicates
+    sgn = np.where(np.arange(k) % 2, -1.0, 1.0)
+    F = F * sgn
+    compiled = pareto._mask_signed(F, sgn, pareto._N_PIVOTS)
+    assert compiled.sum() > 100
+    for budget in (np.inf, pareto._NUMPY_MAX_PAIRS, 0.0):
+        np.testing.assert_array_equal(
+            pareto._mask_numpy(F, sgn, pareto._N_PIVOTS, budget), compiled
+        )
+
+
+def test_prefer_numpy_keeps_numba_unloaded_with_the_same_masks(tmp_path):
+    # A process that asked for the numpy engine (the UI server) filters large matrices, many
+    # times, without loading numba; its masks are the compiled engine's. (A front of
+    # thousands of rows, e.g. uniform data in 6 criteria, would go to the compiled kernels.)
+    import subprocess
+    import sys
+
+    code = f"""
+import sys
+import numpy as np
+from vectorid.analysis import pareto
+pareto.prefer_numpy()
+rng = np.random.default_rng(5)
+out = {{}}
+for i, (n, k) in enumerate([(700_000, 4), (200_000, 6), (50_000, 2), (50_000, 3), (9, 1)] * 2):
+    F = rng.random((n, 1)) + 0.05 * rng.standard_normal((n, k))  # fronts of tens to hundreds
+    F[:: 101 + i] = np.nan
+    F[1::7] = np.round(F[1::7], 1)  # ties
+    senses = ["min", "max"] * (k // 2) + ["min"] * (k % 2)
+    F *= [1.0 if s == "min" else -1.0 for s in senses]  # correlated once signed
+    out[f"F{{i}}"] = F
+    out[f"m{{i}}"] = pareto.pareto_mask(F, senses)
+assert "numba" not in sys.modules, "numba was loaded"
+np.savez({str(tmp_path / "m.npz")!r}, **out)
+"""
+    subprocess.run([sys.executable, "-c", code], check=True)
+    got = np.load(tmp_path / "m.npz")
+    for i in range(10):
+        F = got[f"F{i}"]
+        k = F.shape[1]
+        senses = ["min", "max"] * (k // 2) + ["min"] * (k % 2)
+        sgn = _sgn(F, senses)
+        np.testing.assert_array_equal(
+            got[f"m{i}"], pareto._mask_signed(np.ascontiguousarray(F), sgn, pareto._N_PIVOTS)
+        )
 
 
 @settings(max_examples=200, deadline=None)

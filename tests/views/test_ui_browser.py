@@ -461,3 +461,60 @@ def test_the_url_holds_the_view_and_opens_it_again(browser, server):
     drv.find_element(By.CSS_SELECTOR, "#vid-role-f2 input[value='pure']").click()
     _type(drv, _limit("f1"), prev)
     _until(drv, lambda d: "lim.f1" not in d.current_url, "the URL back at the study's limit")
+
+
+def test_histogram_rows_drawn_one_by_one_share_the_legend(browser, tmp_path):
+    # The histogram grid is one graph per row of four panels (each drawn in a task of its
+    # own): every row is drawn from the same answer with every parameter's panel, and a set
+    # hidden in the first row's legend is hidden in every row.
+    # osyczka-kundu: six parameters, two rows; this module's browser, another server
+    store = make_store(tmp_path, "osyczka-kundu", trials=256)
+    a = _analysis(store)
+    drv = browser
+    n = len(a.spec.space)
+    rows = -(-n // 4)
+    assert rows >= 2
+    with serve(store, tmp_path) as url:
+        drv.get(url)
+        _rows_and_legend(drv, a, n, rows)
+
+
+def _rows_and_legend(drv, a, n, rows):
+    js_rows = """
+    return Array.from(document.querySelectorAll('.vid-hist .js-plotly-plot')).map(g => [
+      g._fullLayout && g._fullLayout.meta ? g._fullLayout.meta.rev : null,
+      g._fullLayout && g._fullLayout.meta ? g._fullLayout.meta.nd : null,
+      (g.data || []).filter(t => t.legendgroup === 'pareto').map(t => t.visible === undefined
+        || t.visible === true ? 'shown' : String(t.visible))]);
+    """
+
+    def drawn(d):
+        r = d.execute_script(js_rows)
+        return len(r) == rows and len({x[0] for x in r}) == 1 and r[0][0] is not None and r
+
+    got = _until(drv, drawn, "every row of the histogram grid")
+    assert all(x[1] == a.n_feasible for x in got)
+    assert sum(len(x[2]) for x in got) == n  # one Pareto trace per parameter's panel
+
+    def pareto_entry(d):
+        entries = d.find_elements(By.CSS_SELECTOR, "#hist-graph .legend .traces")
+        return next(e for e in entries if e.text.startswith("Pareto"))
+
+    pareto_entry(drv).click()
+    _until(
+        drv,
+        lambda d: all(v == "legendonly" for x in d.execute_script(js_rows) for v in x[2]),
+        "the Pareto set hidden in every row",
+    )
+    pareto_entry(drv).click()
+    _until(
+        drv,
+        lambda d: all(v == "shown" for x in d.execute_script(js_rows) for v in x[2]),
+        "the Pareto set shown again in every row",
+    )
+    # a click on a step of the second row selects that bin's trials, as on the first row
+    area = drv.find_element(By.CSS_SELECTOR, "#hist-graph-2 .nsewdrag")
+    ActionChains(drv).move_to_element(area).pause(0.3).click().perform()
+    _until(drv, lambda d: "trials" in _text(d, "#vid-sel"), "a bin of the second row selected")
+    logs = [e for e in drv.get_log("browser") if e.get("level") == "SEVERE"]
+    assert not logs, logs

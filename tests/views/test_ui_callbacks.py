@@ -394,6 +394,28 @@ def test_history_counts_grow_with_the_trials(ctx, bk):
     assert nd[k] == a.feasible[order][: int(x[k])].sum() or not np.isfinite(nd[k])
 
 
+def test_history_pareto_counts_equal_a_scan_of_each_prefix(bk):
+    # history() carries the last prefix's Pareto set forward instead of scanning every
+    # prefix again: NP(n) must still be the Pareto set of the first n trials of D.
+    from vectorid.analysis.pareto import pareto_mask
+    from vectorid.views.history import history
+
+    for limits, roles in (({"f1": 40.0}, None), (None, None), ({"f2": 20.0}, {"f2": "pseudo"})):
+        a = _direct(bk, limits, roles)
+        h = history(a, points=25)
+        order = np.lexsort((a.trials.seq, a.trials.stage))
+        F = a.trials.F[order][:, a.pure]
+        feas = a.feasible[order]
+        senses = [a.senses[i] for i in a.pure]
+        want = [
+            int(pareto_mask(F[: int(n)][feas[: int(n)]], senses).sum())
+            if feas[: int(n)].any()
+            else 0
+            for n in h.n
+        ]
+        assert list(h.np_) == want and want[-1] == a.n_pareto > 0
+
+
 # -- plots, selection, box to constraints ---------------------------------------------------------
 
 
@@ -465,6 +487,57 @@ def test_box_to_limits_sets_worse_side(ctx, bkmax):
     box = {"kind": "box", "x": "x1", "y": "x2", "xr": [0, 1], "yr": [0, 1]}
     with pytest.raises(StudyDefinitionError, match="neither"):
         cb.box_to_limits(ctx, box, ["", ""])
+
+
+@pytest.mark.parametrize("n", [1, 4, 5, 10])
+def test_histogram_rows_hold_the_grid_panel_by_panel(n):
+    # The page draws the histogram grid one row of 4 panels at a time: the rows together
+    # hold every trace (same bins, same heights, the panel's index in the customdata), every
+    # chosen-trial line on its panel, every panel title; the first row the title and legend.
+    from vectorid.analysis.histograms import Histogram
+    from vectorid.views import clouds
+
+    rng = np.random.default_rng(n)
+    hists = []
+    for j in range(n):
+        edges = np.linspace(j, j + 1, 9)
+        every = rng.integers(5, 50, 8)
+        feas = every // 2
+        hists.append(Histogram(f"x{j + 1}", edges, every, feas, feas // 3, j, j + 1.0, None))
+    fig = clouds.histograms_figure(
+        hists, selection=[h.pareto for h in hists], chosen=[j + 0.5 for j in range(n)], raw=True
+    )
+    fig["layout"]["meta"] = {"nd": 7, "rev": 3}
+    rows = cb.histogram_rows(fig)
+    assert len(rows) == -(-n // 4)
+    assert sum(len(r["data"]) for r in rows) == len(fig["data"])
+    flat = [t for r in rows for t in r["data"]]
+    for t, u in zip(fig["data"], flat, strict=True):  # the same traces, in the same order
+        assert _arr(t["y"]).tolist() == _arr(u["y"]).tolist() and t["name"] == u["name"]
+        assert t["customdata"] == u["customdata"]
+    for r, row in enumerate(rows):
+        lay = row["layout"]
+        panels = range(4 * r, min(n, 4 * r + 4))
+        axes = {k for k in lay if k.startswith(("xaxis", "yaxis"))}
+        assert len(axes) == 2 * len(panels)
+        for t in row["data"]:  # every trace on an axis of its row, at its panel's place
+            i = t["customdata"][0][1]
+            assert i in panels
+            k = "" if i == 4 * r else str(i - 4 * r + 1)
+            assert (t["xaxis"], t["yaxis"]) == (f"x{k}", f"y{k}")
+            assert (
+                lay[f"xaxis{k}"]["domain"]
+                == fig["layout"][f"xaxis{'' if i == 0 else i + 1}"]["domain"]
+            )
+        assert [a["text"] for a in lay["annotations"]] == [f"x{i + 1}" for i in panels]
+        assert [sh["x0"] for sh in lay["shapes"]] == [i + 0.5 for i in panels]
+        assert all(
+            f"{sh['yref'].split()[0]}" in {f"y{a[5:]}" for a in axes} for sh in lay["shapes"]
+        )
+        assert lay["meta"] == {"nd": 7, "rev": 3}
+        assert ("title" in lay) == (r == 0) and sum(t["showlegend"] for t in row["data"]) == (
+            3 + 1 if r == 0 else 0
+        )
 
 
 # -- chosen trial ---------------------------------------------------------------------------------
@@ -610,6 +683,33 @@ def test_saving_limits_updates_study_overview_and_reload(tmp_path):
     assert limits_text(c.spec) == texts and [list(p) for p in bounds_text(c.spec)] == g
     assert cb.summary_view(c, limits_text(c.spec), PURE2, bounds_text(c.spec))["counts"]["nd"] == nd
     assert cb.summary_view(c, None, None)["counts"]["nd"] == nd  # the study's defaults
+
+
+def test_the_server_filters_without_loading_numba(bk):
+    # vectorid ui asks for the numpy Pareto engine: counts after typed limits (narrowed and
+    # loosened), the history's prefixes and the test tables never load numba's ~120 MB.
+    import subprocess
+    import sys
+
+    pytest.importorskip("dash", reason="the UI needs the ui extra (dash)")
+    code = f"""
+import sys
+from vectorid.views.ui import callbacks as cb
+from vectorid.views.ui.app import create_app
+app, c = create_app({str(bk)!r})
+try:
+    for f1 in ("40", "20", "60", "", "10"):
+        cb.counts_view(c, [f1, ""], ["pure", "pure"])
+        cb.summary_view(c, [f1, ""], ["pure", "pure"])
+    cb.history_view(c, ["30", ""], ["pure", "pure"])
+    print(cb.counts_view(c, ["", ""], ["pure", "pure"])["np"])
+finally:
+    c.jobs.shutdown()
+assert "numba" not in sys.modules, "the UI server loaded numba"
+"""
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert int(out.stdout.split()[-1]) == _direct(bk).n_pareto
 
 
 def test_page_reload_starts_from_the_saved_limits(tmp_path):

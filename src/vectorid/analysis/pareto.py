@@ -77,10 +77,15 @@ _NUMPY_MAX_VALUES = 2_000_000
 #: then loads the compiled kernels once, which are ~10x faster per call.
 _NUMPY_CALLS = 4
 _numpy_calls = 0
-#: ... and compares its survivors pairwise when (survivors)² × k is at most this.
-_NUMPY_MAX_PAIRS = 3e7
-#: Booleans per block of the pairwise comparison.
-_NUMPY_CHUNK = 2_000_000
+#: Set by :func:`prefer_numpy`: the numpy engine for every call while numba is not loaded.
+_prefer_numpy = False
+#: ... and hands its survivors to the compiled exact kernels once its sort-filter-skyline
+#: has compared more than this many pairs of rows (a large front; ~0.1-0.3 s of numpy).
+_NUMPY_MAX_PAIRS = 2e7
+#: Rows per block of the numpy sort-filter-skyline ...
+_NUMPY_BLOCK = 256
+#: ... and row pairs per comparison (booleans held at once).
+_NUMPY_CHUNK = 1_000_000
 
 
 # --------------------------------------------------------------------------------------------
@@ -333,48 +338,148 @@ def _mask_signed(
     return mask
 
 
+def _dominated_by(A: np.ndarray, B: np.ndarray) -> np.ndarray:
+    """Rows of ``A`` (a, k) strictly dominated by some row of ``B`` (b, k) (minimised)."""
+    le = np.ones((A.shape[0], B.shape[0]), dtype=bool)
+    for j in range(A.shape[1]):
+        le &= B[None, :, j] <= A[:, None, j]
+    if not le.any():
+        return np.zeros(A.shape[0], dtype=bool)
+    eq = np.ones_like(le)
+    for j in range(A.shape[1]):
+        eq &= B[None, :, j] == A[:, None, j]
+    return (le & ~eq).any(axis=1)
+
+
 def _mask_numpy(
     G: np.ndarray, sgn: np.ndarray, n_pivots: int, max_pairs: float = _NUMPY_MAX_PAIRS
 ) -> np.ndarray:
     """The same mask as :func:`_mask_signed` by whole-array numpy passes (no numba).
 
-    The ``n_pivots`` feasible rows of lowest key are pivots; each in turn removes the remaining
-    rows it strictly dominates (any pivot may do that: dominance is transitive). The ``m``
-    survivors are compared pairwise when ``m * m * k <= max_pairs``, else handed to the
-    compiled exact kernels (:func:`_exact`).
+    The feasible rows' monotone keys are computed as in the compiled engine. Then pivots:
+    the remaining row of lowest key removes every row it strictly dominates (any row may do
+    that: dominance is transitive), up to ``n_pivots`` of them, stopping earlier when they
+    no longer remove much. The survivors, sorted by key with ties broken lexicographically
+    (no row after one it dominates), go through a block sort-filter-skyline: a block of
+    rows is kept where no kept row before it and no row of the block dominates it. When
+    that step has made more than ``max_pairs`` row-against-row comparisons (a large front),
+    the survivors are handed to the compiled exact kernels (:func:`_exact`) instead.
     """
     n, k = G.shape
     mask = np.zeros(n, dtype=bool)
-    rows = np.flatnonzero(~np.isnan(G).any(axis=1))
+    if n == 0:
+        return mask
+    C = np.empty((k, n))  # the signed columns, each contiguous
+    nan = np.zeros(n, dtype=bool)
+    for j in range(k):
+        np.multiply(G[:, j], sgn[j], out=C[j])
+        nan |= np.isnan(C[j])
+    rows = np.arange(n)
+    if nan.any():
+        rows = np.flatnonzero(~nan)
+        C = C[:, rows]
     if rows.size == 0:
         return mask
-    V = G[rows] * sgn
     if k == 1:
-        mask[rows[V[:, 0] == V[:, 0].min()]] = True
+        mask[rows[C[0] == C[0].min()]] = True
         return mask
-    fin = np.isfinite(V)
-    lo = np.where(fin, V, np.inf).min(axis=0)
-    nrm = _normalisation(lo, np.where(fin, V, -np.inf).max(axis=0))
-    T = (nrm[0] * np.where(fin, V, 0.0) - nrm[1]) / nrm[2]
-    keys = np.where(V == np.inf, 2.0, np.where(V == -np.inf, -1.0, T)).sum(axis=1)
-    pivots = V[np.argsort(keys, kind="stable")[:n_pivots]]
-    for p in pivots:
-        dominated = np.all(V >= p, axis=1) & np.any(V > p, axis=1)
-        if dominated.any():
-            alive = ~dominated
-            V, rows, keys = V[alive], rows[alive], keys[alive]
-    m = len(rows)
-    if m * m * k > max_pairs:
-        mask[rows[_exact(G, sgn, rows, keys)]] = True
-        return mask
-    keep = np.ones(m, dtype=bool)
-    step = max(1, _NUMPY_CHUNK // max(m * k, 1))
+    keys = np.zeros(rows.size)
+    t = np.empty(rows.size)
+    for j in range(k):  # sum of (c - lo) / (hi - lo) over the finite values, as _key_scales
+        c = C[j]
+        lo, hi = c.min(), c.max()
+        if np.isfinite(lo) and np.isfinite(hi):
+            nrm = _normalisation(np.array([lo]), np.array([hi]))[:, 0]
+            np.multiply(c, nrm[0], out=t)
+            t -= nrm[1]
+            t /= nrm[2]
+            keys += t
+            continue
+        fin = np.isfinite(c)
+        lo = c[fin].min() if fin.any() else np.inf
+        hi = c[fin].max() if fin.any() else -np.inf
+        nrm = _normalisation(np.array([lo]), np.array([hi]))[:, 0]
+        with np.errstate(invalid="ignore", over="ignore"):
+            u = (nrm[0] * np.where(fin, c, 0.0) - nrm[1]) / nrm[2]
+        keys += np.where(c == np.inf, 2.0, np.where(c == -np.inf, -1.0, u))
+    work = keys.copy()  # the keys of the rows not yet used as pivots
+    weak = 0
+    for _ in range(n_pivots):
+        m = rows.size
+        if m <= 64:
+            break
+        i = int(np.argmin(work))
+        if work[i] == np.inf:
+            break
+        work[i] = np.inf
+        p = C[:, i]
+        dom = C[0] >= p[0]
+        for j in range(1, k):
+            dom &= C[j] >= p[j]
+        cand = np.flatnonzero(dom)
+        if cand.size:  # not the rows equal to the pivot (the pivot among them)
+            eq = np.ones(cand.size, dtype=bool)
+            for j in range(k):
+                eq &= C[j, cand] == p[j]
+            cand = cand[~eq]
+        if cand.size:
+            alive = np.ones(m, dtype=bool)
+            alive[cand] = False
+            C, rows, keys, work = C[:, alive], rows[alive], keys[alive], work[alive]
+        weak = weak + 1 if cand.size * 256 < m else 0
+        if weak >= 4:  # the pivots no longer pay for their pass
+            break
+    m = rows.size
+    order = np.argsort(keys, kind="stable")
+    ks = keys[order]
+    if np.any(ks[1:] == ks[:-1]):
+        order = np.lexsort((*(C[j] for j in range(k - 1, -1, -1)), keys))
+    X = np.ascontiguousarray(C[:, order].T)
+    keep = np.zeros(m, dtype=bool)
+    front = X[:0]
+    done = 0.0
+    step = _NUMPY_BLOCK
     for s in range(0, m, step):
-        X = V[s : s + step, None, :]
-        dominated = (np.all(V[None] <= X, axis=2) & np.any(V[None] < X, axis=2)).any(axis=1)
-        keep[s : s + step] = ~dominated
-    mask[rows[keep]] = True
+        blk = X[s : s + step]
+        done += float(blk.shape[0]) * (front.shape[0] + blk.shape[0])
+        if done > max_pairs:
+            mask[rows[_exact(G, sgn, rows, keys)]] = True
+            return mask
+        out = np.zeros(blk.shape[0], dtype=bool)
+        per = max(1, _NUMPY_CHUNK // step)
+        for f in range(0, front.shape[0], per):  # against the rows kept before the block
+            live = ~out
+            if not live.any():
+                break
+            out[live] |= _dominated_by(blk[live], front[f : f + per])
+        live = ~out
+        if live.any():  # and against the block itself
+            out[live] |= _dominated_by(blk[live], blk)
+        keep[s : s + step] = ~out
+        front = np.concatenate([front, blk[~out]]) if (~out).any() else front
+    mask[rows[order[keep]]] = True
     return mask
+
+
+def prefer_numpy(on: bool = True) -> None:
+    """Filter with the numpy engine in this process for as long as numba is not loaded.
+
+    For a long-running process that filters often and wants to stay small, such as
+    ``vectorid ui``: numba and the cached compiled kernels cost about 120 MB of code once
+    loaded, and on the fronts such a process meets (tens to thousands of rows) the numpy
+    engine takes milliseconds to tens of milliseconds at 1e5-1e6 rows. The masks are the
+    same. A front large enough that the numpy sort-filter-skyline would compare more than
+    ``_NUMPY_MAX_PAIRS`` pairs of rows still goes to the compiled kernels (which loads them:
+    from then on every call uses them).
+
+    Parameters
+    ----------
+    on : bool
+        True (default) to prefer the numpy engine, False for the default rule (see
+        :func:`pareto_mask`).
+    """
+    global _prefer_numpy
+    _prefer_numpy = bool(on)
 
 
 def pareto_mask(
@@ -418,11 +523,13 @@ def pareto_mask(
     Notes
     -----
     Two engines give the same mask. In a process that has not loaded numba, the first four
-    calls on matrices of at most 2e6 values go through whole-array numpy passes (the lowest-key
-    rows as pivots, then the survivors pairwise), which for 1e5 rows take a few tens of
-    milliseconds against 0.5-1 s for loading numba and the compiled kernels: a command that
-    filters once starts fast, a process that keeps filtering (the UI) moves to the compiled
-    kernels, ~10x faster per call. Otherwise the kernels are compiled with numba
+    calls on matrices of at most 2e6 values (every call after :func:`prefer_numpy`) go
+    through whole-array numpy passes (the lowest-key rows as pivots, then a block
+    sort-filter-skyline of the survivors), which for 1e5 rows take a few milliseconds
+    against 0.5-1 s for loading numba and the compiled kernels: a command that filters once
+    starts fast; a process that keeps filtering moves to the compiled kernels, faster per
+    call, unless it asked for the numpy engine (``vectorid ui`` does, to stay ~120 MB
+    smaller). Otherwise the kernels are compiled with numba
     (cached on disk; the first call in a fresh environment compiles them, which takes a few
     seconds, the parallel pre-filter a few more on its first use). Rows are first screened
     against a few low-key pivot rows in one streaming pass (in parallel for large inputs on an
@@ -446,6 +553,8 @@ def pareto_mask(
     G = _as_matrix(F)
     sgn = _signs(senses, G.shape[1])
     global _numpy_calls
+    if "numba" not in sys.modules and _prefer_numpy:
+        return _mask_numpy(G, sgn, _N_PIVOTS)
     if "numba" in sys.modules or G.size > _NUMPY_MAX_VALUES or _numpy_calls >= _NUMPY_CALLS:
         return _mask_signed(G, sgn, _N_PIVOTS, threads)
     _numpy_calls += 1

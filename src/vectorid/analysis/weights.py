@@ -10,6 +10,14 @@ give with unboundedly many trials. Plain stores have no weights (every trial cou
 :func:`trial_weights` returns None for them and each statistic here reduces to its unweighted
 form.
 
+With 20 or more variables the sampler moves particles by Markov-chain steps instead
+(:mod:`vectorid.sequential.moves`), and its trials carry no importance weight: the weight of a
+member of D at the stated limits is its *holding time* — how many of the chains' moves kept at
+the stated limits (after the warm-up) ended with a particle on it, rejected moves included —
+which makes D's members an MCMC sample of the uniform density on D. Members never held weigh
+0; a set of rows that reaches outside D (limits loosened after the run, or trials outside D) has
+no such weights, and its rows count once each.
+
 Counts (N, ND, NP), the test tables, the Pareto set and ranges (min and max over D) are not
 densities: they are the same with or without weights.
 """
@@ -51,6 +59,11 @@ def trial_weights(a: Analysis, mask: np.ndarray | None = None) -> np.ndarray | N
     if not rows.any():
         return np.empty(0)
     lw = np.asarray(weigh(a.trials.X[rows]), dtype=float)
+    # a moved store (many variables) weighs only D's members at the stated limits, by their
+    # holding times in the particles' chains (NaN elsewhere, -inf for a member never held):
+    # rows that hold a NaN, or no weight at all, are counted once each
+    if np.isnan(lw).any() or not np.isfinite(lw).any():
+        return None
     w = np.exp(lw - np.max(lw))
     return w * (len(w) / w.sum())
 

@@ -103,7 +103,7 @@ def print_stage_limits(st: Stage, indent: str = "  ") -> None:
         if not seq.converged:
             weighted = "not weighted: D was not reached"
         elif seq.moves:
-            weighted = "distinct particles; members of D weigh the same"
+            weighted = "particles' chains; members of D weigh their holding times"
         else:
             weighted = "importance-weighted"
         print(f"{indent}effective sample size {seq.ess:.0f} of {seq.members} members ({weighted})")

@@ -24,8 +24,9 @@ trial; the parts that only compute live in :mod:`vectorid.sequential`.
    weights degenerate, so generations 1, 2, ... instead move ``PARTICLES_FACTOR x
    population`` equally weighted particles by random-walk Metropolis steps inside the
    current limits (:mod:`vectorid.sequential.moves`); the run has converged when the limits
-   are the stated ones, the particles have made ``FINAL_MOVES`` moves there and at least
-   ``population`` of them are distinct members of D (their number is the ESS printed).
+   are the stated ones, the particles have made ``MIN_FINAL_MOVES`` moves there or more, and
+   the chains' ESS from their autocorrelation over the moves kept after the warm-up reaches
+   ``population`` (the ESS printed); D's densities weigh each member by its holding time.
 
 Resume: generation ``g``'s points are a deterministic function of the seed, ``g``, the study's
 limits and the stored trials of generations ``< g``; they are stored before evaluation, so a
@@ -58,12 +59,14 @@ from ..problem import FAILED, OK, EvalResult
 from ..sequential.kernel import MASS_DRAWS, Proposal, _cholesky, fit_proposal
 from ..sequential.moves import (
     DIVERSE,
-    FINAL_MOVES,
+    MIN_FINAL_MOVES,
     MOVE_FROM,
     adapt_scale,
+    chains_ess,
     copy_evenly,
     in_box_mass,
     initial_scale,
+    kept_moves,
     move_draws,
     particle_cov,
 )
@@ -193,8 +196,8 @@ class SequentialSummary(RunSummary):
     names : list of str
         Variable names (to show the search's vector).
     moves : bool
-        The run moved particles (many variables): ``ess`` is the number of distinct particles
-        in D, which weigh the same.
+        The run moved particles (many variables): ``ess`` is the chains' ESS from their
+        autocorrelation at the stated limits; D's members weigh their holding times.
     """
 
     budget: int = 0
@@ -223,9 +226,10 @@ class SequentialSummary(RunSummary):
         )
         if self.converged and self.moves:
             return (
-                f"D reached: {head} (target {self.population} members; ESS = distinct particles "
-                f"after {FINAL_MOVES} or more moves at the stated limits, each a state of a "
-                "chain that samples D uniformly; successive states of one chain are correlated)"
+                f"D reached: {head} (target {self.population} members; ESS from the "
+                "autocorrelation of the particles' chains over their last moves at the stated "
+                "limits, each chain sampling D uniformly; densities of D weigh each member by "
+                "the number of those moves it held a particle, members never so held weigh 0)"
             )
         if self.converged:
             return (
@@ -323,10 +327,14 @@ class SequentialState:
         Log importance weights of the members (NaN elsewhere; all NaN when not computed).
     ess : float
         Kish's effective sample size of the members' importance weights; with moves (many
-        variables, at the stated limits) the number of distinct particles in D instead: the
-        particles are D's equally weighted sample.
+        variables, at the stated limits) the chains' ESS from their autocorrelation instead
+        (:func:`~vectorid.sequential.moves.chain_ess`, min over the variables, over the moves
+        kept after the warm-up at the stated limits; 0 before four are kept).
     particles : (N,) int array or None
         With moves: rows of the current particles (after the last generation's moves).
+    chains : (m, N) int array or None
+        With moves: the particles after each move at the stated limits
+        (:func:`final_chains`).
     """
 
     proposals: list[Proposal]
@@ -340,6 +348,7 @@ class SequentialState:
     log_w: np.ndarray
     ess: float
     particles: np.ndarray | None = None
+    chains: np.ndarray | None = None
 
 
 def _unit(space, X: np.ndarray) -> np.ndarray:
@@ -430,11 +439,66 @@ def assess(
     state = SequentialState(
         proposals, counts, generation, constrained, phi, floor, usable, members, log_w, ess
     )
-    if moved:  # every member is a state of a chain whose target is uniform on a set holding D
-        log_w[members] = 0.0
+    if moved:  # D's sample: the chains' states over the kept moves at the stated limits
         state.particles, _, _ = _moved_particles(spec, state, trials, gens[-1])
-        state.ess = float(len(np.unique(state.particles[members[state.particles]])))
+        state.chains = final_chains(spec, state, trials, gens)
+        kept = state.chains[len(state.chains) - kept_moves(len(state.chains)) :]
+        counts = np.bincount(kept.ravel(), minlength=len(trials)) if kept.size else None
+        with np.errstate(divide="ignore"):
+            log_w[members] = -np.inf if counts is None else np.log(counts[members])
+        state.ess = _chain_ess(spec, trials, kept)
     return state
+
+
+def final_chains(spec, state: SequentialState, trials: Trials, gens) -> np.ndarray:
+    """With moves: the particles (rows of ``trials``) after each move made at the stated
+    limits, oldest first — ``(m, N)``; ``(0, 0)`` when the last generation's limits are not
+    the stated ones. Row ``i`` of every move is the same chain (no copies are made at the
+    stated limits)."""
+    hist = []
+    for gen in reversed(gens):
+        if gen.proposal.get("move") is None:
+            break
+        P, _, eps = _moved_particles(spec, state, trials, gen)
+        if not np.all(eps <= state.floor):
+            break
+        hist.append(P)
+    if not hist:
+        return np.empty((0, 0), dtype=np.int64)
+    return np.array(hist[::-1], dtype=np.int64)
+
+
+def _chain_ess(spec, trials: Trials, kept: np.ndarray) -> float:
+    """The chains' ESS over the kept moves (min over the variables; 0 for fewer than four
+    moves): :func:`~vectorid.sequential.moves.chain_ess` in unit coordinates."""
+    if kept.ndim != 2 or kept.shape[0] < 4:
+        return 0.0
+    return float(np.min(chains_ess(_unit(spec.space, trials.X[kept]))))
+
+
+def holding_log_weights(spec, trials: Trials, gens) -> np.ndarray | None:
+    """Log weights of a moved store's trials as D's sample (None when the chains have not
+    made four kept moves at the stated limits): each member of D weighs the number of kept
+    moves (after :data:`~vectorid.sequential.moves.WARMUP`) at the stated limits for which it
+    was a particle's state — its holding time, summed over the chains. Members never so weigh
+    0 (``-inf``); trials outside D at the stated limits have no weight (NaN)."""
+    state = assess(_StoreView(spec, gens), trials, weights=False)
+    if state.chains is None or kept_moves(state.chains.shape[0]) < 4:
+        return None
+    out = np.full(len(trials), np.nan)
+    out[state.members] = state.log_w[state.members]
+    return out
+
+
+class _StoreView:
+    """What :func:`assess` reads of a store: its spec and generations."""
+
+    def __init__(self, spec, gens) -> None:
+        self.spec = spec
+        self._gens = gens
+
+    def generations(self):
+        return self._gens
 
 
 #: Log proposal densities of stored trials, one block per (proposal, generation of trials);
@@ -614,18 +678,15 @@ def _moved_particles(spec, state: SequentialState, trials: Trials, gen: Generati
 
 
 def _move_status(spec, state: SequentialState, trials: Trials, gen: Generation, population: int):
-    """(converged, distinct particles in D) after a generation of moves."""
-    P, _, eps = _moved_particles(spec, state, trials, gen)
-    distinct = len(np.unique(P))
-    in_d = len(np.unique(P[state.members[P]]))
+    """(converged, ESS) after a generation of moves: converged when the limits are the stated
+    ones, the chains have made at least :data:`~vectorid.sequential.moves.MIN_FINAL_MOVES`
+    moves there and their ESS (from the autocorrelation of the kept moves) reaches
+    ``population``."""
+    _, _, eps = _moved_particles(spec, state, trials, gen)
     at_floor = bool(np.all(eps <= state.floor))
-    done = (
-        at_floor
-        and int(gen.proposal["move"]["level_moves"]) >= FINAL_MOVES
-        and in_d >= population
-        and distinct >= DIVERSE * len(P)
-    )
-    return done, in_d
+    m = 0 if state.chains is None else int(state.chains.shape[0])
+    done = at_floor and m >= MIN_FINAL_MOVES and state.ess >= ESS_SHARE * population
+    return done, state.ess
 
 
 def _propose_move(store: Store, spec, state: SequentialState, gens, n: int, trials: Trials,
@@ -1018,7 +1079,7 @@ def sample_note(store: Store, analysis) -> str | None:
     head = (
         f"sequential sampler: {sum(state.counts)} evaluations in {len(state.counts)} "
         f"generations; D holds {m} members, ESS {state.ess:.0f} "
-        + ("(distinct particles)" if state.particles is not None else "(importance weights)")
+        + (_chains_note(state) if state.particles is not None else "(importance weights)")
     )
     if m and state.ess < COLLAPSE_SHARE * wanted and state.particles is None:
         return (
@@ -1028,6 +1089,23 @@ def sample_note(store: Store, analysis) -> str | None:
     if m < wanted or state.ess < ESS_SHARE * wanted:
         return f"{head}: not yet the {wanted} wanted (ranges are those of the trials so far)"
     return head
+
+
+def _chains_note(state: SequentialState) -> str:
+    """How a moved population's ESS and weights were made (for the sampler line)."""
+    m = 0 if state.chains is None else int(state.chains.shape[0])
+    k = kept_moves(m)
+    if k < 4:
+        return (
+            f"(particles' chains; {m} moves at the stated limits, too few to weigh D's "
+            "members: densities count every member once)"
+        )
+    held = np.isfinite(state.log_w) & state.members
+    return (
+        f"(from the autocorrelation of the particles' chains over their last {k} of {m} moves "
+        f"at the stated limits; densities weigh each member by the moves it held a particle: "
+        f"{int(state.members.sum() - held.sum())} members never held one weigh 0)"
+    )
 
 
 def describe_state(state: SequentialState) -> dict[str, Any]:

@@ -1501,10 +1501,13 @@ class Store:
         with self.snapshot():
             trials = self._load(stages, kinds)
             gens = self.generations() if "sample" in kinds else []
-        # a sampler that moved its particles (many variables): D's members weigh the same
-        # (docs/sequential.md); its importance weights degenerate there, so none are attached
+        # a sampler that moved its particles (many variables): its importance weights
+        # degenerate there, so D's members weigh their holding times in the particles' chains
+        # at the stated limits instead (docs/sequential.md)
         if gens and gens[-1].proposal.get("move") is None:
             trials.log_weight = _weigher(self.spec, gens)
+        elif gens:
+            trials.log_weight = _chain_weigher(self.spec, gens, trials)
         if trials.damaged:
             self._warn(_damage_warning(self.path, trials.damaged))
         if trials.unverified:
@@ -1986,6 +1989,31 @@ def _weigher(spec: StudySpec, gens: Sequence[Generation]) -> Any:
     def log_weight(X: np.ndarray) -> np.ndarray:
         return log_weights((np.asarray(X, dtype=float) - lows) / widths, props, counts)
 
+    return log_weight
+
+
+def _chain_weigher(spec: StudySpec, gens: Sequence[Generation], trials: Trials) -> Any:
+    """``X -> log weights`` of a moved store's trials (computed on first use): each member of
+    D at the stated limits weighs its holding time in the particles' chains there (``-inf``
+    when it held none); a vector that is no member of D (or not a trial) has no weight (NaN),
+    and none has one before the chains have moved enough at the stated limits."""
+    memo: dict[bytes, float] = {}
+    done: list[bool] = []
+
+    def log_weight(X: np.ndarray) -> np.ndarray:
+        if not done:
+            # replayed from the stored generations (the run package owns the chains' rules)
+            from ..run.sequential import holding_log_weights
+
+            lw = holding_log_weights(spec, trials, gens)
+            if lw is not None:
+                rows = np.flatnonzero(~np.isnan(lw))
+                memo.update({trials.X[i].tobytes(): float(lw[i]) for i in rows})
+            done.append(True)
+        X = np.ascontiguousarray(np.asarray(X, dtype=float).reshape(-1, trials.X.shape[1]))
+        return np.array([memo.get(x.tobytes(), np.nan) for x in X])
+
+    log_weight.chains = True  # type: ignore[attr-defined]
     return log_weight
 
 

@@ -68,12 +68,20 @@ def history(a: Analysis, points: int = 40) -> History:
     nd = cum[grid - 1].astype(np.int64)
     npar = np.zeros(len(grid), np.int64)
     if a.pure:
+        # The Pareto set of the first n2 trials is that of the first n1's Pareto set and the
+        # trials n1..n2 (a trial dominated among the first n1 stays dominated, and by one of
+        # their Pareto set: dominance is transitive), so each prefix scans only its new
+        # trials and the last front, not the whole prefix again.
         senses = [a.senses[i] for i in a.pure]
-        F = t.F[order][:, a.pure]
-        for k, n in enumerate(grid):
-            idx = np.flatnonzero(feas[:n])
-            if len(idx):
-                npar[k] = int(pareto_mask(F[idx], senses).sum())
+        rows = order[feas]  # the trials of D in sequence order
+        front = rows[:0]
+        done = 0
+        for k, m in enumerate(nd):  # m: the trials of D among the first n
+            if m > done:
+                cand = np.r_[front, rows[done:m]]
+                front = cand[pareto_mask(t.F[np.ix_(cand, a.pure)], senses)]
+                done = m
+            npar[k] = len(front)
     return History(grid.astype(np.int64), nd, npar, stages)
 
 

@@ -19,6 +19,7 @@ import warnings
 from pathlib import Path
 from typing import Any
 
+from ...analysis import pareto
 from . import callbacks as cb
 from . import client
 from .data import FreedMemoryReleaser, StoreCache
@@ -212,6 +213,9 @@ def create_app(
             "vectorid ui needs dash: pip install 'vectorid[ui]' (or pip install dash)"
         ) from exc
 
+    # the Pareto scans on numpy: numba and its compiled kernels would add ~120 MB of code
+    # to the server (the job worker, a process of its own, still runs the models compiled)
+    pareto.prefer_numpy()
     cache = StoreCache(store)
     jobs = JobManager(
         cache.path,

@@ -24,6 +24,7 @@ from .context import UIContext
 from .explore import (
     box_to_limits,
     counts_view,
+    histogram_rows,
     panel_view,
     scatter_view,
     selection_counts_view,
@@ -44,6 +45,7 @@ __all__ = [
     "brushes_to_limits",
     "counts_view",
     "csv_rows",
+    "histogram_rows",
     "history_view",
     "identifiability_view",
     "identification_view",

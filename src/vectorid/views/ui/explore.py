@@ -23,6 +23,7 @@ __all__ = [
     "box_to_limits",
     "counts_view",
     "fast_histograms",
+    "histogram_rows",
     "panel_view",
     "scatter_view",
     "selection_counts_view",
@@ -60,8 +61,10 @@ def sampler_note(ctx: UIContext, a: Analysis) -> str | None:
 
         with ctx.cache.open() as st:
             note = sample_note(st, a)
-        memo[a] = None if note is None else (
-            f"{note}. Histograms of D are importance-weighted; N, ND, NP count trials."
+        memo[a] = (
+            None
+            if note is None
+            else (f"{note}. Histograms of D are importance-weighted; N, ND, NP count trials.")
         )
     return memo[a]
 
@@ -122,6 +125,59 @@ def fast_histograms(ctx: UIContext, a: Analysis, min_trials: int = 50_000) -> li
             )
         )
     return out
+
+
+#: Panels per row of the histogram grid (:func:`histogram_rows`).
+HIST_COLUMNS = 4
+
+
+def histogram_rows(fig: Mapping[str, Any], cols: int = HIST_COLUMNS) -> list[dict[str, Any]]:
+    """The histogram grid of :func:`panel_view` (``cols`` panels a row) as one figure per
+    row, the same traces, shapes, panel titles and bins: the page draws each in a task of its
+    own, so that no single task lays out the twelve panels' axes (plotly.js's costliest
+    drawing in the page). The first row keeps the title and the legend, each row the
+    layout's ``meta`` and ``uirevision``; a trace's ``customdata`` keeps its panel's index in
+    the whole grid, so a click selects the same bin."""
+    lay = fig["layout"]
+    n = sum(1 for k in lay if k.startswith("xaxis"))
+    nrow = max(1, -(-n // cols))
+    rows: list[dict[str, Any]] = []
+    for r in range(nrow):
+        first, last = r * cols, min(n, (r + 1) * cols)
+        names = {}  # the grid's axis ids -> this row's
+        out_lay: dict[str, Any] = {
+            k: v
+            for k, v in lay.items()
+            if not k.startswith(("xaxis", "yaxis")) and k not in ("annotations", "shapes")
+        }
+        for i in range(first, last):
+            old, new = ("" if i == 0 else str(i + 1)), ("" if i == first else str(i - first + 1))
+            names[f"x{old}"], names[f"y{old}"] = f"x{new}", f"y{new}"
+            out_lay[f"xaxis{new}"] = dict(lay[f"xaxis{old}"], anchor=f"y{new}")
+            out_lay[f"yaxis{new}"] = dict(lay[f"yaxis{old}"], anchor=f"x{new}", domain=[0.0, 1.0])
+        out_lay["annotations"] = [
+            dict(a, y=1.0) for a in lay.get("annotations", [])[first:last] if a.get("y") is not None
+        ]
+        out_lay["shapes"] = [
+            dict(sh, xref=names[sh["xref"]], yref=names[sh["yref"].split()[0]] + " domain")
+            for sh in lay.get("shapes", [])
+            if sh.get("xref") in names
+        ]
+        # the rows below the first: their panel titles under the mode bar, not behind it
+        out_lay["height"] = 300 if r == 0 else 226
+        out_lay["margin"] = dict(lay.get("margin", {}), t=100 if r == 0 else 44, b=36)
+        if r:
+            out_lay.pop("title", None)
+            out_lay["showlegend"] = False
+        data = [
+            dict(t, xaxis=names[t["xaxis"]], yaxis=names[t["yaxis"]])
+            for t in fig["data"]
+            if t.get("xaxis", "x") in names
+        ]
+        if r == 0:  # traces of no panel (a legend's entries)
+            data += [t for t in fig["data"] if "xaxis" not in t]
+        rows.append({"data": data, "layout": out_lay})
+    return rows
 
 
 def counts_view(ctx: UIContext, limit_texts: Any, roles: Any, functional: Any = None) -> dict:
@@ -622,7 +678,7 @@ def panel_view(
         fig = clouds.histograms_figure(
             hists, labels=ctx.labels, selection=sel_counts, chosen=chosen_x, raw=True
         )
-        fig["layout"].update(uirevision="hist", clickmode="event")
+        fig["layout"].update(uirevision="hist", clickmode="event", meta={"nd": a.n_feasible})
         return fig
     if panel == "cvp":
         crit = ctx.cache.check_name(criterion or a.crit_names[0], "criterion")

@@ -162,6 +162,10 @@ def generation_text(ctx: UIContext, a: Any, row: int) -> str:
         memo[a] = (float(logsumexp(lw) - np.log(len(lw))), which)
     mean, which = memo[a]
     w = float(np.exp(t.log_weight(t.X[row : row + 1])[0] - mean))
+    if getattr(t.log_weight, "chains", False):  # a moved store: holding times in D's chains
+        if not np.isfinite(mean) or not np.isfinite(w):
+            return f"; generation {gen}"
+        return f"; generation {gen}, weight {w:.3g} in D (holding time; mean over {which} = 1)"
     return f"; generation {gen}, importance weight {w:.3g} (mean over {which} = 1)"
 
 

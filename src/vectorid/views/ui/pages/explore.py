@@ -3,6 +3,7 @@ criterion plot, the lower panels (histograms, criterion vs parameter) and the te
 
 from __future__ import annotations
 
+import itertools
 from typing import Any
 
 import numpy as np
@@ -10,8 +11,10 @@ import numpy as np
 from ..context import UIContext, fmt
 from ..data import bounds_text, limits_text, parse_constraints
 from ..explore import (
+    HIST_COLUMNS,
     box_to_limits,
     counts_view,
+    histogram_rows,
     panel_view,
     scatter_view,
     selection_counts_view,
@@ -222,6 +225,66 @@ def default_axes(ctx: UIContext) -> tuple[str, str]:
     return names[0], (names[1] if len(names) > 1 else ctx.spec.space.names[0])
 
 
+def hist_graph_ids(ctx: UIContext) -> list[str]:
+    """The ids of the histogram grid's graphs, one per row: ``hist-graph`` (with the
+    legend), ``hist-graph-2``, ..."""
+    rows = max(1, -(-len(ctx.spec.space) // HIST_COLUMNS))
+    return ["hist-graph"] + [f"hist-graph-{r + 1}" for r in range(1, rows)]
+
+
+#: Draws one row of the histogram grid: the first row at once, each other row once the row
+#: before it is drawn (its ``meta.rev`` is this answer's), each in a task of its own, with
+#: the sets hidden in the first row's legend hidden in it too.
+_HIST_ROW_JS = """
+function(figs) {
+  const R = %d, PREV = %s;
+  if (!figs || !figs[R]) { return dash_clientside.no_update; }
+  const fig = figs[R], rev = fig.layout.meta && fig.layout.meta.rev, t0 = performance.now();
+  function drawn() {
+    if (PREV === null) { return true; }
+    const gd = document.querySelector('#' + PREV + ' .js-plotly-plot');
+    const m = gd && gd._fullLayout && gd._fullLayout.meta;
+    return !gd || (m && m.rev === rev);
+  }
+  function withLegend(f) {
+    const gd = document.querySelector('#hist-graph .js-plotly-plot');
+    if (R === 0 || !gd || !gd._fullData) { return f; }
+    const hidden = new Set(gd._fullData.filter(t => t.visible === 'legendonly')
+      .map(t => t.legendgroup));
+    if (!hidden.size) { return f; }
+    return Object.assign({}, f, {data: f.data.map(t => hidden.has(t.legendgroup) ?
+      Object.assign({}, t, {visible: 'legendonly'}) : t)});
+  }
+  return new Promise(function(done) {
+    (function wait() {
+      if (drawn() || performance.now() - t0 > 5000) {
+        setTimeout(function() { done(withLegend(fig)); }, 0);
+      } else { setTimeout(wait, 4); }
+    })();
+  });
+}
+"""
+
+#: A set shown or hidden in the first row's legend: the same in the other rows.
+_HIST_LEGEND_JS = """
+function(ev) {
+  const gd = document.querySelector('#hist-graph .js-plotly-plot');
+  if (!ev || !gd || !gd._fullData) { return dash_clientside.no_update; }
+  const vis = {};
+  for (const t of gd._fullData) { vis[t.legendgroup] = t.visible; }
+  for (const g of document.querySelectorAll('.vid-hist .js-plotly-plot')) {
+    if (g === gd || !g.data) { continue; }
+    const idx = [], v = [];
+    g.data.forEach(function(t, i) {
+      if (t.legendgroup in vis) { idx.push(i); v.push(vis[t.legendgroup]); }
+    });
+    if (idx.length) { Plotly.restyle(g, {visible: v}, idx); }
+  }
+  return dash_clientside.no_update;
+}
+"""
+
+
 def layout(ctx: UIContext) -> Any:
     from dash import dcc, html
 
@@ -310,10 +373,19 @@ def layout(ctx: UIContext) -> Any:
                                 "hide or show a set.",
                                 className="muted",
                             ),
-                            dcc.Graph(id="hist-graph", config={"displaylogo": False}),
-                            # the histograms' figure passes through here so that the page
-                            # draws it in a task of its own, after the criterion plot's
+                            # one graph per row of the grid, each drawn in a task of its
+                            # own (see histogram_rows); the first holds the legend
+                            html.Div(
+                                className="vid-hist",
+                                children=[
+                                    dcc.Graph(id=gid, config={"displaylogo": False})
+                                    for gid in hist_graph_ids(ctx)
+                                ],
+                            ),
+                            # the histograms' row figures pass through here so that the
+                            # page draws them after the criterion plot's, one by one
                             dcc.Store(id="hist-fig"),
+                            dcc.Store(id="hist-legend"),
                         ],
                     ),
                     dcc.Tab(
@@ -548,13 +620,23 @@ def register(app: Any, ctx: UIContext, w: Wiring, tokens: Any) -> None:
     # after a zero-delay timer, it is drawn in a task of its own instead of in the same
     # task as the criterion plot when both answers arrive together (the main thread's
     # longest task after a limit).
+    # Each row of the grid is a graph of its own, drawn after the one above it.
+    hist_ids = hist_graph_ids(ctx)
+    for r, gid in enumerate(hist_ids):
+        prev = "null" if r == 0 else f"'{hist_ids[r - 1]}'"
+        app.clientside_callback(
+            _HIST_ROW_JS % (r, prev),
+            Output(gid, "figure"),
+            Input("hist-fig", "data"),
+            prevent_initial_call=True,
+        )
     app.clientside_callback(
-        "function(fig) { if (!fig) { return dash_clientside.no_update; } "
-        "return new Promise(function(done) { setTimeout(function() { done(fig); }, 0); }); }",
-        Output("hist-graph", "figure"),
-        Input("hist-fig", "data"),
+        _HIST_LEGEND_JS,
+        Output("hist-legend", "data"),
+        Input("hist-graph", "restyleData"),
         prevent_initial_call=True,
     )
+    revs = itertools.count(1)
 
     @app.callback(
         Output("hist-fig", "data"),
@@ -575,23 +657,30 @@ def register(app: Any, ctx: UIContext, w: Wiring, tokens: Any) -> None:
             fig = panel_view(ctx, texts, roles, which, crit, sel, chosen, functional=pairs)
         except Exception as exc:
             return no_update, no_update, err(exc)
-        return (fig, no_update, "") if which == "histograms" else (no_update, fig, "")
+        if which != "histograms":
+            return no_update, fig, ""
+        fig["layout"]["meta"] = dict(fig["layout"].get("meta") or {}, rev=next(revs))
+        return histogram_rows(fig), no_update, ""
 
     # -- selection and choice --------------------------------------------------------------------
     @app.callback(
         Output("selection", "data", allow_duplicate=True),
         Input("scatter", "selectedData"),
         Input("cvp-graph", "selectedData"),
-        Input("hist-graph", "clickData"),
         Input("clear-sel", "n_clicks"),
+        *(Input(gid, "clickData") for gid in hist_ids),
         State("x-axis", "value"),
         State("y-axis", "value"),
         State("cvp-crit", "value"),
         *CON_S,
         prevent_initial_call=True,
     )
-    def selection(s_sel, c_sel, h_click, _clear, x, y, crit, *cons):
+    def selection(s_sel, c_sel, _clear, *rest):
+        clicks = rest[: len(hist_ids)]
+        x, y, crit = rest[len(hist_ids) : len(hist_ids) + 3]
+        cons = rest[len(hist_ids) + 3 :]
         trig = dctx.triggered_id
+        h_click = clicks[hist_ids.index(trig)] if trig in hist_ids else None
         if trig == "clear-sel":
             return None
         texts, roles, pairs = w.split(list(cons))
