@@ -48,9 +48,7 @@ def test_parafoil_demo_end_to_end_reduced(tmp_path, capsys):
         "Quasi-optimal sets (seed 000 Fig. 12)",
         "Correlation and sensitivity over stage 2 (seed 000 Fig. 14)",
         "reduced set:",
-        "Stage 3: the reduced set",
-        "is the fit kept?",
-        "6-DoF model, the reduced set",
+        "6-DoF model, ",
         "spectral peaks of the payload rates",
         "Does every identified gain's feasible range hold the generator's truth?",
         "c33 kC_star",  # the parameter legend with units and meanings
@@ -66,15 +64,31 @@ def test_parafoil_demo_end_to_end_reduced(tmp_path, capsys):
     # Fig. 12: one row per gain, then the cost row
     rows = [ln.split() for ln in text.splitlines() if re.match(r"^ +\d+ [A-Za-z]\w* +-?\d", ln)]
     assert [int(r[0]) for r in rows[:33]] == list(range(1, 34))
+    # stage 3 runs the reduced set where the proposal fixes a gain; where it fixes none it is
+    # not run (stage 2 again at half the budget), says why, and the 6-DoF model is compared
+    # with stage 2 instead
+    n_fixed = int(re.search(r"fix at nominal \((\d+);", text).group(1))
+    n_fixed += len(re.findall(r"tie: \w+ follows \w+ .*: fix ", text))
+    ran3 = n_fixed > 0
+    assert ("Stage 3: the reduced set" in text) == ran3 and ("is the fit kept?" in text) == ran3
+    assert ("stage 3 not run: nothing to fix or tie" in text) == (not ran3)
+    assert ("6-DoF model, the reduced set, the evaluations stage 3 needed" in text) == ran3
+    assert ("6-DoF model, stage 2's 33 gains, the evaluations stage 2 needed" in text) == (
+        not ran3
+    )
     for name in ("stage1", "stage2", "stage3", "6dof"):
-        assert (out / f"parafoil-{name}.db").exists() and (out / f"parafoil-{name}.toml").exists()
-        assert (out / f"parafoil-{name}.html").exists() == (name in ("stage2", "stage3"))
-    spec3 = load_study(out / "parafoil-stage3.toml")
-    # the reduced set: fewer gains where stage 2's D does not depend on some (a small budget
-    # may leave all 33)
-    assert 0 < len(spec3.space.names) <= 33
-    fixed = spec3.extra["identification"].get("parameters", {})
-    assert set(fixed).isdisjoint(spec3.space.names) and len(fixed) + len(spec3.space.names) == 33
+        made = ran3 or name != "stage3"
+        assert (out / f"parafoil-{name}.db").exists() == made
+        assert (out / f"parafoil-{name}.toml").exists() == made
+        assert (out / f"parafoil-{name}.html").exists() == (made and name in ("stage2", "stage3"))
+    spec6 = load_study(out / "parafoil-6dof.toml")
+    # the reduced set: fewer gains where stage 2's D does not depend on some; the 6-DoF study
+    # has the same set, with the fixed gains under parameters
+    assert len(spec6.space.names) == 33 - n_fixed
+    fixed = spec6.extra["identification"].get("parameters", {})
+    assert set(fixed).isdisjoint(spec6.space.names) and len(fixed) + len(spec6.space.names) == 33
+    if ran3:
+        assert load_study(out / "parafoil-stage3.toml").space.names == spec6.space.names
     # the stages after the first carry stage 1's noise floors, with their source
     crit2 = {c.name: c for c in load_study(out / "parafoil-stage2.toml").criteria}
     assert crit2["pos_h"].limit_source == "noise" and "computed for stage 1" in (
@@ -159,18 +173,23 @@ def test_print_verdicts_shows_a_value_only_where_the_gain_is_identified(capsys):
 
 
 @pytest.mark.slow
-def test_demo_ranges_hold_the_truth(tmp_path, capsys):
-    """Done-when of issue 15 at a quarter of the demo's size: every gain a stage calls
+def test_demo_ranges_hold_the_truth(tmp_path_factory):
+    """Done-when of issues 15 and 22 on the full demo as the README runs it (its slow block,
+    run once per session and shared with tests/test_docs.py): every gain a stage calls
     identified has the generator's truth inside its feasible range, and the truth meets the
     noise-grounded limits of stage 2 (all 33 gains at their true values)."""
-    out = tmp_path / "demo"
-    assert main(["demo", "parafoil", "--out", str(out), "--trials", "4096", "--quiet"]) == 0
-    text = capsys.readouterr().out
+    from tests.test_docs import readme_demo_block, run_slow_block
+
+    block = readme_demo_block("vectorid demo parafoil")
+    # the default demo: nothing that changes its size or seed
+    assert not re.search(r"--(trials|budget|population)", block.text), block.text
+    folder, text = run_slow_block(block, tmp_path_factory)
+    out = folder / re.search(r"--out (\S+)", block.text).group(1)
     summary = json.loads((out / "summary.json").read_text(encoding="utf-8"))
     assert summary["stages"]["stage 2"]["truth_in_d"]
     # issue 22: the 33-gain stage reaches D at the stated limits, unrelaxed, within the default
     # budget, with at least the population wanted and the truth inside every gain's range
-    stage2 = text.split("Stage 2: all 33 gains")[1].split("Stage 3")[0]
+    stage2 = text.split("Stage 2: all 33 gains")[1].split("Quasi-optimal sets")[0]
     assert "sequential sampler: D reached" in stage2 and "relaxed" not in stage2
     assert summary["stages"]["stage 2"]["n_feasible"] >= 200
     assert all(summary["stages"]["stage 2"]["truth_in_range"].values())
@@ -180,6 +199,18 @@ def test_demo_ranges_hold_the_truth(tmp_path, capsys):
             lo, hi = v["feasible"]
             if v["verdict"] != "not identified":
                 assert lo <= summary["truth"][v["name"]] <= hi, (label, v["name"])
+    # stage 3 runs exactly when the proposal fixes or ties a gain; else it says why not, and
+    # the 6-DoF model is compared with stage 2 on stage 2's evaluations
+    fixed = re.search(r"fix at nominal \((\d+);", text).group(1)
+    ties = re.findall(r"tie: (\w+) follows \w+ .*: fix ", text)
+    if fixed == "0" and not ties:
+        assert "stage 3 not run: nothing to fix or tie" in text and "Stage 3:" not in text
+        assert "stage 3" not in summary["stages"] and "stage 3" in summary["not run"]
+        assert not (out / "parafoil-stage3.db").exists()
+        n2 = re.search(r"sequential sampler: D reached: (\d+) evaluations", stage2).group(1)
+        assert f"the evaluations stage 2 needed ({int(n2):,})" in text
+    else:
+        assert "Stage 3: the reduced set" in text and "stage 3" in summary["stages"]
 
 
 @pytest.mark.slow

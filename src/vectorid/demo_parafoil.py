@@ -40,7 +40,8 @@ The demo runs the seed's workflow on SQLite stores:
 4. **Figure 14 turned into a proposal**: which gains the feasible set does not depend on (fix
    them at nominal) and which pairs are correlated over D (tie: one follows the other, fixed
    at its median only where the verdicts call it identified) — then **stage 3** on the
-   reduced set, compared with stage 2 on the same cost.
+   reduced set, compared with stage 2 on the same cost; where nothing is fixed or tied the
+   reduced set is stage 2's study itself, and stage 3 is not run (stage 2's D is the answer).
 5. **6-DoF against 8-DoF** on the same data and limits: which spectral peaks of the measured
    payload motion the rigid model cannot produce.
 
@@ -629,14 +630,15 @@ def run_parafoil_demo(
     stage1_trials : int, optional
         Stage 1's first generation (default ``trials // 8``, at least 64, at most 2048).
     stage3_trials : int, optional
-        Stage 3's first generation (default ``trials // 4``); the 6-DoF comparison too.
+        Stage 3's first generation (default ``trials // 4``); the 6-DoF comparison too where
+        stage 3 runs (else it starts as stage 2 did, with ``trials``).
     progress : bool
         Progress bars.
     report : bool
         Write the HTML reports of stages 2 and 3 (the others: ``vectorid report STORE``).
     budget : int
         Stage 2's most model evaluations (stage 1: a tenth, stage 3: half; the 6-DoF model:
-        what stage 3 used).
+        what stage 3 used, or stage 2 where stage 3 is not run: nothing fixed or tied).
     population : int
         Members of D wanted per stage (with an effective sample size as large).
 
@@ -887,89 +889,107 @@ def run_parafoil_demo(
             + ")"
         )
     ref3 = {n: full_boxes[n] for n, lo, hi in v3 if (lo, hi) != full_boxes[n]}
-    f3 = out / "parafoil-stage3.toml"
-    f3.write_text(
-        stage_toml("parafoil-stage3", v3, truth=truth, trials=stage3_trials, fixed=fixed,
-                   reference=ref3, limits_from=floors,
-                   comment="stage 3, the reduced set (fixed and tied gains under parameters)"),
-        encoding="utf-8",
-    )  # fmt: skip
-    spec3 = load_study(f3)
-    st3 = run_stage(spec3, out / "parafoil-stage3.db", trials=stage3_trials, budget=budget3,
-                    reference=ref3, progress=progress, name="stage 3", meanings=SHORT,
-                    hints=HINTS, **seq)  # fmt: skip
-    r3 = st3.result
-    a3 = r3.analysis
-    ident3 = Identification.from_spec(r3.spec)
-    s3 = _print_stage(
-        st3, ident3, true,
-        title=f"Stage 3: the reduced set, {len(v3)} gains (sequential sampler, budget "
-        f"{budget3:,})",
-    )  # fmt: skip
-    cost3 = _cost(a3.trials.F, a3.pure, scale)
-    print(
-        "  is the fit kept? (same cost scale as stage 2; best values among the successful trials)"
-    )
-    print(f"    {'':<22}{'stage 2':>12}{'stage 3':>12}")
-    print(f"    {'lowest cost':<22}{np.nanmin(cost_all):12.3f}{np.nanmin(cost3):12.3f}")
-    for j, (cname, _, _, unit, _) in enumerate(CRITERIA):
-        b2 = np.nanmin(a2.trials.F[a2.ok, j])
-        b3 = np.nanmin(a3.trials.F[a3.ok, j])
-        print(f"    {'best ' + cname + ' [' + unit + ']':<22}{b2:12.4g}{b3:12.4g}")
-    print(f"    {'trials in D':<22}{a2.n_feasible:12d}{a3.n_feasible:12d}")
-    x2c = np.array([r2.chosen.get(n, np.nan) for n in names])
-    x3c = ident3.parameters(np.array([[r3.chosen.get(v[0], np.nan) for v in v3]]))[0]
-    vectors = [("Set 0", x_nom), ("stage 2 chosen", x2c), ("stage 3 chosen", x3c)]
-    vectors.append(("truth", x_true))
-    ok_vec = [(lab, x) for lab, x in vectors if np.all(np.isfinite(x))]
-    print("  trajectory error against the GPS track (RMS over the window, m; a chosen vector")
-    print("  is one the data cannot tell from the others in D, not an estimate of every gain):")
-    for lab, x in ok_vec:
-        h, v = _rms(ident8, x)
-        print(f"    {lab:<16} horizontal {h:7.1f}   vertical {v:6.2f}")
-    _report(r3, report)
+    # stage 3 runs only where the proposal changes the study: the same gains in the same boxes
+    # would be stage 2 again at a smaller budget, whose D can be no better than stage 2's
+    st3 = s3 = r3 = None
+    if not fixed and not ref3:
+        print(
+            "  stage 3 not run: nothing to fix or tie, so the reduced set is stage 2's study "
+            "itself; stage 2's D\n  above is the answer, and the 6-DoF comparison below uses "
+            "stage 2's set and evaluations"
+        )
+    else:
+        f3 = out / "parafoil-stage3.toml"
+        f3.write_text(
+            stage_toml("parafoil-stage3", v3, truth=truth, trials=stage3_trials, fixed=fixed,
+                       reference=ref3, limits_from=floors,
+                       comment="stage 3, the reduced set (fixed and tied gains under parameters)"),
+            encoding="utf-8",
+        )  # fmt: skip
+        spec3 = load_study(f3)
+        st3 = run_stage(spec3, out / "parafoil-stage3.db", trials=stage3_trials, budget=budget3,
+                        reference=ref3, progress=progress, name="stage 3", meanings=SHORT,
+                        hints=HINTS, **seq)  # fmt: skip
+        r3 = st3.result
+        a3 = r3.analysis
+        ident3 = Identification.from_spec(r3.spec)
+        s3 = _print_stage(
+            st3, ident3, true,
+            title=f"Stage 3: the reduced set, {len(v3)} gains (sequential sampler, budget "
+            f"{budget3:,})",
+        )  # fmt: skip
+        cost3 = _cost(a3.trials.F, a3.pure, scale)
+        print(
+            "  is the fit kept? (same cost scale as stage 2; best values among the successful "
+            "trials)"
+        )
+        print(f"    {'':<22}{'stage 2':>12}{'stage 3':>12}")
+        print(f"    {'lowest cost':<22}{np.nanmin(cost_all):12.3f}{np.nanmin(cost3):12.3f}")
+        for j, (cname, _, _, unit, _) in enumerate(CRITERIA):
+            b2 = np.nanmin(a2.trials.F[a2.ok, j])
+            b3 = np.nanmin(a3.trials.F[a3.ok, j])
+            print(f"    {'best ' + cname + ' [' + unit + ']':<22}{b2:12.4g}{b3:12.4g}")
+        print(f"    {'trials in D':<22}{a2.n_feasible:12d}{a3.n_feasible:12d}")
+        x2c = np.array([r2.chosen.get(n, np.nan) for n in names])
+        x3c = ident3.parameters(np.array([[r3.chosen.get(v[0], np.nan) for v in v3]]))[0]
+        vectors = [("Set 0", x_nom), ("stage 2 chosen", x2c), ("stage 3 chosen", x3c)]
+        vectors.append(("truth", x_true))
+        ok_vec = [(lab, x) for lab, x in vectors if np.all(np.isfinite(x))]
+        print("  trajectory error against the GPS track (RMS over the window, m; a chosen vector")
+        print("  is one the data cannot tell from the others in D, not an estimate of every gain):")
+        for lab, x in ok_vec:
+            h, v = _rms(ident8, x)
+            print(f"    {lab:<16} horizontal {h:7.1f}   vertical {v:6.2f}")
+        _report(r3, report)
     sys.stdout.flush()
+    # the stage the 6-DoF model is compared with: stage 3 where it ran, else stage 2
+    if st3 is not None:
+        stc, label_c, trials_c, set_c = st3, "stage 3", stage3_trials, "the reduced set"
+        xcc = x3c
+    else:
+        stc, label_c, trials_c, set_c = st2, "stage 2", trials, "stage 2's 33 gains"
+        xcc = np.array([r2.chosen.get(n, np.nan) for n in names])
+    ac = stc.result.analysis
+    budget_c = budget3 if st3 is not None else budget
 
     # ---- 6-DoF against 8-DoF ------------------------------------------------------------
     f6 = out / "parafoil-6dof.toml"
     f6.write_text(
-        stage_toml("parafoil-6dof", v3, truth=truth, trials=stage3_trials, fixed=fixed,
+        stage_toml("parafoil-6dof", v3, truth=truth, trials=trials_c, fixed=fixed,
                    model="parafoil6dof", reference=ref3, limits_from=floors,
                    comment="the rigid 6-DoF model on the same data, criteria and reduced set"),
         encoding="utf-8",
     )  # fmt: skip
     spec6 = load_study(f6)
     models.get("parafoil6dof").compile()  # first use: said before the progress bar
-    budget6 = st3.sequential.evaluations if st3.sequential is not None else budget3
-    st6 = run_stage(spec6, out / "parafoil-6dof.db", trials=stage3_trials, budget=budget6,
+    budget6 = stc.sequential.evaluations if stc.sequential is not None else budget_c
+    st6 = run_stage(spec6, out / "parafoil-6dof.db", trials=trials_c, budget=budget6,
                     reference=ref3, progress=progress, name="6-DoF", meanings=SHORT,
                     hints=HINTS, **seq)  # fmt: skip
     r6 = st6.result
-    _step_header(
-        r6, f"6-DoF model, the reduced set, the evaluations stage 3 needed ({budget6:,})"
-    )
+    _step_header(r6, f"6-DoF model, {set_c}, the evaluations {label_c} needed ({budget6:,})")
     if st6.sequential is not None:
         print(f"  sequential sampler: {st6.sequential.verdict()}")
     a6 = r6.analysis
     print(
         "  criteria constraints: the 8-DoF's noise-grounded ones (the same data, noise and "
-        f"allowance);\n  D under them: 8-DoF {st3.n_noise_feasible}, 6-DoF "
+        f"allowance);\n  D under them: 8-DoF {stc.n_noise_feasible}, 6-DoF "
         f"{st6.n_noise_feasible} trials; the relaxation each needs to hold {MIN_D}+ trials: "
-        f"8-DoF x{st3.factor:g}, 6-DoF x{st6.factor:g}"
+        f"8-DoF x{stc.factor:g}, 6-DoF x{st6.factor:g}"
     )
-    lim = st3.noise_limits
+    lim = stc.noise_limits
     table6 = {k: v for k, v in r6.spec.extra["identification"].items() if k != "parameters"}
     ident6 = Identification.from_table(  # all 33 gains as variables, like ident8
         table6, variables=names, criteria=r6.spec.criterion_names, base_dir=r6.spec.base_dir,
         default_model="parafoil6dof",
     )  # fmt: skip
     meas = rate_peaks(ident8.drops[0].measured("rates"), 1.0 / OUTPUT_DT, BANDS)
-    p8 = _model_peaks(ident8, x3c) if np.all(np.isfinite(x3c)) else None
+    p8 = _model_peaks(ident8, xcc) if np.all(np.isfinite(xcc)) else None
     x6c = Identification.from_spec(r6.spec).parameters(
         np.array([[r6.chosen.get(v[0], np.nan) for v in v3]])
     )[0]
     p6 = _model_peaks(ident6, x6c) if np.all(np.isfinite(x6c)) else None
-    n6 = min(len(a6.trials.F[a6.ok]), len(a3.trials.F[a3.ok]))
+    n6 = min(len(a6.trials.F[a6.ok]), len(ac.trials.F[ac.ok]))
     print(
         f"  best criteria over the first {n6} successful trials of each (same schedule), and how "
         "many meet the noise-grounded limit:"
@@ -977,7 +997,7 @@ def run_parafoil_demo(
     print(f"    {'criterion':<20}{'8-DoF':>11}{'6-DoF':>11}{'limit':>11}{'8 meet':>8}{'6 meet':>8}")
     share = {}
     for j, (cname, _, _, unit, _) in enumerate(CRITERIA):
-        c8 = a3.trials.F[a3.ok, j][:n6]
+        c8 = ac.trials.F[ac.ok, j][:n6]
         c6 = a6.trials.F[a6.ok, j][:n6]
         lc = lim.get(cname, np.inf)
         m8, m6 = int((c8 <= lc).sum()), int((c6 <= lc).sum())
@@ -1024,7 +1044,10 @@ def run_parafoil_demo(
     # ---- the truth check ----------------------------------------------------------------
     print()
     print("Does every identified gain's feasible range hold the generator's truth?")
-    for label, s, r in (("stage 1", s1, r1), ("stage 2", s2, r2), ("stage 3", s3, r3)):
+    ran = [("stage 1", s1, r1), ("stage 2", s2, r2)]
+    if r3 is not None:
+        ran.append(("stage 3", s3, r3))
+    for label, s, r in ran:
         ids = [v.name for v in r.verdicts if v.identified]
         held = [n for n in ids if s["inside"].get(n)]
         where = "in D" if s["truth_in_d"] else "OUTSIDE D"
@@ -1046,17 +1069,20 @@ def run_parafoil_demo(
                 "verdicts": [v.to_dict() for v in r.verdicts],
                 "truth_in_range": s["inside"],
             }
-            for label, s, r in (("stage 1", s1, r1), ("stage 2", s2, r2), ("stage 3", s3, r3))
+            for label, s, r in ran
         },
     }
+    if r3 is None:
+        summary["not run"] = {"stage 3": "nothing to fix or tie: the reduced set is stage 2's"}
     (out / "summary.json").write_text(json.dumps(summary, indent=1) + "\n", encoding="utf-8")
     print(f"  (per stage: verdicts, limits and the truth check in {out / 'summary.json'})")
     print()
     print(f"Done in {time.perf_counter() - t_start:.1f} s. Next:")
-    print(f"  vectorid identifiability {r3.store}")
+    last = r3 if r3 is not None else r2
+    print(f"  vectorid identifiability {last.store}")
     print(f"  vectorid table       {r2.store} --top 7")
     print(f"  vectorid correlation {r2.store} --set feasible")
-    print(f"  vectorid report      {r3.store} --out report.html")
+    print(f"  vectorid report      {last.store} --out report.html")
     print(f"  vectorid ui          {r2.store}")
     sys.stdout.flush()
     return 0
