@@ -240,8 +240,8 @@ def _parser() -> argparse.ArgumentParser:
     d.add_argument("--analytic", action="store_true", help="the analytic Binh–Korn demo instead")
     d.add_argument("--quiet", action="store_true", help="no progress bar")
     d.add_argument(
-        "--budget", type=positive_int, default=30_000,
-        help="parafoil: stage 2's sequential sampler, most model evaluations (default 30000, "
+        "--budget", type=positive_int, default=40_000,
+        help="parafoil: stage 2's sequential sampler, most model evaluations (default 40000, "
         "a few minutes; 250000 is the full-size run, about 20 minutes on 2 cores)",
     )  # fmt: skip
     d.add_argument(

@@ -615,7 +615,7 @@ def run_parafoil_demo(
     stage1_trials: int | None = None,
     stage3_trials: int | None = None,
     progress: bool = True,
-    budget: int = 30_000,
+    budget: int = 40_000,
     population: int = 200,
     report: bool = True,
 ) -> int:

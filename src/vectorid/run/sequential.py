@@ -245,10 +245,15 @@ class SequentialSummary(RunSummary):
                 if self.collapsed
                 else "not yet a faithful sample"
             )
+            need = (
+                f"at least {MIN_FINAL_MOVES} moves there and an ESS of "
+                f"{ESS_SHARE * self.population:.0f} are needed; ESS so far {self.ess:.0f}"
+                if self.moves
+                else f"ESS {self.ess:.0f} against {ESS_SHARE * self.population:.0f} wanted"
+            )
             return (
                 f"D not reached after {self.evaluations} evaluations: {head}; the population "
-                f"is {state} (ESS {self.ess:.0f} against {ESS_SHARE * self.population:.0f} "
-                "wanted), so it is not presented as D: raise --budget to go on"
+                f"is {state} ({need}), so it is not presented as D: raise --budget to go on"
             )
         factor = (
             f"; the nearest generation meets the limits relaxed ×{self.relaxed:.3g}"
