@@ -362,9 +362,12 @@ def _cmd_report(args: argparse.Namespace) -> int:
         if study.spec.sampler == "sequential":
             from .run.sequential import sample_note
 
-            note = sample_note(study.store, _analysis(study, args))
+            a = _analysis(study, args)
+            note = sample_note(study.store, a)
     if note:
-        print(f"{note}; the report's densities of D are importance-weighted")
+        from .analysis.weights import how_weighted
+
+        print(f"{note}; the report's densities of D are {how_weighted(a)}")
     print(
         f"report written to {res.path} ({res.size / 1e6:.1f} MB, {len(res.figures)} figures, "
         f"{res.seconds:.1f} s)"

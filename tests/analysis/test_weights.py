@@ -22,6 +22,7 @@ from vectorid.analysis.histograms import histograms
 from vectorid.analysis.refine import propose_refine
 from vectorid.analysis.sensitivity import ks_filtering, rank_correlation, sensitivity
 from vectorid.analysis.weights import (
+    how_weighted,
     trial_weights,
     weighted_ks,
     weighted_quantile,
@@ -92,6 +93,7 @@ def test_correlation_refine_and_histograms_use_the_weights(slab_store):
     a = Analysis(Store.open(db).spec, t)
     c = correlation_of(a, "feasible")
     assert c.weighted and c.to_dict()["weighted"]
+    assert how_weighted(a) == "importance-weighted"  # the mixture (fewer than 20 variables)
     # D is a product of uniforms: no strong pair; the slab's axes could be fixed at c
     assert not c.pairs, c.pairs
     fixed = {d["name"]: d for d in c.fixed}

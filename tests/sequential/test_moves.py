@@ -8,7 +8,7 @@ import pytest
 from scipy import stats
 
 from vectorid.analysis.results import Analysis
-from vectorid.analysis.weights import trial_weights
+from vectorid.analysis.weights import how_weighted, trial_weights
 from vectorid.problem import Criterion
 from vectorid.run.loop import RunInterrupted, run_store
 from vectorid.run.sequential import assess
@@ -95,6 +95,8 @@ def test_banana_in_24_dimensions_is_reached_and_covered(tmp_path):
     assert t.log_weight is not None  # so histograms weigh them
     w = trial_weights(Analysis(st.spec, t), state.members)
     assert w is not None and np.allclose(w / w.sum(), held / held.sum())
+    # and the CLI, the report and the UI say so (not "importance-weighted")
+    assert how_weighted(Analysis(st.spec, t)) == "weighted by the particles' holding times"
     X = t.X[state.members]
     assert np.all(np.abs(X[:, :K] - CENTRES) <= HALF)
     for j in range(K):  # the pinned axes: the slab's width covered

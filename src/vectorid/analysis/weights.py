@@ -30,6 +30,7 @@ from .results import Analysis
 
 __all__ = [
     "WEIGHTED_NOTE",
+    "how_weighted",
     "kish",
     "trial_weights",
     "weighted_ks",
@@ -40,6 +41,15 @@ __all__ = [
 
 #: Said wherever a weighted statistic is printed.
 WEIGHTED_NOTE = "importance-weighted (sequential sampler)"
+
+
+def how_weighted(a: Analysis) -> str:
+    """How D's densities are weighted on ``a``'s sequential store, in words: by importance
+    weights (the mixture, fewer than 20 variables) or by the particles' holding times (the
+    moves, 20 or more)."""
+    if getattr(a.trials.log_weight, "chains", False):
+        return "weighted by the particles' holding times"
+    return "importance-weighted"
 
 
 def trial_weights(a: Analysis, mask: np.ndarray | None = None) -> np.ndarray | None:

@@ -310,8 +310,18 @@ def _sequential(page: _Page, a: Analysis, store: Store) -> None:
     note = sample_note(store, a)
     if note:
         page.add(f"<p class=note>{_e(note)}</p>")
+    moved = getattr(a.trials.log_weight, "chains", False)
     page.add(
-        "<p>Later generations are drawn around the accepted trials, so the trials are not "
+        "<p>The particles moved by Markov-chain steps inside the limits, so the trials are "
+        "not uniform in the box. Densities and statistics of D in this report are "
+        "<b>weighted by the particles' holding times</b>: each member of D counts the moves "
+        "at the stated limits (after the warm-up) that ended with a particle on it, which "
+        "makes D's members a Markov-chain sample of the box's uniform density restricted to D "
+        "(correlated, and of the parts of D the particles reached); members never held weigh "
+        "0. Counts (N, ND, NP), test tables, the Pareto set and feasible "
+        "ranges are counts and extremes of trials, which weights do not change.</p>"
+        if moved
+        else "<p>Later generations are drawn around the accepted trials, so the trials are not "
         "uniform in the box. Densities and statistics of D in this report (histograms, "
         "correlation, quantiles of the double-tuning proposal, sensitivity) are "
         "<b>importance-weighted</b>: each trial's weight makes D a uniform sample of the box "

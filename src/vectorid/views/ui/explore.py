@@ -13,6 +13,7 @@ import numpy as np
 
 from ...analysis.histograms import Histogram, _edges, default_bins, histogram, histograms
 from ...analysis.results import Analysis
+from ...analysis.weights import how_weighted
 from ...errors import StudyDefinitionError, VectoridError
 from .. import clouds
 from .context import UIContext, analysis_of, fmt, num
@@ -51,7 +52,7 @@ def histograms_of(ctx: UIContext, a: Analysis) -> list[Any]:
 
 def sampler_note(ctx: UIContext, a: Analysis) -> str | None:
     """A sequential store's line under the constraints in force: evaluations, generations,
-    D's members and ESS, and that D's densities are importance-weighted (memoised per
+    D's members and ESS, and how D's densities are weighted (memoised per
     analysis); None for a plain store."""
     if ctx.spec.sampler != "sequential":
         return None
@@ -64,7 +65,7 @@ def sampler_note(ctx: UIContext, a: Analysis) -> str | None:
         memo[a] = (
             None
             if note is None
-            else (f"{note}. Histograms of D are importance-weighted; N, ND, NP count trials.")
+            else f"{note}. Histograms of D are {how_weighted(a)}; N, ND, NP count trials."
         )
     return memo[a]
 
