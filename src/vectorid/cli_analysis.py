@@ -481,7 +481,7 @@ def _cmd_hist(args: argparse.Namespace) -> int:
             if h.weighted:  # a sequential store: D's density needs the importance weights
                 print(
                     f"  {label:<25}  {'feasible':>8} {'Pareto':>7} {'weighted':>8}  # = D's "
-                    "density, importance-weighted (sequential sampler)"
+                    f"density, {h.weighted_by} (sequential sampler)"
                 )
                 peak_w = max(1e-300, float(h.feasible_weighted.max()))
                 for lo, hi, f, p, fw in zip(

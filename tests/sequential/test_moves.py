@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
+from vectorid.analysis.histograms import histograms
 from vectorid.analysis.results import Analysis
 from vectorid.analysis.weights import how_weighted, trial_weights
 from vectorid.problem import Criterion
@@ -25,6 +26,7 @@ from vectorid.sequential.moves import (
 from vectorid.space import Continuous, Space
 from vectorid.spec import StudySpec
 from vectorid.store.sqlite import Store
+from vectorid.views.clouds import histograms_figure
 
 # 24 variables: the first K pinned to within HALF of CENTRES, a curved (banana) band between
 # x[K] and x[K + 1], the others free. D is (2 HALF)^K x 0.12 = 2.6e-10 of the box.
@@ -97,6 +99,11 @@ def test_banana_in_24_dimensions_is_reached_and_covered(tmp_path):
     assert w is not None and np.allclose(w / w.sum(), held / held.sum())
     # and the CLI, the report and the UI say so (not "importance-weighted")
     assert how_weighted(Analysis(st.spec, t)) == "weighted by the particles' holding times"
+    hs = histograms(Analysis(st.spec, t))
+    assert all(h.weighted_by == "weighted by the particles' holding times" for h in hs)
+    assert "D's density weighted by the particles' holding times" in str(
+        histograms_figure(hs).layout.title.text
+    )
     X = t.X[state.members]
     assert np.all(np.abs(X[:, :K] - CENTRES) <= HALF)
     for j in range(K):  # the pinned axes: the slab's width covered

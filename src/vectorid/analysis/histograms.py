@@ -16,7 +16,7 @@ import numpy as np
 from ..space import Choice, Integer, Space, Variable
 from ..store.sqlite import Stage
 from .results import Analysis
-from .weights import trial_weights
+from .weights import how_weighted, trial_weights
 
 __all__ = ["Histogram", "default_bins", "histogram", "histograms", "stage_histograms"]
 
@@ -41,6 +41,8 @@ class Histogram:
         Sequential stores: D's importance-weighted counts per bin, scaled to D's number of
         members (the density of D over the box; the plain ``feasible`` counts follow where
         the generations sampled). None where every trial weighs the same.
+    weighted_by : str
+        How ``feasible_weighted`` is weighted, in words (:func:`~.weights.how_weighted`).
     n_outside : int
         Trials of the selection outside ``[low, high]`` (not counted; happens when a
         histogram spans a narrower box than some trials were drawn in).
@@ -56,6 +58,7 @@ class Histogram:
     stage: int | None = None
     n_outside: int = 0
     feasible_weighted: np.ndarray | None = None
+    weighted_by: str = "importance-weighted"
 
     @property
     def weighted(self) -> bool:
@@ -180,6 +183,7 @@ def histograms(
     out = []
     d = a.feasible & sel
     w = trial_weights(a, d) if d.any() else None  # scaled to D's count
+    word = how_weighted(a) if w is not None else "importance-weighted"
     for name in names:
         j = a.spec.space.index(name)
         var = space.variables[j]
@@ -197,7 +201,7 @@ def histograms(
             inside = (x >= edges[0]) & (x <= edges[-1])
             idx = np.clip(np.searchsorted(edges, x, side="right") - 1, 0, len(edges) - 2)
             fw = np.bincount(idx[inside], weights=w[inside], minlength=len(edges) - 1)
-            h = replace(h, feasible_weighted=fw)
+            h = replace(h, feasible_weighted=fw, weighted_by=word)
         out.append(h)
     return out
 

@@ -773,7 +773,7 @@ def _step(
         "customdata": cd.tolist() if enc is not _plain else cd,
         "mode": "lines",
         "hovertemplate": f"{h.param}=%{{x:.4g}}: %{{y:.3g}} % of the set"
-        + (" (importance-weighted)" if density is not None else "")
+        + (f" ({h.weighted_by})" if density is not None else "")
         + f" (%{{customdata[0]}} trials)<extra>{set_label}</extra>",
         "meta": {"class": cls, "total": int(counts.sum())},
     }
@@ -845,12 +845,12 @@ def histograms_figure(
             _step(
                 h,
                 h.feasible,
-                "in D, importance-weighted" if weighted else "in D",
+                f"in D, {h.weighted_by}" if weighted else "in D",
                 "feasible",
                 i,
                 enc,
                 density=h.feasible_weighted,
-                name=f"in D, importance-weighted (ND {int(h.feasible.sum()):,})"
+                name=f"in D, {h.weighted_by} (ND {int(h.feasible.sum()):,})"
                 if weighted
                 else f"in D (ND {int(h.feasible.sum()):,})",
                 legendgroup="feasible",
@@ -939,10 +939,11 @@ def histograms_figure(
                     "meta": {"class": "box"},
                 }
             )
-    if any(h.feasible_weighted is not None for h in hists):
+    weighted = [h for h in hists if h.feasible_weighted is not None]
+    if weighted:
         title += (
-            "; D's density importance-weighted (sequential sampler), all trials and Pareto "
-            "as sampled"
+            f"; D's density {weighted[0].weighted_by} (sequential sampler), all trials and "
+            "Pareto as sampled"
         )
     layout.update(
         _base_layout(
