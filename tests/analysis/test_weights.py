@@ -41,7 +41,9 @@ def true_ks(half: float) -> np.ndarray:
 @pytest.fixture(scope="module")
 def slab_store(tmp_path_factory):
     db = tmp_path_factory.mktemp("w") / "slab.db"
-    with Store.create(db, slab_spec(population=100)) as st:
+    # population 150: a weighted Kolmogorov distance has noise ~0.9 / sqrt(ESS), so at an ESS
+    # of 100 the 0.12 tolerances below are exceeded by chance on about one axis in ten
+    with Store.create(db, slab_spec(population=150)) as st:
         s = run_store(st, executor="inline", progress=False)
     assert s.converged, s.describe()
     with Store.open(db) as st:

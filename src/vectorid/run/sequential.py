@@ -12,11 +12,14 @@ trial; the parts that only compute live in :mod:`vectorid.sequential`.
    (ESS). It stops when D holds at least ``population`` members with an ESS of at least
    ``population`` (:data:`ESS_SHARE`), or when the budget is spent.
 3. Otherwise generation ``g + 1`` tightens each constrained criterion's limit toward its
-   Φ** (:mod:`vectorid.sequential.tolerance`; functional constraints are always hard),
-   fits a Gaussian-mixture kernel on the trials that meet the new limits
-   (:mod:`vectorid.sequential.kernel`) and draws ``GENERATION_FACTOR x population`` points
-   inside the box from it. The generation (its points and kernel) is recorded *before* it
-   is evaluated.
+   Φ** (:mod:`vectorid.sequential.tolerance`: to the tightest limits that :data:`KEEP` of
+   the trials within the last ones meet, but at least :data:`MIN_KEEP_SHARE` x
+   ``population`` trials; functional constraints are always hard), fits a Gaussian-mixture
+   kernel on the trials of every generation that meet the new limits, its free axes
+   uniform (:mod:`vectorid.sequential.kernel`), and draws ``GENERATION_FACTOR x
+   population`` points inside the box from it; a generation that aims at the stated limits
+   draws only what the ESS still wanted needs at the last generation's rate. The
+   generation (its points and kernel) is recorded *before* it is evaluated.
 4. With :data:`~vectorid.sequential.moves.MOVE_FROM` or more variables the importance
    weights degenerate, so generations 1, 2, ... instead move ``PARTICLES_FACTOR x
    population`` equally weighted particles by random-walk Metropolis steps inside the
@@ -86,18 +89,36 @@ __all__ = [
     "trial_log_weights",
 ]
 
-#: Later generations propose this many times ``population`` points.
-GENERATION_FACTOR = 2
-#: Share of the accepted population that meets the next generation's limits.
-KEEP = 0.3
+#: Later generations propose this many times ``population`` points (2 was tried: the run
+#: stops a whole generation later than it needs; parachute15 twin 2,224 against 1,824).
+GENERATION_FACTOR = 1
+#: A generation that aims at the stated limits is sized to the ESS still wanted at the last
+#: generation's rate, with this margin ...
+SIZE_MARGIN = 1.15
+#: ... and at least this share of ``population`` trials.
+MIN_GENERATION = 0.25
+#: Share of the trials within the last limits that meet the next generation's limits ...
+KEEP = 0.05
+#: ... but at least this share of ``population`` (and ``2 (p + 1)``) trials: the limits drop
+#: as fast as enough centres allow (0.3 of the trials, as before, took four generations to the
+#: stated limits on the parachute15 twin where this takes two).
+MIN_KEEP_SHARE = 0.25
 #: The run has converged when D's ESS reaches this share of ``population``.
 ESS_SHARE = 1.0
 #: Below this share of ``population``, D's ESS means the population has collapsed.
 COLLAPSE_SHARE = 0.1
-#: The kernel's covariance factor (Beaumont et al. 2009). Narrowing it to the acceptance of
-#: the last generation was tried: more members per generation, but a far lower ESS on the
-#: 15-parameter quiet twin (13 against 124 at ~25,000 evaluations): D is covered more slowly.
-SCALE = 2.0
+#: The kernel's covariance factor on the tied axes (the free ones are uniform). Beaumont et
+#: al.'s 2 (2009) was the factor while every axis was Gaussian; with the free axes drawn
+#: uniformly the tied block has few axes, and a narrower kernel wastes fewer draws outside
+#: D. Measured (parachute15 twins seeds 0-3, mean evaluations to ESS 200): 0.5: 1,684;
+#: 0.75: 1,864; 1: 1,877 (KEEP 0.1); 2: more. 0.5 made the 8-axis slab's weighted
+#: marginals deviate from uniform more than their ESS allows (16 runs: Kolmogorov p 0.03 on
+#: the tied axes, 0.2 at 0.75). A factor from the centres' spacing (12 n^(-2/t), t tied
+#: axes) was tried: 2,145 on parachute15, 10,536 against 6,224 on the quiet twin.
+SCALE = 0.75
+#: Axes along which the accepted members spread at least this share of the box's spread,
+#: unpredicted by the others, are drawn uniformly (:func:`~vectorid.sequential.kernel.free_axes`).
+FREE_FROM = 0.8
 #: With moves (:data:`~vectorid.sequential.moves.MOVE_FROM` or more variables): particles
 #: per ``population``.
 PARTICLES_FACTOR = 2
@@ -341,22 +362,7 @@ def _unit(space, X: np.ndarray) -> np.ndarray:
 
 def proposals_of(gens: Sequence[Generation], p: int) -> list[Proposal]:
     """The stored generations' proposal densities."""
-    out = []
-    for g in gens:
-        if g.proposal.get("kind") == "sobol":
-            out.append(Proposal.uniform(p))
-        else:
-            out.append(
-                Proposal(
-                    "mixture",
-                    g.centres,
-                    g.log_mix,
-                    g.chol,
-                    float(g.proposal.get("log_mass", 0.0)),
-                    int(g.proposal.get("draws", 0)),
-                )
-            )
-    return out
+    return [Proposal.stored(g.proposal, g.centres, g.log_mix, g.chol) for g in gens]
 
 
 def _generation_of(gens: Sequence[Generation], trials: Trials) -> np.ndarray:
@@ -607,7 +613,8 @@ def _score(phi: np.ndarray, floor: np.ndarray) -> np.ndarray:
     return np.where(np.isfinite(s), s, np.inf)
 
 
-def _propose(store: Store, spec, state: SequentialState, gens, n: int, trials: Trials):
+def _propose(store: Store, spec, state: SequentialState, gens, n: int, trials: Trials,
+             population: int):  # fmt: skip
     """Generation ``len(gens)``'s points and record (a function of the seed, the generation
     number, the limits and the stored trials of earlier generations only)."""
     g = len(gens)
@@ -616,14 +623,18 @@ def _propose(store: Store, spec, state: SequentialState, gens, n: int, trials: T
     phi = state.phi
     with np.errstate(invalid="ignore"):
         in_prev = state.usable & np.all(phi <= eps_prev, axis=1)
-    eps = next_tolerance(phi[in_prev], eps_prev, state.floor, KEEP)
+    least = max(MIN_KEEP_SHARE * population, 2 * (len(spec.space) + 1))
+    keep = min(1.0, max(KEEP, least / max(int(in_prev.sum()), 1)))
+    eps = next_tolerance(phi[in_prev], eps_prev, state.floor, keep)
     with np.errstate(invalid="ignore"):
         centres = state.usable & np.all(phi <= eps, axis=1)
+    if np.all(eps <= state.floor):
+        n = _final_size(state, gens, n, population)
     U = _unit(spec.space, trials.X[centres])
     log_w = _cached_log_weights(store, spec, trials, state.generation, state.proposals,
                                 state.counts, centres)  # fmt: skip
     scale = SCALE
-    kernel = fit_proposal(U, log_w, rng, scale=scale)
+    kernel = fit_proposal(U, log_w, rng, scale=scale, free_from=FREE_FROM)
     try:
         Unew, kernel = kernel.sample(n, rng)
     except RuntimeError:
@@ -635,8 +646,9 @@ def _propose(store: Store, spec, state: SequentialState, gens, n: int, trials: T
         "log_mass": kernel.log_mass,
         "draws": kernel.draws,
         "centres_from": int(centres.sum()),
-        "keep": KEEP,
+        "keep": keep,
         "scale": scale,
+        "free": [int(j) for j in kernel.free],
     }
     return X, record, kernel
 
@@ -957,7 +969,7 @@ def _drive(store, spec, gens, budget, population, evaluate, say, summary):
                                  trials, budget - evaluations)  # fmt: skip
         else:
             n = min(int(GENERATION_FACTOR * population), budget - evaluations)
-            made = _propose(store, spec, state, gens, n, trials)
+            made = _propose(store, spec, state, gens, n, trials, population)
         if made is None:
             say("the proposal puts almost no mass inside the box: stopped")
             return state
@@ -967,6 +979,23 @@ def _drive(store, spec, gens, budget, population, evaluate, say, summary):
             len(gens), start, X, record, kernel.centres, kernel.log_mix, kernel.chol
         )
         gens = store.generations()
+
+
+def _final_size(state: SequentialState, gens, full: int, population: int) -> int:
+    """Trials of a generation that aims at the stated limits: as many as the ESS still wanted
+    needs at the rate of the last generation (members of D it added per trial x D's ESS per
+    member; a generation aiming at the stated limits does at least as well as one aiming
+    wider), with :data:`SIZE_MARGIN` to spare; ``full`` when the last generation added none."""
+    if len(gens) < 2:
+        return full
+    last = gens[-1].gen
+    added = int(np.sum(state.members & (state.generation == last)))
+    members = int(state.members.sum())
+    if not added or not members:
+        return full
+    rate = added / max(state.counts[last], 1) * state.ess / members
+    need = (population * ESS_SHARE - state.ess) / max(rate, 1e-12) * SIZE_MARGIN
+    return int(min(full, max(MIN_GENERATION * population, math.ceil(need))))
 
 
 def _relaxed_of_best(state: SequentialState, population: int) -> float | None:

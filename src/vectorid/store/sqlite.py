@@ -1982,14 +1982,8 @@ def _weigher(spec: StudySpec, gens: Sequence[Generation]) -> Any:
     from ..sequential.kernel import Proposal
     from ..sequential.weights import log_weights
 
-    p = len(spec.space)
     lows, widths = spec.space.lows, spec.space.highs - spec.space.lows
-    props = [
-        Proposal.uniform(p)
-        if g.proposal.get("kind") == "sobol"
-        else Proposal("mixture", g.centres, g.log_mix, g.chol, float(g.proposal["log_mass"]))
-        for g in gens
-    ]
+    props = [Proposal.stored(g.proposal, g.centres, g.log_mix, g.chol) for g in gens]
     counts = [g.n for g in gens]
 
     def log_weight(X: np.ndarray) -> np.ndarray:
