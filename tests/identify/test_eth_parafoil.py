@@ -78,3 +78,28 @@ def test_eth_flights_glide_and_turn_control(tmp_path):
         assert set(src.values()) == {"noise"}
     # verdicts for every design variable, a value printed only for identified ones
     assert [v.name for v in r["step"].verdicts] == a.spec.space.names
+
+
+@pytest.mark.slow
+def test_eth_flights_reach_the_physical_floor_not_a_misfit(tmp_path_factory):
+    """Issue 22 on the real flights, as docs/identification.md runs them (its slow block, run
+    once per session and shared with tests/test_docs.py): D at the stated limits is not reached
+    within physical gains, but the sampler's nearest generation and the local search come within
+    a few per cent of the limits, pressed against Cnr's physical floor, so the run says the box
+    may be too narrow there and never that the model or the limits do not fit. (A faster
+    tightening stalled at x1.11-x1.33 inside the box and said the model may not fit.)"""
+    import re
+
+    from tests.test_docs import SLOW_BLOCKS, run_slow_block
+
+    found = [b for b in SLOW_BLOCKS if b.path.name == "identification.md"
+             and "examples/eth_parafoil.py" in b.text]  # fmt: skip
+    assert len(found) == 1, [b.where for b in found]
+    _, text = run_slow_block(found[0], tmp_path_factory)
+    line = next(ln for ln in text.splitlines() if "sequential sampler:" in ln)
+    assert "may not fit" not in text and "do not fit" not in text, line
+    if "D reached" not in line:
+        nearest = float(re.search(r"nearest generation meets the limits relaxed ×([\d.]+)", line)
+                        .group(1))  # fmt: skip
+        assert nearest <= 1.05, line
+        assert "pressed against the box" in line and "Cnr" in line, line

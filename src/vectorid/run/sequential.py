@@ -12,14 +12,18 @@ trial; the parts that only compute live in :mod:`vectorid.sequential`.
    (ESS). It stops when D holds at least ``population`` members with an ESS of at least
    ``population`` (:data:`ESS_SHARE`), or when the budget is spent.
 3. Otherwise generation ``g + 1`` tightens each constrained criterion's limit toward its
-   Φ** (:mod:`vectorid.sequential.tolerance`: to the tightest limits that :data:`KEEP` of
-   the trials within the last ones meet, but at least :data:`MIN_KEEP_SHARE` x
-   ``population`` trials; functional constraints are always hard), fits a Gaussian-mixture
-   kernel on the trials of every generation that meet the new limits, its free axes
-   uniform (:mod:`vectorid.sequential.kernel`), and draws ``GENERATION_FACTOR x
-   population`` points inside the box from it; a generation that aims at the stated limits
-   draws only what the ESS still wanted needs at the last generation's rate. The
-   generation (its points and kernel) is recorded *before* it is evaluated.
+   Φ** (:mod:`vectorid.sequential.tolerance`; functional constraints are always hard), fits
+   a Gaussian-mixture kernel on the trials of every generation that meet the new limits
+   (:mod:`vectorid.sequential.kernel`) and draws points inside the box from it, in one of
+   two schedules. *Searching* (D at the stated limits holds no member yet): the limits that
+   :data:`SEARCH_KEEP` of the trials within the last ones meet, every axis Gaussian with
+   covariance factor :data:`SEARCH_SCALE`, ``SEARCH_GENERATION_FACTOR x population`` points.
+   *D found*: the limits that :data:`KEEP` of those trials meet (but at least
+   :data:`MIN_KEEP_SHARE` x ``population`` trials), the free axes uniform and the tied ones
+   with factor :data:`SCALE`, ``GENERATION_FACTOR x population`` points; a generation that
+   aims at the stated limits draws only what the ESS still wanted needs at the last
+   generation's rate. The generation (its points, kernel and schedule) is recorded *before*
+   it is evaluated.
 4. With :data:`~vectorid.sequential.moves.MOVE_FROM` or more variables the importance
    weights degenerate, so generations 1, 2, ... instead move ``PARTICLES_FACTOR x
    population`` equally weighted particles by random-walk Metropolis steps inside the
@@ -89,35 +93,54 @@ __all__ = [
     "trial_log_weights",
 ]
 
-#: Later generations propose this many times ``population`` points (2 was tried: the run
-#: stops a whole generation later than it needs; parachute15 twin 2,224 against 1,824).
+#: Until D at the stated limits holds a member ("searching"), generations follow a careful
+#: schedule (SEARCH_*): where D is hard to reach, the population must not narrow onto the first
+#: region that looks good. Measured on the ETH flights (12 variables, D not reached, 50,000
+#: evaluations; ``examples/eth_parafoil.py``): keeping half the trials and drawing 4 x population
+#: per generation, the nearest generation meets the limits x1.02 with Cnr against its physical
+#: floor; 0.3 and 2 x population stalled at x1.11 inside the box, and the faster settings below
+#: at x1.33 (docs/sequential.md). Once a member of D is known, the population knows where D is,
+#: and the faster settings reach a faithful sample in a third of the evaluations (parachute15
+#: twins seeds 0-5: 1,894 evaluations on average against 5,957).
+#: Members of D at the stated limits that end the search.
+FOUND = 1
+#: Searching: share of the trials within the last limits that meet the next ones ...
+SEARCH_KEEP = 0.5
+#: ... this many times ``population`` points per generation ...
+SEARCH_GENERATION_FACTOR = 4
+#: ... and the kernel's covariance factor (Beaumont et al. 2009), every axis Gaussian.
+SEARCH_SCALE = 2.0
+#: D found: later generations propose this many times ``population`` points (2 was tried:
+#: the run stops a whole generation later than it needs; parachute15 twin 2,224 against 1,824).
 GENERATION_FACTOR = 1
 #: A generation that aims at the stated limits is sized to the ESS still wanted at the last
 #: generation's rate, with this margin ...
 SIZE_MARGIN = 1.15
 #: ... and at least this share of ``population`` trials.
 MIN_GENERATION = 0.25
-#: Share of the trials within the last limits that meet the next generation's limits ...
+#: D found: share of the trials within the last limits that meet the next generation's
+#: limits ...
 KEEP = 0.05
 #: ... but at least this share of ``population`` (and ``2 (p + 1)``) trials: the limits drop
-#: as fast as enough centres allow (0.3 of the trials, as before, took four generations to the
-#: stated limits on the parachute15 twin where this takes two).
+#: as fast as enough centres allow (0.3 of the trials took four generations to the stated
+#: limits on the parachute15 twin where this takes two).
 MIN_KEEP_SHARE = 0.25
 #: The run has converged when D's ESS reaches this share of ``population``.
 ESS_SHARE = 1.0
 #: Below this share of ``population``, D's ESS means the population has collapsed.
 COLLAPSE_SHARE = 0.1
-#: The kernel's covariance factor on the tied axes (the free ones are uniform). Beaumont et
-#: al.'s 2 (2009) was the factor while every axis was Gaussian; with the free axes drawn
-#: uniformly the tied block has few axes, and a narrower kernel wastes fewer draws outside
+#: D found: the kernel's covariance factor on the tied axes (the free ones are uniform).
+#: Beaumont et al.'s 2 (2009) was the factor while every axis was Gaussian; with the free axes
+#: drawn uniformly the tied block has few axes, and a narrower kernel wastes fewer draws outside
 #: D. Measured (parachute15 twins seeds 0-3, mean evaluations to ESS 200): 0.5: 1,684;
 #: 0.75: 1,864; 1: 1,877 (KEEP 0.1); 2: more. 0.5 made the 8-axis slab's weighted
 #: marginals deviate from uniform more than their ESS allows (16 runs: Kolmogorov p 0.03 on
 #: the tied axes, 0.2 at 0.75). A factor from the centres' spacing (12 n^(-2/t), t tied
 #: axes) was tried: 2,145 on parachute15, 10,536 against 6,224 on the quiet twin.
 SCALE = 0.75
-#: Axes along which the accepted members spread at least this share of the box's spread,
-#: unpredicted by the others, are drawn uniformly (:func:`~vectorid.sequential.kernel.free_axes`).
+#: D found: axes along which the accepted members spread at least this share of the box's
+#: spread, unpredicted by the others, are drawn uniformly
+#: (:func:`~vectorid.sequential.kernel.free_axes`).
 FREE_FROM = 0.8
 #: With moves (:data:`~vectorid.sequential.moves.MOVE_FROM` or more variables): particles
 #: per ``population``.
@@ -623,18 +646,20 @@ def _propose(store: Store, spec, state: SequentialState, gens, n: int, trials: T
     phi = state.phi
     with np.errstate(invalid="ignore"):
         in_prev = state.usable & np.all(phi <= eps_prev, axis=1)
-    least = max(MIN_KEEP_SHARE * population, 2 * (len(spec.space) + 1))
-    keep = min(1.0, max(KEEP, least / max(int(in_prev.sum()), 1)))
+    searching = _searching(state)
+    least = max((0 if searching else MIN_KEEP_SHARE) * population, 2 * (len(spec.space) + 1))
+    keep = min(1.0, max(SEARCH_KEEP if searching else KEEP, least / max(int(in_prev.sum()), 1)))
     eps = next_tolerance(phi[in_prev], eps_prev, state.floor, keep)
     with np.errstate(invalid="ignore"):
         centres = state.usable & np.all(phi <= eps, axis=1)
     if np.all(eps <= state.floor):
         n = _final_size(state, gens, n, population)
+    scale = SEARCH_SCALE if searching else SCALE
     U = _unit(spec.space, trials.X[centres])
     log_w = _cached_log_weights(store, spec, trials, state.generation, state.proposals,
                                 state.counts, centres)  # fmt: skip
-    scale = SCALE
-    kernel = fit_proposal(U, log_w, rng, scale=scale, free_from=FREE_FROM)
+    kernel = fit_proposal(U, log_w, rng, scale=scale,
+                          free_from=None if searching else FREE_FROM)  # fmt: skip
     try:
         Unew, kernel = kernel.sample(n, rng)
     except RuntimeError:
@@ -648,6 +673,7 @@ def _propose(store: Store, spec, state: SequentialState, gens, n: int, trials: T
         "centres_from": int(centres.sum()),
         "keep": keep,
         "scale": scale,
+        "search": searching,
         "free": [int(j) for j in kernel.free],
     }
     return X, record, kernel
@@ -968,7 +994,8 @@ def _drive(store, spec, gens, budget, population, evaluate, say, summary):
             made = _propose_move(store, spec, state, gens, PARTICLES_FACTOR * population,
                                  trials, budget - evaluations)  # fmt: skip
         else:
-            n = min(int(GENERATION_FACTOR * population), budget - evaluations)
+            gf = SEARCH_GENERATION_FACTOR if _searching(state) else GENERATION_FACTOR
+            n = min(int(gf * population), budget - evaluations)
             made = _propose(store, spec, state, gens, n, trials, population)
         if made is None:
             say("the proposal puts almost no mass inside the box: stopped")
@@ -979,6 +1006,12 @@ def _drive(store, spec, gens, budget, population, evaluate, say, summary):
             len(gens), start, X, record, kernel.centres, kernel.log_mix, kernel.chol
         )
         gens = store.generations()
+
+
+def _searching(state: SequentialState) -> bool:
+    """True while D at the stated limits holds fewer than :data:`FOUND` members: the next
+    generation follows the careful schedule (``SEARCH_*``)."""
+    return int(state.members.sum()) < FOUND
 
 
 def _final_size(state: SequentialState, gens, full: int, population: int) -> int:
