@@ -174,4 +174,5 @@ def test_hist_text_labels_its_count_columns(store, capsys):
     rows = [ln.split(")")[1].split()[:2] for ln in lines[2:7]]
     doc_code, doc, _ = run_cli(capsys, "hist", store, "--param", "x1", "--bins", 5, "--json")
     h = json.loads(doc)["histograms"][0]
+    assert h["feasible_weighted"] is None and h["feasible_weighted_by"] is None  # a plain table
     assert [int(r[0]) for r in rows] == h["feasible"] and [int(r[1]) for r in rows] == h["pareto"]

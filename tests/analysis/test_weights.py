@@ -96,6 +96,9 @@ def test_correlation_refine_and_histograms_use_the_weights(slab_store):
     c = correlation_of(a, "feasible")
     assert c.weighted and c.to_dict()["weighted"]
     assert how_weighted(a) == "importance-weighted"  # the mixture (fewer than 20 variables)
+    hd = histograms(a)[0].to_dict()  # `vectorid hist --json` names it too
+    assert hd["feasible_weighted"] is not None
+    assert hd["feasible_weighted_by"] == "importance-weighted"
     # D is a product of uniforms: no strong pair; the slab's axes could be fixed at c
     assert not c.pairs, c.pairs
     fixed = {d["name"]: d for d in c.fixed}

@@ -101,6 +101,8 @@ def test_banana_in_24_dimensions_is_reached_and_covered(tmp_path):
     assert how_weighted(Analysis(st.spec, t)) == "weighted by the particles' holding times"
     hs = histograms(Analysis(st.spec, t))
     assert all(h.weighted_by == "weighted by the particles' holding times" for h in hs)
+    held_by = "weighted by the particles' holding times"
+    assert all(h.to_dict()["feasible_weighted_by"] == held_by for h in hs)  # hist --json
     assert "D's density weighted by the particles' holding times" in str(
         histograms_figure(hs).layout.title.text
     )

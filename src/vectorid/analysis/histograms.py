@@ -89,6 +89,8 @@ class Histogram:
             "feasible_weighted": None
             if self.feasible_weighted is None
             else self.feasible_weighted.tolist(),
+            # what the weighted density's weights are (None where D's density is counts)
+            "feasible_weighted_by": None if self.feasible_weighted is None else self.weighted_by,
         }
 
 
