@@ -388,3 +388,31 @@ def test_a_rebuilt_sequential_store_keeps_its_generations(tmp_path):
         after = assess(copy)
     np.testing.assert_array_equal(after.members, before.members)
     np.testing.assert_allclose(after.log_w[after.members], before.log_w[before.members])
+
+
+def slanted_valley(X):
+    """D: x1 within 0.02 of 0.5 and x0 within 0.002 of 0.2 + 0.3 x1 (a thin slanted strip)."""
+    return np.column_stack([np.abs(X[:, 0] - 0.3 * X[:, 1] - 0.2), np.abs(X[:, 1] - 0.5)]), \
+        np.zeros((len(X), 0))  # fmt: skip
+
+
+def test_local_search_is_not_stopped_by_a_kink(tmp_path):
+    """Where both criteria are at their limit's ratio together (a kink of max_l Φ_l/Φ**_l), no
+    coordinate step lowers both when the strip is slanted; a coordinate search from the best
+    Sobol trial stopped there (x3.5 of the limits after 76 evaluations) and the run said the
+    model or the limits may not fit.
+    The rotated polls and further starts find D, which is not empty."""
+    spec = StudySpec(
+        name="valley", model=slanted_valley,
+        space=Space([Continuous("x0", 0.0, 1.0), Continuous("x1", 0.0, 1.0)]),
+        criteria=(Criterion("f0", limit=0.002), Criterion("f1", limit=0.02)),
+        sampler="sequential", trials=64, budget=64, population=20, seed=0,
+    )  # fmt: skip
+    with Store.create(tmp_path / "valley.db", spec) as st:
+        s = run_store(st, executor="inline", progress=False)
+    text = s.describe()
+    assert s.members == 0 and s.search is not None, text
+    assert s.search.met and "D is not empty" in text, text
+    assert "may not fit" not in text
+    x0, x1 = s.search.x
+    assert abs(x0 - 0.3 * x1 - 0.2) <= 0.002 and abs(x1 - 0.5) <= 0.02

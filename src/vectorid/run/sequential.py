@@ -39,8 +39,8 @@ computes, none lost or repeated.
 
 When the budget is spent before D holds the population, the summary says how far it got
 (the limits the last generation met, as a factor on Φ**). Only if a local search from the
-best trials (a compass search evaluated in batches, stored as an auxiliary stage of kind
-``"search"``) also fails to meet every limit, with its best vector inside the box, does it
+best trials (a pattern search from several starts, evaluated in batches, stored as an
+auxiliary stage of kind ``"search"``) also fails to meet every limit, with its best vector inside the box, does it
 say that the model or the limits may not fit the data, with the best vector found; a best
 vector on the box's edge means the box may be too narrow there (the variables and edges are
 named).
@@ -149,6 +149,11 @@ PARTICLES_FACTOR = 2
 MOVE_KEEP = 0.7
 #: Most evaluations of the local search made when the budget is spent before D is reached.
 SEARCH_EVALUATIONS = 4000
+#: A start of the local search ends when its step (share of each variable's width) falls below
+#: this; the next start is the best trial farther than :data:`SEARCH_SEPARATION` (max over the
+#: variables, share of the width) from every earlier start and end.
+SEARCH_MIN_STEP = 1e-4
+SEARCH_SEPARATION = 0.05
 #: A search's best vector within this share of a variable's width from the box's side is
 #: "against the edge": the search was held there (on the ETH flights it stopped 0.06 % of
 #: the width from a side, its steps toward it no better).
@@ -176,6 +181,8 @@ class LocalSearch:
         Variables of ``x`` against the box's edge (within :data:`EDGE_SHARE` of its width):
         ``(name, "low" or "high", the edge's value)``. A search that ends pressed against the
         box says the box may be too narrow, not that the model misses.
+    starts : int
+        Trials it started from (the best first, then the best not near an earlier start).
     """
 
     start: int
@@ -185,6 +192,7 @@ class LocalSearch:
     evaluations: int
     stage: int
     edges: list[tuple[str, str, float]] = field(default_factory=list)
+    starts: int = 1
 
     @property
     def met(self) -> bool:
@@ -290,13 +298,13 @@ class SequentialSummary(RunSummary):
         best = ", ".join(f"{n}={v:.6g}" for n, v in zip(self.names, s.x))
         if s.met:
             return (
-                f"{text}; a local search from the best trial ({s.start}) found a vector that "
+                f"{text}; a local search from the best {_starts(s)} found a vector that "
                 f"meets every limit (×{s.factor:.3g}, {s.evaluations} evaluations, stage "
                 f"{s.stage}): D is not empty, the sampler did not reach it within the budget — "
                 f"raise --budget. Vector: {best}"
             )
         missed = (
-            f"{text}; a local search from the best trial ({s.start}) also misses: its best "
+            f"{text}; a local search from the best {_starts(s)} also misses: its best "
             f"vector meets the limits only relaxed ×{s.factor:.3g} ({s.evaluations} "
             f"evaluations, stage {s.stage})"
         )
@@ -1041,23 +1049,34 @@ def _relaxed_of_best(state: SequentialState, population: int) -> float | None:
 
 
 def _local_search(store, spec, state: SequentialState, pool, say) -> LocalSearch | None:
-    """Compass search in unit coordinates from the best trial, 2p points per batch."""
+    """Pattern search in unit coordinates from the best trials, 2p points per batch.
+
+    Each poll tries the 2p coordinate steps; where none improves, it tries once more along a
+    random orthonormal basis (the criteria's max-ratio score has kinks, at which no coordinate
+    step may improve although a slanted one does) before halving the step. A start ends when
+    its step falls below :data:`SEARCH_MIN_STEP`; the next starts from the best trial not yet
+    near a start or an end (:data:`SEARCH_SEPARATION`), until a vector meets every limit or
+    :data:`SEARCH_EVALUATIONS` are spent. Seeded by the study's seed: a function of the stored
+    trials only.
+    """
     trials = store.load(stages=[0])
     score = np.where(state.usable, _score(state.phi, state.floor), np.inf)
     if not np.isfinite(score).any():
         return None
-    best = int(np.argmin(score))
-    start_id = int(trials.id[best])
-    u = _unit(spec.space, trials.X[best])
-    s = float(score[best])
-    p = len(u)
+    order = [int(i) for i in np.argsort(score, kind="stable") if np.isfinite(score[i])]
+    U0 = _unit(spec.space, trials.X)
+    p = U0.shape[1]
+    rng = np.random.default_rng([int(spec.seed), 0x5EA])
+    first = order[0]
+    start_id = int(trials.id[first])
     stage = store.add_stage(spec.space, kind="search", note=f"local search from trial {start_id}")
-    seq = 0
-    step = 0.05
-    used = 0
-    say(f"local search from trial {start_id} (limits ×{s:.3g})")
-    while used < SEARCH_EVALUATIONS and step > 1e-5 and s > 1.0:
-        E = np.vstack([np.eye(p), -np.eye(p)]) * step
+    senses = [spec.criteria[j].sense for j in state.constrained]
+    seq = used = starts = 0
+    best_u, best_s = U0[first], float(score[first])
+    visited: list[np.ndarray] = []
+
+    def poll(u: np.ndarray, E: np.ndarray) -> tuple[np.ndarray, float]:
+        nonlocal seq, used
         Ub = np.clip(u + E, 0.0, 1.0)
         X = spec.space.scale(Ub)
         res = None
@@ -1076,18 +1095,43 @@ def _local_search(store, spec, state: SequentialState, pool, say) -> LocalSearch
                 ok &= (col >= (-np.inf if c.low is None else c.low)) & (
                     col <= (np.inf if c.high is None else c.high)
                 )
-        senses = [spec.criteria[j].sense for j in state.constrained]
         sc = np.where(ok, _score(oriented(res.criteria[:, state.constrained], senses),
                                  state.floor), np.inf)  # fmt: skip
         i = int(np.argmin(sc))
-        if sc[i] < s:
-            u, s = Ub[i], float(sc[i])
-        else:
-            step *= 0.5
-    say(f"local search: {used} evaluations, best limits ×{s:.3g}")
-    edges = search_edges(spec, u)
-    return LocalSearch(start_id, float(score[best]), s, spec.space.scale(u[None])[0], used,
-                       stage.stage, edges)  # fmt: skip
+        return Ub[i], float(sc[i])
+
+    say(f"local search from trial {start_id} (limits ×{best_s:.3g})")
+    for i in order:
+        if used >= SEARCH_EVALUATIONS or best_s <= 1.0:
+            break
+        if any(np.max(np.abs(U0[i] - v)) < SEARCH_SEPARATION for v in visited):
+            continue
+        u, s = U0[i], float(score[i])
+        visited.append(u)
+        starts += 1
+        step = 0.05
+        while used < SEARCH_EVALUATIONS and step > SEARCH_MIN_STEP and s > 1.0:
+            eye = np.eye(p)
+            un, sn = poll(u, np.vstack([eye, -eye]) * step)
+            if sn >= s and used < SEARCH_EVALUATIONS:
+                Q, _ = np.linalg.qr(rng.standard_normal((p, p)))
+                un, sn = poll(u, np.vstack([Q.T, -Q.T]) * step)
+            if sn < s:
+                u, s = un, sn
+            else:
+                step *= 0.5
+        visited.append(u)
+        if s < best_s:
+            best_u, best_s = u, s
+    say(f"local search: {used} evaluations from {starts} start(s), best limits ×{best_s:.3g}")
+    edges = search_edges(spec, best_u)
+    return LocalSearch(start_id, float(score[first]), best_s, spec.space.scale(best_u[None])[0],
+                       used, stage.stage, edges, starts)  # fmt: skip
+
+
+def _starts(s: LocalSearch) -> str:
+    """"trial (id)" or "trials (id and k more)" for the search's message."""
+    return f"trial ({s.start})" if s.starts <= 1 else f"trials ({s.start} and {s.starts - 1} more)"
 
 
 def search_edges(
