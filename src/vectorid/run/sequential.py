@@ -40,10 +40,10 @@ computes, none lost or repeated.
 When the budget is spent before D holds the population, the summary says how far it got
 (the limits the last generation met, as a factor on Φ**). Only if a local search from the
 best trials (a pattern search from several starts, evaluated in batches, stored as an
-auxiliary stage of kind ``"search"``) also fails to meet every limit, with its best vector inside the box, does it
-say that the model or the limits may not fit the data, with the best vector found; a best
-vector on the box's edge means the box may be too narrow there (the variables and edges are
-named).
+auxiliary stage of kind ``"search"``) also fails to meet every limit, with its best vector
+inside the box, does it say that the model or the limits may not fit the data, with the best
+vector found; a best vector on the box's edge means the box may be too narrow there (the
+variables and edges are named).
 """
 
 from __future__ import annotations
