@@ -147,8 +147,10 @@ FREE_FROM = 0.8
 PARTICLES_FACTOR = 2
 #: With moves: share of the particles that meet the next generation's limits.
 MOVE_KEEP = 0.7
-#: Most evaluations of the local search made when the budget is spent before D is reached.
+#: Most evaluations of the local search made when the budget is spent before D is reached ...
 SEARCH_EVALUATIONS = 4000
+#: ... and no more than the sampler's budget, but at least this many.
+SEARCH_FLOOR = 500
 #: A start of the local search ends when its step (share of each variable's width) falls below
 #: this; the next start is the best trial farther than :data:`SEARCH_SEPARATION` (max over the
 #: variables, share of the width) from every earlier start and end.
@@ -935,7 +937,7 @@ def run_sequential(
             else:
                 state = _drive(store, spec, gens, budget, population, evaluate, say, summary)
                 if search and state is not None and not summary.converged and summary.members == 0:
-                    summary.search = _local_search(store, spec, state, pool, say)
+                    summary.search = _local_search(store, spec, state, pool, say, budget)
     except KeyboardInterrupt:
         outcome = "interrupted"
         raise RunInterrupted(summary) from None
@@ -1048,7 +1050,8 @@ def _relaxed_of_best(state: SequentialState, population: int) -> float | None:
     return float(max(1.0, s[min(population, len(s)) - 1]))
 
 
-def _local_search(store, spec, state: SequentialState, pool, say) -> LocalSearch | None:
+def _local_search(store, spec, state: SequentialState, pool, say,
+                  budget: int) -> LocalSearch | None:  # fmt: skip
     """Pattern search in unit coordinates from the best trials, 2p points per batch.
 
     Each poll tries the 2p coordinate steps; where none improves, it tries once more along a
@@ -1056,7 +1059,8 @@ def _local_search(store, spec, state: SequentialState, pool, say) -> LocalSearch
     step may improve although a slanted one does) before halving the step. A start ends when
     its step falls below :data:`SEARCH_MIN_STEP`; the next starts from the best trial not yet
     near a start or an end (:data:`SEARCH_SEPARATION`), until a vector meets every limit or
-    :data:`SEARCH_EVALUATIONS` are spent. Seeded by the study's seed: a function of the stored
+    :data:`SEARCH_EVALUATIONS` are spent, but no more than the sampler's ``budget`` (at least
+    :data:`SEARCH_FLOOR`). Seeded by the study's seed: a function of the stored
     trials only.
     """
     trials = store.load(stages=[0])
@@ -1100,9 +1104,10 @@ def _local_search(store, spec, state: SequentialState, pool, say) -> LocalSearch
         i = int(np.argmin(sc))
         return Ub[i], float(sc[i])
 
+    cap = min(SEARCH_EVALUATIONS, max(int(budget), SEARCH_FLOOR))
     say(f"local search from trial {start_id} (limits ×{best_s:.3g})")
     for i in order:
-        if used >= SEARCH_EVALUATIONS or best_s <= 1.0:
+        if used >= cap or best_s <= 1.0:
             break
         if any(np.max(np.abs(U0[i] - v)) < SEARCH_SEPARATION for v in visited):
             continue
@@ -1110,10 +1115,10 @@ def _local_search(store, spec, state: SequentialState, pool, say) -> LocalSearch
         visited.append(u)
         starts += 1
         step = 0.05
-        while used < SEARCH_EVALUATIONS and step > SEARCH_MIN_STEP and s > 1.0:
+        while used < cap and step > SEARCH_MIN_STEP and s > 1.0:
             eye = np.eye(p)
             un, sn = poll(u, np.vstack([eye, -eye]) * step)
-            if sn >= s and used < SEARCH_EVALUATIONS:
+            if sn >= s and used < cap:
                 Q, _ = np.linalg.qr(rng.standard_normal((p, p)))
                 un, sn = poll(u, np.vstack([Q.T, -Q.T]) * step)
             if sn < s:
