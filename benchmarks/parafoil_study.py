@@ -74,7 +74,7 @@ def main(argv: list[str] | None = None) -> int:
 
     from vectorid.identify import Identification
     from vectorid.spec import load_study
-    from vectorid.store.sqlite import Store
+    from vectorid.store import Store
 
     folder = Path(args.keep) if args.keep else Path(tempfile.mkdtemp(prefix="vectorid-bench-"))
     folder.mkdir(parents=True, exist_ok=True)

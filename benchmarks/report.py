@@ -35,10 +35,10 @@ import _machine
 
 def synthetic_store(path: Path, n: int, k: int, p: int, seed: int = 0):
     from vectorid.problem import Criterion, FunctionalConstraint
-    from vectorid.sampling import Sampler
+    from vectorid.sampling import PointSequence
     from vectorid.space import Continuous, Space
     from vectorid.spec import StudySpec
-    from vectorid.store.sqlite import Store
+    from vectorid.store import Store
 
     space = Space([Continuous(f"c{j + 1}", 0.2, 2.0, nominal=1.0) for j in range(p)])
     crit = [Criterion(f"f{i + 1}", "min", "pure" if i < 4 else "pseudo") for i in range(k)]
@@ -51,7 +51,7 @@ def synthetic_store(path: Path, n: int, k: int, p: int, seed: int = 0):
         trials=n,
     )
     store = Store.create(path, spec)
-    X = space.scale(Sampler(p, "sobol").points(0, n))
+    X = space.scale(PointSequence(p, "sobol").points(0, n))
     rng = np.random.default_rng(seed)
     U = (X - 0.2) / 1.8
     F = np.empty((n, k))
@@ -202,7 +202,7 @@ def main() -> None:
     print(_machine.describe())
 
     from vectorid.analysis import Analysis
-    from vectorid.store.sqlite import Store
+    from vectorid.store import Store
     from vectorid.views.report import write_report
 
     with tempfile.TemporaryDirectory() as tmp:
@@ -215,7 +215,7 @@ def main() -> None:
         )
         store = Store.open(path)
         t0 = time.perf_counter()
-        a = Analysis(store.spec, store.load(), limits)
+        a = Analysis.of_store(store, limits)
         stages = store.stages()
         print(
             f"load + analysis: {time.perf_counter() - t0:.2f} s; N={a.n} ND={a.n_feasible} "

@@ -130,7 +130,7 @@ def make_spec(folder: Path, model: str, duration: float) -> StudySpec:
 
 
 def batches(spec: StudySpec, n_trials: int, batch: int):
-    X = spec.space.scale(spec.sampler_for().points(0, n_trials))
+    X = spec.space.scale(spec.point_sequence().points(0, n_trials))
     return [(s, X[s : s + batch]) for s in range(0, n_trials, batch)]
 
 

@@ -24,7 +24,7 @@ from pathlib import Path
 import _machine
 from vectorid import Study
 from vectorid.spec import StudySpec
-from vectorid.store.sqlite import Store
+from vectorid.store import Store
 
 STUDY = {
     "study": {"name": "disk", "model": "binh-korn", "trials": 0, "seed": 1},

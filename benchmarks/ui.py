@@ -84,7 +84,7 @@ def _synthetic_store():
 
 
 def make_store(path: Path, n: int, k: int, p: int) -> None:
-    from vectorid.store.sqlite import Store
+    from vectorid.store import Store
 
     limits = _synthetic_store()(path, n, k, p)
     with Store.open(path, write=True) as st:  # four criteria constraints with the study
@@ -589,7 +589,7 @@ GOALS = {
 def store_columns_mb(path: Path) -> float:
     """The store's trial columns in memory (MB): ids, sequence, stage, status, parameters,
     criteria, functionals and wall times as the UI loads them."""
-    from vectorid.store.sqlite import Store
+    from vectorid.store import Store
 
     with Store.open(path) as st:
         t = st.load()

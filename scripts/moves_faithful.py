@@ -33,11 +33,16 @@ from test_moves import CENTRES, HALF, K, P, banana_spec
 
 from vectorid.problem import Criterion
 from vectorid.run.loop import run_store
-from vectorid.run.sequential import _chain_ess, assess, final_chains
-from vectorid.sequential.moves import kept_moves
+from vectorid.samplers.sequential.moves import kept_moves
+from vectorid.samplers.sequential.state import (
+    assess_generations,
+    chain_ess_of,
+    final_chains,
+    generations,
+)
 from vectorid.space import Continuous, Space
 from vectorid.spec import StudySpec
-from vectorid.store.sqlite import Store
+from vectorid.store import Store
 
 ALPHA = 0.01
 VERBOSE = False
@@ -115,10 +120,9 @@ def judge(label: str, X: np.ndarray, w, n: float, cdfs) -> str:
 
 def analyse(st: Store, upto: int, cdfs) -> list[str]:
     """The three samples with the store's first ``upto`` generations."""
-    gens = st.generations()[:upto]
+    gens = generations(st)[:upto]
     trials = st.load(stages=[0])
-    view = _View(st.spec, gens)
-    state = assess(view, trials, weights=False)
+    state = assess_generations(st.spec, gens, trials, weights=False)
     hist = final_chains(st.spec, state, trials, gens)
     m = hist.shape[0]
     kept = hist[m - kept_moves(m) :]
@@ -130,7 +134,7 @@ def analyse(st: Store, upto: int, cdfs) -> list[str]:
     if kept.size:
         cnt = np.bincount(kept.ravel(), minlength=len(trials))
         rows = np.flatnonzero(cnt)
-        ess = _chain_ess(st.spec, trials, kept)
+        ess = chain_ess_of(st.spec, trials, kept)
         lines.append(
             judge(
                 f"(ii) chain states × holding time (last {len(kept)})",
@@ -144,17 +148,9 @@ def analyse(st: Store, upto: int, cdfs) -> list[str]:
     return lines
 
 
-class _View:
-    def __init__(self, spec, gens):
-        self.spec, self._gens = spec, gens
-
-    def generations(self):
-        return self._gens
-
-
 def stops(st: Store, every: int) -> list[tuple[int, int]]:
     """(generations, moves at the stated limits) every ``every`` moves there, and the last."""
-    gens = st.generations()
+    gens = generations(st)
     out = []
     for g in range(len(gens)):
         mv = gens[g].proposal.get("move")
@@ -176,7 +172,9 @@ def main() -> None:
     ap.add_argument("--problems", nargs="*", default=["slab20", "banana24"])
     ap.add_argument("--moves", type=int, default=0, help="least moves at the stated limits")
     ap.add_argument("--every", type=int, default=10, help="analyse every this many moves")
-    ap.add_argument("--set", nargs="*", default=[], help="NAME=VALUE of run.sequential")
+    ap.add_argument(
+        "--set", nargs="*", default=[], help="NAME=VALUE of vectorid.samplers.sequential's constants"
+    )
     ap.add_argument("--verbose", action="store_true", help="KS distance of every axis")
     args = ap.parse_args()
     global VERBOSE
@@ -188,14 +186,23 @@ def main() -> None:
         "slab20": (slab_spec, slab_cdfs),
         "banana24": (banana_spec, banana_cdfs),
     }
-    import vectorid.run.sequential as seq
+    from vectorid.samplers.sequential import moves, sampler, schedule, search, state
+
+    modules = (moves, schedule, sampler, search, state)  # each binds the constants it uses
+
+    def set_constant(k: str, v: str) -> None:
+        holders = [m for m in modules if hasattr(m, k)]
+        if not holders:
+            raise SystemExit(f"no constant {k} in vectorid.samplers.sequential")
+        value = type(getattr(holders[0], k))(v)
+        for m in holders:
+            setattr(m, k, value)
+        print(f"set {k} = {value}")
 
     if args.moves:
-        seq.MIN_FINAL_MOVES = args.moves
+        set_constant("MIN_FINAL_MOVES", str(args.moves))
     for kv in args.set:
-        k, v = kv.split("=")
-        setattr(seq, k, type(getattr(seq, k))(v))
-        print(f"set {k} = {getattr(seq, k)}")
+        set_constant(*kv.split("="))
     with tempfile.TemporaryDirectory() as tmp:
         for name in args.problems:
             make, cdfs_of = problems[name]

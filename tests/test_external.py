@@ -287,7 +287,7 @@ def test_fmu_in_worker_processes_equals_serial(tmp_path):
     with Study.create(spec, tmp_path / "a.db") as a:
         a.run(executor="processes", workers=2, batch_size=4)
         ta = a.trials()
-    ref = spec.problem().evaluate(spec.space.scale(spec.sampler_for().points(0, 16)))
+    ref = spec.problem().evaluate(spec.space.scale(spec.point_sequence().points(0, 16)))
     np.testing.assert_array_equal(ta.F, ref.criteria)
     np.testing.assert_array_equal(ta.G, ref.functionals)
 

@@ -2,11 +2,11 @@ import numpy as np
 import pytest
 from scipy.stats import qmc
 
-from vectorid import Sampler, StudyDefinitionError
+from vectorid import PointSequence, StudyDefinitionError
 
 
 def test_unscrambled_sobol_is_lp_tau_numbered_from_one():
-    s = Sampler(3)
+    s = PointSequence(3)
     pts = s.points(0, 4)
     ref = qmc.Sobol(3, scramble=False).random(8)[1:5]
     np.testing.assert_array_equal(pts, ref)
@@ -16,7 +16,7 @@ def test_unscrambled_sobol_is_lp_tau_numbered_from_one():
 @pytest.mark.parametrize("kind", ["sobol", "lhs"])
 @pytest.mark.parametrize("scramble", [False, True])
 def test_continuation_equals_one_long_draw(kind, scramble):
-    s = Sampler(5, kind, scramble=scramble, seed=7, block=256)
+    s = PointSequence(5, kind, scramble=scramble, seed=7, block=256)
     whole = s.points(0, 2048)
     parts = np.vstack([s.points(0, 1024), s.points(1024, 1000), s.points(2024, 24)])
     np.testing.assert_array_equal(whole, parts)
@@ -25,15 +25,15 @@ def test_continuation_equals_one_long_draw(kind, scramble):
 
 
 def test_same_seed_same_points_different_seed_different():
-    a = Sampler(4, scramble=True, seed=1).points(0, 64)
-    b = Sampler(4, scramble=True, seed=1).points(0, 64)
-    c = Sampler(4, scramble=True, seed=2).points(0, 64)
+    a = PointSequence(4, scramble=True, seed=1).points(0, 64)
+    b = PointSequence(4, scramble=True, seed=1).points(0, 64)
+    c = PointSequence(4, scramble=True, seed=2).points(0, 64)
     np.testing.assert_array_equal(a, b)
     assert not np.array_equal(a, c)
 
 
 def test_lhs_blocks_are_latin_hypercubes():
-    s = Sampler(3, "lhs", seed=3, block=100)
+    s = PointSequence(3, "lhs", seed=3, block=100)
     pts = s.points(100, 100)  # block 1 exactly
     for j in range(3):
         cells = np.floor(pts[:, j] * 100).astype(int)
@@ -41,13 +41,13 @@ def test_lhs_blocks_are_latin_hypercubes():
 
 
 def test_sobol_points_fill_unit_cube_uniformly():
-    pts = Sampler(2).points(0, 1023)
+    pts = PointSequence(2).points(0, 1023)
     # every 1/32 x 1/32 cell of the first 1024 points holds exactly one point (t=0 net),
     # the skipped origin being the missing one
     cells = np.floor(pts * 32).astype(int)
     assert len({tuple(c) for c in cells}) == 1023
 
 
-def test_unknown_sampler_rejected():
-    with pytest.raises(StudyDefinitionError, match="unknown sampler"):
-        Sampler(2, "halton")
+def test_unknown_sequence_rejected():
+    with pytest.raises(StudyDefinitionError, match="unknown point sequence 'halton'"):
+        PointSequence(2, "halton")

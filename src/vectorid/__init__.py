@@ -4,7 +4,10 @@ The public face is small, and everything a user needs is importable from ``vecto
 
 - define a study: :class:`StudySpec` (or :func:`load_study` of a TOML file), :class:`Space`
   of :class:`Continuous`, :class:`Integer` and :class:`Choice` variables, :class:`Criterion`,
-  :class:`FunctionalConstraint`, :class:`Problem`, :func:`as_batch`, :class:`Sampler`;
+  :class:`FunctionalConstraint`, :class:`Problem`, :func:`as_batch`, :class:`PointSequence`
+  (Sobol LP_tau, Latin hypercubes), :class:`Limits` (the bounds that define D);
+- sample it: :class:`Sampler`, the seam every sampler implements (the plain table, the
+  sequential sampler; :mod:`vectorid.samplers`);
 - run it and keep it: :class:`Study` (``Study.create``, ``Study.open``,
   ``Study.create_or_open``, ``study.run``) with its :class:`RunSummary`; the stored trials
   as arrays, :class:`Trials`;
@@ -27,18 +30,18 @@ from __future__ import annotations
 import importlib
 from typing import TYPE_CHECKING, Any
 
-__version__ = "0.1.0"
+from ._version import __version__
 
 #: Public name -> module (relative to this package) that defines it.
 _EXPORTS = {
     "Analysis": ".analysis.results",
-    "Bound": ".analysis.results",
+    "Bound": ".limits",
     "EmptyDiagnosis": ".analysis.results",
     "TestTable": ".analysis.results",
     "ParameterVerdict": ".analysis.identifiability",
     "identifiability": ".analysis.identifiability",
-    "RunSummary": ".run.loop",
-    "Trials": ".store.sqlite",
+    "RunSummary": ".summary",
+    "Trials": ".store",
     "pareto_mask": ".analysis.pareto",
     "StoreError": ".errors",
     "StoreLockedError": ".errors",
@@ -48,7 +51,9 @@ _EXPORTS = {
     "FunctionalConstraint": ".problem",
     "Problem": ".problem",
     "as_batch": ".problem",
-    "Sampler": ".sampling",
+    "PointSequence": ".sampling",
+    "Sampler": ".samplers",
+    "Limits": ".limits",
     "Choice": ".space",
     "Continuous": ".space",
     "Integer": ".space",
@@ -67,7 +72,9 @@ __all__ = [
     "EmptyDiagnosis",
     "FunctionalConstraint",
     "Integer",
+    "Limits",
     "ParameterVerdict",
+    "PointSequence",
     "Problem",
     "RunSummary",
     "Sampler",
@@ -90,15 +97,17 @@ __all__ = [
 if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
     from .analysis.identifiability import ParameterVerdict, identifiability
     from .analysis.pareto import pareto_mask
-    from .analysis.results import Analysis, Bound, EmptyDiagnosis, TestTable
+    from .analysis.results import Analysis, EmptyDiagnosis, TestTable
     from .errors import StoreError, StoreLockedError, StudyDefinitionError, VectoridError
     from .problem import Criterion, FunctionalConstraint, Problem, as_batch
-    from .run.loop import RunSummary
-    from .sampling import Sampler
+    from .limits import Bound, Limits
+    from .samplers import Sampler
+    from .sampling import PointSequence
     from .space import Choice, Continuous, Integer, Space
     from .spec import StudySpec, load_study
-    from .store.sqlite import Trials
+    from .store import Trials
     from .study import Study
+    from .summary import RunSummary
 
 
 def __getattr__(name: str) -> Any:

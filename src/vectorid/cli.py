@@ -37,8 +37,9 @@ from typing import Any
 
 import numpy as np
 
-from . import __version__
+from ._version import __version__
 from .errors import StoreError, StoreLockedError, VectoridError
+from .sampler_kinds import sampler_names
 
 __all__ = ["main"]
 
@@ -137,7 +138,7 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--quiet", action="store_true", help="no progress bar")
     r.add_argument(
         "--sampler",
-        choices=["sobol", "lhs", "sequential"],
+        choices=sampler_names(),
         help="a new study's sampler (default: the study file's)",
     )
     r.add_argument(
@@ -443,35 +444,10 @@ def _open_study(path: str, write: bool = False):
 
 
 def parse_limits_for(spec: Any, texts: Sequence[str]) -> list[Any]:
-    """Parse ``--limit`` options and refuse a bound on a criterion's better side.
+    """Parse ``--limit`` options (:func:`vectorid.limits.parse_user_limits`)."""
+    from .limits import parse_user_limits
 
-    A criteria constraint Φ** is the worst value accepted: ``'f1<=40'`` for a minimised
-    criterion, ``'f2>=0.5'`` for a maximised one. ``'f1>=40'`` on a minimised criterion would
-    keep the *worse* trials, which is never what the expert means; it is refused with the form
-    to write. (Infinite values, which remove a bound, pass.)
-    """
-    from .analysis import parse_limits
-    from .errors import StudyDefinitionError
-
-    bounds = parse_limits(texts)
-    senses = {c.name: c.sense for c in spec.criteria}
-    for text, b in zip(texts, bounds):
-        sense = senses.get(b.name)
-        if sense is None or math.isinf(b.value):
-            continue
-        better = "low" if sense == "min" else "high"
-        if b.side == better:
-            op, want = (">=", "<=") if sense == "min" else ("<=", ">=")
-            raise StudyDefinitionError(
-                "--limit",
-                f"{text!r} bounds {b.name} from its better side, but {b.name} is "
-                f"{'minimised' if sense == 'min' else 'maximised'} and a criteria constraint is "
-                f"the worst accepted value (it would keep only the trials with {b.name} "
-                f"{op} {b.value:g})",
-                f"write --limit '{b.name}{want}{b.value:g}' to keep the trials with {b.name} "
-                f"{want} {b.value:g}",
-            )
-    return bounds
+    return parse_user_limits(spec, texts)
 
 
 def _analysis(args: argparse.Namespace):
@@ -492,16 +468,14 @@ def _analysis(args: argparse.Namespace):
         study.close()
 
 
-def _sequential_note(args: argparse.Namespace, a: Any) -> str | None:
-    """A sequential store's line for table/pareto: its sampler, D's members and ESS, and that
+def _sampler_note(args: argparse.Namespace, a: Any) -> str | None:
+    """The sampler's line for table/pareto (a sequential store: D's members and ESS), and that
     the counts above are trials (weights change densities, not which trials are in D)."""
-    if a.spec.sampler != "sequential":
-        return None
-    from .run.sequential import sample_note
+    from .samplers import sampler_for
 
     study = _open_study(args.store)
     try:
-        note = sample_note(study.store, a)
+        note = sampler_for(study.spec).describe(study.store, a.limits, a.trials)
     finally:
         study.close()
     if note is None:
@@ -511,24 +485,7 @@ def _sequential_note(args: argparse.Namespace, a: Any) -> str | None:
 
 def _save_limits(args: argparse.Namespace, a: Any) -> None:
     """Save the constraints in force (``--save``) into the study held by the store."""
-    from .errors import StudyDefinitionError
-
-    criteria: dict[str, float | None] = {}
-    for i, name in enumerate(a.crit_names):
-        lo, hi = a.bounds[name]
-        worse, other = (hi, lo) if a.senses[i] == "min" else (lo, hi)
-        if math.isfinite(other):
-            side = ">=" if a.senses[i] == "min" else "<="
-            raise StudyDefinitionError(
-                "--save",
-                f"cannot save '{name}{side}{other:g}': a criteria constraint is the worst "
-                f"accepted value of a {a.senses[i]} criterion",
-                "drop that --limit, or use it for this analysis only (without --save)",
-            )
-        criteria[name] = worse if math.isfinite(worse) else None
-    constraints = {
-        name: tuple(None if math.isinf(v) else v for v in a.bounds[name]) for name in a.con_names
-    }
+    criteria, constraints = a.limits.for_saving()
     study = _open_study(args.store, write=True)
     with study:
         study.store.set_limits(criteria, constraints)
@@ -620,13 +577,14 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 def _with_sampler(spec: Any, sampler: str) -> Any:
     """The study file's spec with ``--sampler`` (validated as the file's key would be)."""
+    from .sampler_kinds import SAMPLER_OPTIONS, sampler_kind
     from .spec import StudySpec
 
     data = spec.to_dict()
     data["study"]["sampler"] = sampler
-    if sampler != "sequential":
-        data["study"].pop("budget", None)
-        data["study"].pop("population", None)
+    for key in SAMPLER_OPTIONS:  # the options the new sampler does not take
+        if key not in sampler_kind(sampler, "--sampler").options:
+            data["study"].pop(key, None)
     return StudySpec.from_dict(data, base_dir=spec.base_dir)
 
 
@@ -635,16 +593,17 @@ def _warn_damage(store: Any) -> None:
     import warnings
 
     from .errors import VectoridWarning
-    from .store.sqlite import _damage_warning
+    from .store.records import damage_warning
 
     damaged = store.check_batches()
     if damaged:
-        warnings.warn(VectoridWarning(_damage_warning(store.path, damaged)), stacklevel=2)
+        warnings.warn(VectoridWarning(damage_warning(store.path, damaged)), stacklevel=2)
 
 
 def _cmd_info(args: argparse.Namespace) -> int:
     from .analysis import Analysis
     from .run.loop import group_failures
+    from .samplers import sampler_for
     from .store.inputs import history as input_history
 
     study = _open_study(args.store)
@@ -658,8 +617,9 @@ def _cmd_info(args: argparse.Namespace) -> int:
             counts = {s.stage: st.count(s.stage) for s in stages}
             schema = st.meta().get("schema_version", "?")
             history = input_history(st)
-            missing = st.missing_planned()
-        a = Analysis(spec, trials)
+            sampler = sampler_for(spec)
+            missing = st.missing_in(sampler.planned(st))
+        a = Analysis(spec, trials, weighting=sampler.weighting(st, trials))
         ids = {(int(s), int(q)): int(i) for s, q, i in zip(trials.stage, trials.seq, trials.id)}
         groups = group_failures(trials.messages, ids)
         reasons = {g.message: g.count for g in groups}
@@ -708,21 +668,8 @@ def _cmd_info(args: argparse.Namespace) -> int:
         print(f"store      {st.path}")
         print(f"study      {spec.name}  (model {spec.to_dict()['study']['model']})")
         held = a.n + sum(d.n for d in trials.damaged if stage_kind(stages, d.stage) == "sample")
-        if spec.sampler == "sequential":
-            from .run.sequential import assess
-
-            sq = assess(st)
-            print(
-                f"trials     {held} evaluated of a budget of {spec.sequential_budget}; "
-                f"{a.n_failed} failed"
-            )
-            print(
-                f"sequential {len(sq.counts)} generations; D: {int(sq.members.sum())} members "
-                f"(wanted {spec.sequential_population}), ESS {sq.ess:.0f} "
-                + ("(particles' chains)" if sq.particles is not None else "(importance weights)")
-            )
-        else:
-            print(f"trials     {held} stored of {spec.trials} wanted; {a.n_failed} failed")
+        for line in sampler.status_lines(st, held, a.n_failed):
+            print(line)
         if missing:
             print(
                 f"MISSING    {missing} planned trials are not stored (an interrupted run or "
@@ -801,7 +748,8 @@ def stage_kind(stages: Sequence[Any], stage: int) -> str:
 
 def _cmd_verify(args: argparse.Namespace) -> int:
     from .errors import StoreDamagedError
-    from .store.sqlite import Store, VerifyReport
+    from .run.repair import verify_store
+    from .store import Store, VerifyReport
 
     path = Path(args.store)
     try:
@@ -810,7 +758,7 @@ def _cmd_verify(args: argparse.Namespace) -> int:
         rep = VerifyReport(path, sqlite=["not checked"], problems=[str(exc)])
     else:
         with st:
-            rep = st.verify()
+            rep = verify_store(st)
     if args.json:
         _print_json(
             {
@@ -871,7 +819,7 @@ def _cmd_table(args: argparse.Namespace) -> int:
         f"N = {a.n}   ND = {a.n_feasible}   NP = {a.n_pareto}   (failed {a.n_failed}, "
         f"meeting functional constraints {a.n_functional})"
     )
-    note = _sequential_note(args, a)
+    note = _sampler_note(args, a)
     if note:
         print(note)
     crit = {c.name: c for c in a.criteria}
@@ -923,7 +871,7 @@ def _cmd_pareto(args: argparse.Namespace) -> int:
         _print_json(a.pareto_json())
         return 0
     print(f"N = {a.n}   ND = {a.n_feasible}   NP = {a.n_pareto}   (failed {a.n_failed})")
-    note = _sequential_note(args, a)
+    note = _sampler_note(args, a)
     if note:
         print(note)
     for b in a.active_bounds():
@@ -947,7 +895,7 @@ def _cmd_pareto(args: argparse.Namespace) -> int:
 
 
 def _cmd_export(args: argparse.Namespace) -> int:
-    from .store.export import write_analysis
+    from .analysis.export import write_analysis
 
     if args.format == "parquet" and not args.out:
         from .errors import StudyDefinitionError

@@ -34,6 +34,13 @@ from .errors import StudyDefinitionError
 __all__ = ["COMMANDS", "add_parsers"]
 
 
+
+def _sampler_note(study: Any, a: Any) -> str | None:
+    """The study's sampler's line on the sample analysed (None: nothing to say)."""
+    from .samplers import sampler_for
+
+    return sampler_for(study.spec).describe(study.store, a.limits, a.trials)
+
 def add_parsers(sub: Any) -> None:
     """Add the analysis verbs to the ``vectorid`` sub-parsers."""
     s = sub.add_parser("section", help="criteria along one parameter through a trial (type II)")
@@ -358,12 +365,8 @@ def _cmd_report(args: argparse.Namespace) -> int:
             max_points=args.max_points,
             top=args.top,
         )
-        note = None
-        if study.spec.sampler == "sequential":
-            from .run.sequential import sample_note
-
-            a = _analysis(study, args)
-            note = sample_note(study.store, a)
+        a = _analysis(study, args)
+        note = _sampler_note(study, a)
     if note:
         from .analysis.weights import how_weighted
 
@@ -379,12 +382,11 @@ def _cmd_report(args: argparse.Namespace) -> int:
 
 def _cmd_correlation(args: argparse.Namespace) -> int:
     from .analysis.correlation import correlation_of
-    from .run.sequential import sample_note
 
     study = _open(args.store)
     with study:
         a = _analysis(study, args)
-        note = None if args.json else sample_note(study.store, a)
+        note = None if args.json else _sampler_note(study, a)
     corr = correlation_of(a, args.set, method=args.method, threshold=args.threshold)
     if args.json:
         _json(corr.to_dict())
@@ -414,12 +416,11 @@ def _cmd_correlation(args: argparse.Namespace) -> int:
 
 def _cmd_sensitivity(args: argparse.Namespace) -> int:
     from .analysis.sensitivity import sensitivity
-    from .run.sequential import sample_note
 
     study = _open(args.store)
     with study:
         a = _analysis(study, args)
-        note = None if args.json else sample_note(study.store, a)
+        note = None if args.json else _sampler_note(study, a)
     s = sensitivity(a)
     if args.json:
         _json(s.to_dict())
@@ -451,13 +452,12 @@ def _cmd_sensitivity(args: argparse.Namespace) -> int:
 
 def _cmd_hist(args: argparse.Namespace) -> int:
     from .analysis.histograms import histograms, stage_histograms
-    from .run.sequential import sample_note
 
     study = _open(args.store)
     with study:
         a = _analysis(study, args)
         stages = [s for s in study.store.stages() if s.kind == "sample"]
-        note = None if args.json else sample_note(study.store, a)
+        note = None if args.json else _sampler_note(study, a)
     if note:
         print(note)
     params = args.param or a.spec.space.names
@@ -562,9 +562,7 @@ def _cmd_identifiability(args: argparse.Namespace) -> int:
 
             meanings = parameter_meanings(spec)
         verdicts = identifiability(a, identified=args.identified, weak=args.weak, meanings=meanings)
-        from .run.sequential import sample_note
-
-        note = sample_note(study.store, a)
+        note = _sampler_note(study, a)
     if args.json:
         out = verdicts_json(verdicts)
         out["n"], out["n_feasible"], out["n_pareto"] = a.n, a.n_feasible, a.n_pareto

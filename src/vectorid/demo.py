@@ -467,7 +467,7 @@ def _print_step(r, spec, true: dict, nominal: dict, report: bool) -> None:
             print(f"    {label:<8} horizontal {h:7.2f}   vertical {vv:7.2f}")
     if report:
         try:
-            from .store.sqlite import Store
+            from .store import Store
             from .views.report import write_report
 
             with Store.open(r.store) as st:

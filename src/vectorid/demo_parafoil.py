@@ -464,7 +464,7 @@ def _report(r, report: bool) -> None:
     if not report:
         return
     try:
-        from .store.sqlite import Store
+        from .store import Store
         from .views.report import write_report
 
         with Store.open(r.store) as st:

@@ -253,6 +253,34 @@ class EvalResult:
     def n(self) -> int:
         return self.criteria.shape[0]
 
+    @classmethod
+    def concatenate(cls, parts: Sequence[EvalResult]) -> EvalResult:
+        """The results of consecutive batches as one (rows in the given order).
+
+        Parameters
+        ----------
+        parts : sequence of EvalResult
+
+        Returns
+        -------
+        EvalResult
+        """
+        messages: dict[int, str] = {}
+        offset = 0
+        for r in parts:
+            messages.update({offset + i: m for i, m in r.messages.items()})
+            offset += r.n
+        walls = [r.wall if r.wall is not None else np.zeros(r.n) for r in parts]
+        return cls(
+            np.concatenate([r.criteria for r in parts]),
+            np.concatenate([r.functionals for r in parts]),
+            np.concatenate([r.status for r in parts]),
+            messages,
+            np.concatenate(walls),
+            [t for r in parts for t in r.retried],
+            sum(r.retry_lost for r in parts),
+        )
+
 
 def load_model(spec: str | BatchModel, base_dir: str | Path | None = None) -> BatchModel:
     """Resolve a model reference to a callable.

@@ -1,4 +1,7 @@
-"""Uniformly distributed trial points: Sobol LP_tau sequences and Latin hypercubes.
+"""Uniformly distributed point sequences: Sobol LP_tau sequences and Latin hypercubes.
+
+A *point sequence* gives the points a sampler (:mod:`vectorid.samplers`) starts from: the plain
+table evaluates them as they come, the sequential sampler takes its generation 0 from them.
 
 Points are addressed by a *sequence index* ``i = 0, 1, 2, ...``. The point with index ``i``
 is always the same for a given sampler, so a study run as 1024 + 1024 trials holds exactly
@@ -22,12 +25,13 @@ import numpy as np
 
 from .errors import StudyDefinitionError
 
-__all__ = ["SAMPLERS", "Sampler"]
+__all__ = ["SEQUENCES", "PointSequence"]
 
-SAMPLERS = ("sobol", "lhs")
+#: The point sequences.
+SEQUENCES = ("sobol", "lhs")
 
 
-class Sampler:
+class PointSequence:
     """Reproducible points of the unit cube ``[0, 1)^d`` addressed by sequence index.
 
     Parameters
@@ -53,9 +57,11 @@ class Sampler:
         seed: int | None = None,
         block: int = 1024,
     ) -> None:
-        if kind not in SAMPLERS:
+        if kind not in SEQUENCES:
             raise StudyDefinitionError(
-                "study.sampler", f"unknown sampler {kind!r}", f"use one of {', '.join(SAMPLERS)}"
+                "study.sampler",
+                f"unknown point sequence {kind!r}",
+                f"use one of {', '.join(SEQUENCES)}",
             )
         if d < 1:
             raise ValueError(f"dimension must be >= 1, got {d}")

@@ -42,12 +42,10 @@ from typing import Any
 
 from .errors import StudyDefinitionError, shown, suggest
 from .problem import Criterion, FunctionalConstraint, Problem
-from .sampling import SAMPLERS, Sampler
+from .sampler_kinds import SAMPLER_OPTIONS, sampler_kind, sampler_names
+from .sampling import PointSequence
 from .space import Choice, Continuous, Integer, Space, Variable
 
-#: Samplers a study may name: the point sequences plus the sequential sampler
-#: (:mod:`vectorid.run.sequential`), whose generation 0 is the Sobol sequence.
-STUDY_SAMPLERS = (*SAMPLERS, "sequential")
 #: Default ``population`` of a sequential study (members of D wanted).
 DEFAULT_POPULATION = 200
 #: Default ``budget`` of a sequential study (model evaluations; at least ``trials``).
@@ -63,8 +61,8 @@ _STUDY_KEYS = {
     "batch": "true if the model takes a batch (n, p); false for one vector at a time",
     "batch_size": "trials per batch sent to a worker (integer >= 1)",
     "sampler": "'sobol' (LP_tau, default), 'lhs' or 'sequential' (generations toward D)",
-    "budget": "sampler 'sequential': most model evaluations (integer >= 1)",
-    "population": "sampler 'sequential': members of D wanted (integer >= 2, default 200)",
+    "budget": "sampler 'sequential': " + SAMPLER_OPTIONS["budget"],
+    "population": "sampler 'sequential': " + SAMPLER_OPTIONS["population"] + ", default 200",
     "scramble": "Owen-scramble the Sobol sequence (default false)",
     "store": "path of the SQLite store, relative to the study file",
     "description": "free text",
@@ -265,13 +263,7 @@ class StudySpec:
         object.__setattr__(self, "seed", _int("study.seed", self.seed, 0))
         if self.batch_size is not None:
             object.__setattr__(self, "batch_size", _int("study.batch_size", self.batch_size, 1))
-        if self.sampler not in STUDY_SAMPLERS:
-            raise StudyDefinitionError(
-                "study.sampler",
-                f"unknown sampler {self.sampler!r}",
-                suggest(self.sampler, STUDY_SAMPLERS),
-            )
-        self._check_sequential()
+        self._check_sampler()
         if self.executor is not None and self.executor not in EXECUTORS:
             raise StudyDefinitionError(
                 "study.executor",
@@ -328,36 +320,41 @@ class StudySpec:
                     f"write {flag} = true or {flag} = false",
                 )
 
-    def _check_sequential(self) -> None:
-        """``budget`` and ``population`` apply to the sequential sampler only."""
-        for key, least in (("budget", 1), ("population", 2)):
+    def _check_sampler(self) -> None:
+        """The sampler is registered (:mod:`vectorid.sampler_kinds`), and takes the options
+        given (``budget`` and ``population`` are the sequential sampler's), the sequence's
+        scrambling and the variables' types."""
+        kind = sampler_kind(self.sampler)
+        least = {"budget": 1, "population": 2}
+        for key in SAMPLER_OPTIONS:
             value = getattr(self, key)
             if value is None:
                 continue
-            if self.sampler != "sequential":
+            if key not in kind.options:
+                takes = [n for n in sampler_names() if key in sampler_kind(n).options]
                 raise StudyDefinitionError(
                     f"study.{key}",
-                    f"{key} applies to sampler 'sequential', this study's sampler is "
-                    f"{self.sampler!r}",
-                    f'set sampler = "sequential", or remove {key}',
+                    f"{key} applies to sampler {' or '.join(repr(n) for n in takes)}, this "
+                    f"study's sampler is {self.sampler!r}",
+                    f'set sampler = "{takes[0]}", or remove {key}' if takes else f"remove {key}",
                 )
-            object.__setattr__(self, key, _int(f"study.{key}", value, least))
-        if self.sampler != "sequential":
-            return
-        if self.scramble:
+            object.__setattr__(self, key, _int(f"study.{key}", value, least.get(key, 1)))
+        if self.scramble and not kind.scramble:
             raise StudyDefinitionError(
                 "study.scramble",
-                "sampler 'sequential' starts from the unscrambled Sobol sequence",
+                f"sampler {self.sampler!r} starts from the unscrambled {kind.sequence.title()} "
+                "sequence",
                 "remove scramble = true",
             )
-        odd = [v.name for v in self.space if v.kind != "continuous"]
-        if odd:
-            raise StudyDefinitionError(
-                "study.sampler",
-                f"sampler 'sequential' needs continuous variables, got {', '.join(odd)} "
-                "(integer or choice)",
-                'use sampler = "sobol" for this study, or make those variables continuous',
-            )
+        if kind.continuous_only:
+            odd = [v.name for v in self.space if v.kind != "continuous"]
+            if odd:
+                raise StudyDefinitionError(
+                    "study.sampler",
+                    f"sampler {self.sampler!r} needs continuous variables, got "
+                    f"{', '.join(odd)} (integer or choice)",
+                    'use sampler = "sobol" for this study, or make those variables continuous',
+                )
 
     @property
     def sequential_budget(self) -> int:
@@ -382,10 +379,10 @@ class StudySpec:
         """Functional-constraint names, in study order."""
         return [c.name for c in self.constraints]
 
-    def sampler_for(self) -> Sampler:
-        """The point sequence of this study."""
-        kind = "sobol" if self.sampler == "sequential" else self.sampler
-        return Sampler(len(self.space), kind, scramble=self.scramble, seed=self.seed)
+    def point_sequence(self) -> PointSequence:
+        """The point sequence this study's sampler starts from (its registered ``sequence``)."""
+        kind = sampler_kind(self.sampler).sequence
+        return PointSequence(len(self.space), kind, scramble=self.scramble, seed=self.seed)
 
     def problem(self) -> Problem:
         """Resolve the model and build the :class:`~vectorid.problem.Problem`.
@@ -397,6 +394,24 @@ class StudySpec:
         from .builders import build_problem
 
         return build_problem(self)
+
+    def with_study_keys(self, **keys: Any) -> StudySpec:
+        """A copy with keys of the ``[study]`` table replaced (run settings such as
+        ``trials``, ``budget``, ``population``), validated as a study file is.
+
+        Parameters
+        ----------
+        **keys
+            ``[study]`` keys and their new values (None leaves a key as it is).
+
+        Returns
+        -------
+        StudySpec
+        """
+        unknown = [k for k in keys if k not in ("trials", "budget", "population", "seed")]
+        if unknown:
+            raise ValueError(f"with_study_keys takes run settings only, got {unknown}")
+        return replace(self, **{k: v for k, v in keys.items() if v is not None})
 
     def with_limits(self, limits: Mapping[str, float | None]) -> StudySpec:
         """A copy with criteria constraints Φ** replaced.
@@ -511,7 +526,7 @@ class StudySpec:
                     f"missing required key {required!r}",
                     f"add {required} = ... under [study] ({_STUDY_KEYS[required]})",
                 )
-        variables = _parse_list(data, "variables", _parse_variable)
+        variables = _parse_list(data, "variables", parse_variable)
         criteria = _parse_list(data, "criteria", _parse_criterion)
         constraints = _parse_list(data, "constraints", _parse_constraint, required=False)
         limits = data.get("limits", {})
@@ -585,7 +600,7 @@ def _check_texts(where: str, item: Mapping[str, Any], keys: Sequence[str]) -> No
             )
 
 
-def _parse_variable(where: str, item: Mapping[str, Any]) -> Variable:
+def parse_variable(where: str, item: Mapping[str, Any]) -> Variable:
     _check_keys(where, item, _VARIABLE_KEYS)
     if "name" not in item:
         raise StudyDefinitionError(f"{where}.name", "missing name", 'add name = "x1"')

@@ -18,7 +18,7 @@ from .analysis.results import Analysis, Bound
 from .errors import StoreError, VectoridNote
 from .run.loop import RunSummary, run_store
 from .spec import StudySpec, load_study
-from .store.sqlite import Store, Trials
+from .store import Store, Trials
 
 __all__ = ["Study", "default_store_path"]
 
@@ -323,7 +323,7 @@ class Study:
         -------
         Analysis
         """
-        return Analysis(self.spec, self.store.load(), limits, roles)
+        return Analysis.of_store(self.store, limits, roles)
 
     def close(self) -> None:
         """Close the store (and release its write lock)."""

@@ -10,7 +10,7 @@ from vectorid import Study
 from vectorid.analysis.refine import propose_refine, refine_history
 from vectorid.errors import StudyDefinitionError
 from vectorid.run.extra import apply_refine
-from vectorid.sampling import Sampler
+from vectorid.sampling import PointSequence
 
 
 @pytest.fixture(scope="module")
@@ -96,7 +96,7 @@ def test_apply_continues_the_sobol_sequence_in_the_new_box(tmp_path):
     assert np.array_equal(t.id[new], np.arange(257, 385))
     assert np.all(p.new.contains(t.X[new]))
     # the same Sobol points, scaled to the new box
-    q = Sampler(2, "sobol").points(256, 128)
+    q = PointSequence(2, "sobol").points(256, 128)
     np.testing.assert_allclose(t.X[new], p.new.scale(q))
     assert [h["stage"] for h in hist] == [0, stage.stage]
     assert {c["name"] for c in hist[1]["changed"]} <= {"x1", "x2"} and hist[1]["changed"]

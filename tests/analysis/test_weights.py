@@ -29,7 +29,8 @@ from vectorid.analysis.weights import (
     weighted_ranks,
 )
 from vectorid.run.loop import run_store
-from vectorid.store.sqlite import Store
+from vectorid.samplers import sampler_for
+from vectorid.store import Store
 
 
 def true_ks(half: float) -> np.ndarray:
@@ -49,6 +50,7 @@ def slab_store(tmp_path_factory):
     with Store.open(db) as st:
         t = st.load()
         stages = st.stages()
+        t.weighting = sampler_for(st.spec).weighting(st, t)  # the sample's, kept beside it
     return db, t, stages
 
 
@@ -73,7 +75,7 @@ def test_weighted_statistics_reduce_to_the_plain_ones():
 
 def test_sensitivity_of_a_sequential_store_is_weighted_and_right(slab_store):
     db, t, _ = slab_store
-    a = Analysis(Store.open(db).spec, t)
+    a = Analysis(Store.open(db).spec, t, weighting=t.weighting)
     s = sensitivity(a)
     assert s.weighted and 0 < s.ess_behavioural <= a.n_feasible
     # the known answer, weighted; unweighted the sampler's crowding shows (so this can fail)
@@ -92,7 +94,7 @@ def test_sensitivity_of_a_sequential_store_is_weighted_and_right(slab_store):
 
 def test_correlation_refine_and_histograms_use_the_weights(slab_store):
     db, t, stages = slab_store
-    a = Analysis(Store.open(db).spec, t)
+    a = Analysis(Store.open(db).spec, t, weighting=t.weighting)
     c = correlation_of(a, "feasible")
     assert c.weighted and c.to_dict()["weighted"]
     assert how_weighted(a) == "importance-weighted"  # the mixture (fewer than 20 variables)
@@ -124,8 +126,8 @@ def test_loosened_limit_after_the_run_is_weighted_too(slab_store):
     generations hold its trials and the weights make them a uniform sample of it."""
     db, t, _ = slab_store
     loose = {f"f{i}": 2 * HALF for i in range(K)}
-    a = Analysis(Store.open(db).spec, t, loose)
-    tight = Analysis(Store.open(db).spec, t)
+    a = Analysis(Store.open(db).spec, t, loose, weighting=t.weighting)
+    tight = Analysis(Store.open(db).spec, t, weighting=t.weighting)
     assert a.n_feasible > tight.n_feasible
     s = sensitivity(a)
     assert s.weighted
@@ -140,14 +142,13 @@ def test_no_weight_is_claimed_for_a_plain_store_or_mixed_stages(slab_store):
     db, t, _ = slab_store
     spec = Store.open(db).spec
     plain = t.subset(np.ones(len(t), bool))
-    plain.log_weight = None
-    a = Analysis(spec, plain)
+    a = Analysis(spec, plain)  # no weighting: a plain store's
     assert trial_weights(a) is None
     assert not sensitivity(a).weighted and not histograms(a, ["x0"])[0].weighted
     mixed = t.subset(np.ones(len(t), bool))
     mixed.stage = mixed.stage.copy()
     mixed.stage[:5] = 1  # as if a refined stage had been added after the run
-    assert trial_weights(Analysis(spec, mixed)) is None
+    assert trial_weights(Analysis(spec, mixed, weighting=t.weighting)) is None
 
 
 def _cli(*args):
@@ -181,7 +182,7 @@ def test_thinned_rest_keeps_the_known_answer(slab_store, monkeypatch):
 
     db, t, _ = slab_store
     monkeypatch.setattr(sens, "WEIGHED_REST", 1500)
-    a = Analysis(Store.open(db).spec, t)
+    a = Analysis(Store.open(db).spec, t, weighting=t.weighting)
     s = sens.sensitivity(a)
     assert s.weighted and s.stride > 1 and s.n_other == a.n - a.n_feasible
     assert np.abs(s.ks - true_ks(HALF)).max() < 0.12, s.ks

@@ -246,7 +246,7 @@ def test_faulty_trial_fails_alone_in_every_executor(tmp_path, executor, func, ma
     with Study.create(load_study(study), tmp_path / "f.db") as st:
         st.run(executor=executor, workers=2, batch_size=8, timeout=1.0)
         t = st.trials()
-    X = reference.space.scale(reference.sampler_for().points(0, 48))
+    X = reference.space.scale(reference.point_sequence().points(0, 48))
     ref = reference.problem().evaluate(X)
     bad = np.flatnonzero(t.id == 27)
     others = t.id != 27

@@ -15,7 +15,7 @@ import pytest
 from vectorid import models
 from vectorid.identify.twins import twin_drop, write_twin, write_wind_csv
 from vectorid.models import InitialState, WindProfile
-from vectorid.run.sequential import assess
+from vectorid.samplers.sequential import assess
 from vectorid.spec import StudySpec
 from vectorid.study import Study
 

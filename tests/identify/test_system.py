@@ -133,7 +133,7 @@ def test_every_executor_imports_the_model_by_path(own, tmp_path, executor):
     with Study.create(spec, tmp_path / f"{executor}.db") as s:
         s.run(executor=executor, workers=2, batch_size=16)
         t = s.trials()
-    ref = spec.problem().evaluate(spec.space.scale(spec.sampler_for().points(0, 64)))
+    ref = spec.problem().evaluate(spec.space.scale(spec.point_sequence().points(0, 64)))
     assert (t.status == 0).all() and len(t.F) == 64
     np.testing.assert_array_equal(t.F, ref.criteria)
 

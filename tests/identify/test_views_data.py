@@ -20,7 +20,7 @@ from vectorid.identify import Identification, eigenfrequencies, get_criterion, t
 from vectorid.identify import views_data as vd
 from vectorid.identify.spectral import resample_uniform
 from vectorid.spec import load_study
-from vectorid.store.sqlite import Store
+from vectorid.store import Store
 
 STEP2 = "g12-step2-controlled.db"
 

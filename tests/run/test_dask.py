@@ -46,7 +46,7 @@ def test_external_scheduler_from_python_and_cli(tmp_path, cluster):
             summary = a.run(executor="dask", batch_size=8)
         ta = a.trials()
     assert summary.stored == 64
-    ref = spec.problem().evaluate(spec.space.scale(spec.sampler_for().points(0, 64)))
+    ref = spec.problem().evaluate(spec.space.scale(spec.point_sequence().points(0, 64)))
     np.testing.assert_array_equal(ta.status, ref.status)
     ok = ta.status == 0
     np.testing.assert_array_equal(ta.F[ok], ref.criteria[ok])
@@ -175,7 +175,7 @@ def test_model_runs_in_a_model_process_of_each_worker(tmp_path, isolate):
     from vectorid.run.dask import DaskExecutor
 
     spec = _pid_spec(tmp_path / "m")
-    X = spec.space.scale(spec.sampler_for().points(0, 64))
+    X = spec.space.scale(spec.point_sequence().points(0, 64))
     with DaskExecutor(spec, workers=2, isolate=isolate) as ex:
         out = dict(ex.map_unordered((i, X[i * 4 : (i + 1) * 4]) for i in range(16)))
         workers = set(ex.worker_pids().values())

@@ -26,7 +26,7 @@ EXECUTOR_NAMES = [
 
 def reference(spec, n):
     """The trials computed directly, without executor or store."""
-    sampler = spec.sampler_for()
+    sampler = spec.point_sequence()
     X = spec.space.scale(sampler.points(0, n))
     return X, spec.problem().evaluate(X)
 
@@ -34,7 +34,7 @@ def reference(spec, n):
 @pytest.mark.parametrize("name", EXECUTOR_NAMES)
 def test_map_unordered_returns_every_batch_once(name, user_study):
     spec = load_study(user_study)
-    X = spec.space.scale(spec.sampler_for().points(0, 64))
+    X = spec.space.scale(spec.point_sequence().points(0, 64))
     batches = [(i, X[i * 8 : (i + 1) * 8]) for i in range(8)]
     with make_executor(name, spec, workers=2) as ex:
         out = dict(ex.map_unordered(batches))
@@ -111,7 +111,7 @@ def test_new_stage_keeps_drawing_from_the_sequence(tmp_path):
         t = a.trials()
     assert (t.stage[:64] == 0).all() and (t.stage[64:] == 1).all()
     np.testing.assert_array_equal(t.seq, np.arange(128))
-    unit = spec.sampler_for().points(64, 64)
+    unit = spec.point_sequence().points(64, 64)
     np.testing.assert_allclose(t.X[64:], narrow.scale(unit))
     assert (t.X[64:, 0] >= 0.1).all() and (t.X[64:, 0] <= 0.3).all()
 

@@ -101,7 +101,7 @@ def fault_study(folder: Path, func: str, trials: int = 48, timeout: float | None
 def check_against_reference(t, study_file: Path, faulty: tuple[int, ...], reason: str) -> None:
     """Faulty trials failed with ``reason``; every other trial as in a run without faults."""
     spec = load_study(study_file)
-    X = spec.space.scale(spec.sampler_for().points(0, spec.trials))
+    X = spec.space.scale(spec.point_sequence().points(0, spec.trials))
     ref = load_study(Path(study_file).with_name("user.toml")).problem().evaluate(X)
     assert len(t) == spec.trials and len(np.unique(t.seq)) == len(t.seq)
     np.testing.assert_array_equal(t.X, X)
@@ -218,7 +218,7 @@ def test_dask_builds_the_model_once_per_worker(user_study):
     from vectorid.run.dask import DaskExecutor
 
     spec = load_study(user_study)
-    X = spec.space.scale(spec.sampler_for().points(0, 96))
+    X = spec.space.scale(spec.point_sequence().points(0, 96))
     with DaskExecutor(spec, workers=2) as ex:
         out = dict(ex.map_unordered((i, X[i * 4 : (i + 1) * 4]) for i in range(24)))
         counts = ex.build_counts()
@@ -298,7 +298,7 @@ def test_process_executor_memory_limit_fails_only_the_leaking_trial(tmp_path):
 
     study_file = fault_study(tmp_path / "s", "leak")
     spec = load_study(study_file)
-    X = spec.space.scale(spec.sampler_for().points(0, 48))
+    X = spec.space.scale(spec.point_sequence().points(0, 48))
     with ProcessExecutor(spec, workers=2, memory_limit=400 * 2**20) as ex:
         out = dict(ex.map_unordered((s, X[s : s + 8]) for s in range(0, 48, 8)))
     direct = load_study(study_file.with_name("user.toml")).problem().evaluate(X)
@@ -325,7 +325,7 @@ def test_process_executor_keeps_innocent_batches_when_a_worker_dies(user_study, 
 
     study_file = fault_study(tmp_path / "s", "crash")
     spec = load_study(study_file)
-    X = spec.space.scale(spec.sampler_for().points(0, 48))
+    X = spec.space.scale(spec.point_sequence().points(0, 48))
     with ProcessExecutor(spec, workers=2) as ex:
         out = dict(ex.map_unordered((s, X[s : s + 8]) for s in range(0, 48, 8)))
     assert sorted(out) == list(range(0, 48, 8))
@@ -391,7 +391,7 @@ def test_full_disk_stops_with_clear_error_and_loses_nothing(tmp_path, tmpfs):
     keep = np.isin(t.seq, stored.seq)
     np.testing.assert_array_equal(t.X[keep], stored.X)
     np.testing.assert_array_equal(np.nan_to_num(t.F[keep]), np.nan_to_num(stored.F))
-    X = spec.space.scale(spec.sampler_for().points(0, 2000))
+    X = spec.space.scale(spec.point_sequence().points(0, 2000))
     ref = spec.problem().evaluate(X)
     np.testing.assert_array_equal(t.status, ref.status)
     np.testing.assert_array_equal(np.nan_to_num(t.F, nan=-1), np.nan_to_num(ref.criteria, nan=-1))

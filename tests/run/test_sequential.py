@@ -18,10 +18,10 @@ from scipy.stats import kstwobign
 from vectorid import StudyDefinitionError
 from vectorid.problem import Criterion
 from vectorid.run.loop import run_store
-from vectorid.run.sequential import assess
+from vectorid.samplers.sequential import assess, generations
 from vectorid.space import Continuous, Space
 from vectorid.spec import StudySpec, load_study
-from vectorid.store.sqlite import SCHEMA_VERSION, Store
+from vectorid.store import SCHEMA_VERSION, Store
 
 # A slab: the first K of P parameters must lie within HALF of CENTRES; the others are free.
 # D is known exactly: uniform in [c - HALF, c + HALF] on the first K axes, uniform on [0, 1]
@@ -137,9 +137,9 @@ def test_generation_zero_is_the_plain_sobol_table(tmp_path):
     with Store.create(tmp_path / "g0.db", spec) as st:
         run_store(st, executor="inline", progress=False)
         t = st.load()
-        gens = st.generations()
+        gens = generations(st)
     assert len(gens) == 1 and gens[0].proposal["kind"] == "sobol"
-    np.testing.assert_array_equal(t.X, spec.space.scale(spec.sampler_for().points(0, 1024)))
+    np.testing.assert_array_equal(t.X, spec.space.scale(spec.point_sequence().points(0, 1024)))
     np.testing.assert_array_equal(t.id, np.arange(1, 1025))
 
 
@@ -235,7 +235,7 @@ def _start(study: Path, store: Path, sleep: float) -> subprocess.Popen:
 def _count(store: Path) -> tuple[int, int]:
     try:
         with Store.open(store) as st:
-            return st.count(), len(st.generations())
+            return st.count(), len(generations(st))
     except Exception:
         return 0, 0
 
@@ -270,7 +270,7 @@ def test_killed_mid_generation_resumes_exactly(tmp_path):
     r.communicate(timeout=300)
     with Store.open(store) as a, Store.open(ref) as b:
         ta, tb = a.load(), b.load()
-        ga, gb = a.generations(), b.generations()
+        ga, gb = generations(a), generations(b)
         runs = [x["outcome"] for x in a.runs()]
     assert len(np.unique(ta.seq)) == len(ta.seq), "a trial was stored twice"
     np.testing.assert_array_equal(ta.seq, tb.seq)
@@ -295,10 +295,10 @@ def test_schema_2_store_is_read_and_upgraded(tmp_path):
     con.commit()
     con.close()
     with Store.open(path) as st:
-        assert st.generations() == [] and len(st.load()) == 1024
+        assert generations(st) == [] and len(st.load()) == 1024
     with Store.open(path, write=True) as st:
         assert st.meta()["schema_version"] == str(SCHEMA_VERSION) == "3"
-        assert st.generations() == []
+        assert generations(st) == []
 
 
 def test_a_damaged_generation_record_is_refused(tmp_path):
@@ -310,7 +310,7 @@ def test_a_damaged_generation_record_is_refused(tmp_path):
     con.commit()
     con.close()
     with Store.open(path) as st, pytest.raises(Exception, match="generation 0"):
-        st.generations()
+        generations(st)
 
 
 def test_sequential_refuses_a_scrambled_sequence():
@@ -337,10 +337,9 @@ def test_downstream_reads_a_sequential_store(tmp_path):
     assert r.returncode == 0, r.stderr
     db = tmp_path / "d" / "slab.db"
     with Store.open(db) as st:
-        t = st.load()
-        a = Analysis(st.spec, t)
+        a = Analysis.of_store(st)
         hs = histograms(a)
-    assert t.log_weight is not None and a.n_feasible >= 20
+    assert a.weighting is not None and a.n_feasible >= 20
     for h in hs:
         assert h.weighted and abs(h.feasible_weighted.sum() - h.feasible.sum()) < 1e-6
     r = cli("hist", db, "--param", "x5")
@@ -366,7 +365,7 @@ def test_dask_evaluates_generations_in_batches_like_serial(tmp_path):
         assert r.returncode == 0, r.stderr
     with Store.open(tmp_path / "serial.db") as a, Store.open(tmp_path / "dask.db") as b:
         ta, tb = a.load(), b.load()
-        assert [g.n for g in a.generations()] == [g.n for g in b.generations()]
+        assert [g.n for g in generations(a)] == [g.n for g in generations(b)]
     np.testing.assert_array_equal(ta.X, tb.X)
     np.testing.assert_array_equal(ta.F, tb.F)
 
@@ -379,12 +378,12 @@ def test_a_rebuilt_sequential_store_keeps_its_generations(tmp_path):
     with Store.create(path, slab_spec(budget=3000)) as st:
         run_store(st, executor="inline", progress=False)
         before = assess(st)
-        n_gens = len(st.generations())
+        n_gens = len(generations(st))
     assert n_gens > 1
     tmp, lost, ranges = rebuild_copy(path)
     assert not lost and not ranges
     with Store.open(tmp) as copy:
-        assert len(copy.generations()) == n_gens
+        assert len(generations(copy)) == n_gens
         after = assess(copy)
     np.testing.assert_array_equal(after.members, before.members)
     np.testing.assert_allclose(after.log_w[after.members], before.log_w[before.members])

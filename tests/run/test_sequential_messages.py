@@ -11,10 +11,10 @@ import numpy as np
 
 from vectorid.problem import Criterion
 from vectorid.run.loop import run_store
-from vectorid.run.sequential import LocalSearch, SequentialSummary
+from vectorid.samplers.sequential import LocalSearch, SequentialSummary
 from vectorid.space import Continuous, Space
 from vectorid.spec import StudySpec
-from vectorid.store.sqlite import Store
+from vectorid.store import Store
 
 SRC = Path(__file__).resolve().parents[2] / "src" / "vectorid"
 BLAME = re.compile(
@@ -75,7 +75,7 @@ def test_only_a_search_that_also_misses_inside_the_box_may_blame_the_model():
 
 
 def test_edges_are_those_within_a_percent_of_the_width():
-    from vectorid.run.sequential import search_edges
+    from vectorid.samplers.sequential import search_edges
 
     spec = StudySpec(
         name="e", model=beyond_the_box, criteria=(Criterion("f", limit=0.05),),
@@ -96,8 +96,8 @@ def test_no_other_message_blames_the_model_or_the_limits():
         for m in BLAME.finditer(text):
             line = text.count("\n", 0, m.start()) + 1
             hits.append(f"{path.relative_to(SRC.parents[1])}:{line}")
-    allowed = {p for p in hits if p.startswith("src/vectorid/run/sequential.py")}
+    allowed = {p for p in hits if p.startswith("src/vectorid/samplers/sequential/sampler.py")}
     assert set(hits) == allowed, hits
-    seq = (SRC / "run" / "sequential.py").read_text(encoding="utf-8")
+    seq = (SRC / "samplers" / "sequential" / "sampler.py").read_text(encoding="utf-8")
     body = seq[seq.index("def verdict"):seq.index("def describe")]
     assert len(BLAME.findall(body)) == 1 and "inside the box, so the model" in body

@@ -198,7 +198,7 @@ def test_worker_start_errors_name_the_model(tmp_path):
     spec = load_study(study)
     with make_executor("processes", spec, workers=2) as ex:
         with pytest.raises(VectoridError, match="has no attribute 'nothere'"):
-            list(ex.map_unordered([(0, spec.space.scale(spec.sampler_for().points(0, 4)))]))
+            list(ex.map_unordered([(0, spec.space.scale(spec.point_sequence().points(0, 4)))]))
 
 
 def test_planning_is_lazy_and_huge_targets_bounded(tmp_path):

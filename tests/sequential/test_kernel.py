@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from vectorid.sequential.kernel import Proposal, fit_proposal, free_axes
+from vectorid.samplers.sequential.kernel import Proposal, fit_proposal, free_axes
 
 
 def slab_population(n: int, rng: np.random.Generator) -> np.ndarray:

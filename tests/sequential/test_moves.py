@@ -12,8 +12,8 @@ from vectorid.analysis.results import Analysis
 from vectorid.analysis.weights import how_weighted, trial_weights
 from vectorid.problem import Criterion
 from vectorid.run.loop import RunInterrupted, run_store
-from vectorid.run.sequential import assess
-from vectorid.sequential.moves import (
+from vectorid.samplers.sequential import assess, generations
+from vectorid.samplers.sequential.moves import (
     MIN_FINAL_MOVES,
     MOVE_FROM,
     TARGET_ACCEPT,
@@ -25,7 +25,7 @@ from vectorid.sequential.moves import (
 )
 from vectorid.space import Continuous, Space
 from vectorid.spec import StudySpec
-from vectorid.store.sqlite import Store
+from vectorid.store import Store
 from vectorid.views.clouds import histograms_figure
 
 # 24 variables: the first K pinned to within HALF of CENTRES, a curved (banana) band between
@@ -87,6 +87,7 @@ def test_banana_in_24_dimensions_is_reached_and_covered(tmp_path):
         assert "ESS" in text and summary.evaluations <= 60_000
         state = assess(st)
         t = st.load(stages=[0])
+        a = Analysis.of_store(st)
         part = np.unique(state.particles)
     assert np.all(state.members[part]) and len(part) >= 200 and state.ess >= 200
     # D's weights: each member's holding time over the kept moves at the stated limits
@@ -94,12 +95,12 @@ def test_banana_in_24_dimensions_is_reached_and_covered(tmp_path):
     assert m >= MIN_FINAL_MOVES
     held = np.exp(state.log_w[state.members])
     assert held.sum() == pytest.approx(kept_moves(m) * state.chains.shape[1])
-    assert t.log_weight is not None  # so histograms weigh them
-    w = trial_weights(Analysis(st.spec, t), state.members)
+    assert a.weighting is not None  # so histograms weigh them
+    w = trial_weights(a, state.members)
     assert w is not None and np.allclose(w / w.sum(), held / held.sum())
     # and the CLI, the report and the UI say so (not "importance-weighted")
-    assert how_weighted(Analysis(st.spec, t)) == "weighted by the particles' holding times"
-    hs = histograms(Analysis(st.spec, t))
+    assert how_weighted(a) == "weighted by the particles' holding times"
+    hs = histograms(a)
     assert all(h.weighted_by == "weighted by the particles' holding times" for h in hs)
     held_by = "weighted by the particles' holding times"
     assert all(h.to_dict()["feasible_weighted_by"] == held_by for h in hs)  # hist --json
@@ -179,7 +180,7 @@ def test_moved_population_is_a_faithful_sample_of_d(tmp_path):
         summary = run_store(st, executor="inline", progress=False)
         assert summary.converged, summary.describe()
         state = assess(st)
-        a = Analysis(spec, st.load(stages=[0]))
+        a = Analysis.of_store(st)
     d = a.feasible
     w = trial_weights(a, d)
     assert w is not None and np.any(w == 0)  # members never held weigh 0
@@ -225,7 +226,7 @@ def test_interrupted_moves_resume_exactly(tmp_path):
         run_store(st, executor="inline", progress=False)
     with Store.open(tmp_path / "a.db") as a, Store.open(tmp_path / "b.db") as b:
         ta, tb = a.load(), b.load()
-        ga, gb = a.generations(), b.generations()
+        ga, gb = generations(a), generations(b)
     assert len(np.unique(ta.seq)) == len(ta.seq), "a trial was stored twice"
     np.testing.assert_array_equal(ta.seq, tb.seq)
     np.testing.assert_array_equal(ta.X, tb.X)

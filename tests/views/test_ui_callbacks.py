@@ -21,7 +21,7 @@ from vectorid.analysis import Analysis
 from vectorid.analysis.sections import load_sections
 from vectorid.errors import StudyDefinitionError
 from vectorid.spec import load_study
-from vectorid.store.sqlite import Store
+from vectorid.store import Store
 from vectorid.views.ui import callbacks as cb
 from vectorid.views.ui.data import (
     StoreCache,

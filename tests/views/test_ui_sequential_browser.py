@@ -21,7 +21,7 @@ from tests.views.browser import (  # skips this module without dash, selenium or
     until,
 )
 from vectorid import Study
-from vectorid.run.sequential import assess
+from vectorid.samplers.sequential import assess, generations
 from vectorid.spec import load_study
 
 STUDY = """
@@ -98,7 +98,7 @@ def test_ui_on_a_sequential_store(store):
     with Study.open(path) as st:
         a = st.analysis()
         state = assess(st.store)
-        gens = st.store.generations()
+        gens = generations(st.store)
     later = np.flatnonzero(a.feasible & (state.generation >= 2))
     assert len(later)
     row = int(later[0])

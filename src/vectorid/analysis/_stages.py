@@ -10,7 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import StudyDefinitionError
-from ..store.sqlite import Store, Trials
+from ..store import Store, Trials
 
 __all__ = ["StoredTrial", "find_trial", "load_all", "parse_note"]
 

@@ -14,7 +14,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..space import Choice, Integer, Space, Variable
-from ..store.sqlite import Stage
+from ..store import Stage
 from .results import Analysis
 from .weights import how_weighted, trial_weights
 

@@ -36,7 +36,7 @@ import numpy as np
 
 from ..errors import StudyDefinitionError, suggest
 from ..space import Space
-from ..store.sqlite import Stage, Store
+from ..store import Stage, Store
 from .results import Analysis
 from .weights import trial_weights, weighted_quantile
 

@@ -10,7 +10,6 @@ loosen or remove them at analysis time (``--limit 'f1<=40'``, ``--limit 'f2>=0.5
 from __future__ import annotations
 
 import math
-import re
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
@@ -18,9 +17,11 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..errors import StudyDefinitionError, suggest
+from ..limits import Bound, Limits, parse_limit, parse_limits
 from ..problem import OK
+from ..samplers import Weighting, sampler_for
 from ..spec import StudySpec
-from ..store.sqlite import Trials
+from ..store import Store, Trials
 from .pareto import pareto_mask
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -29,64 +30,6 @@ if TYPE_CHECKING:  # pragma: no cover
     from .identifiability import ParameterVerdict
 
 __all__ = ["Analysis", "Bound", "EmptyDiagnosis", "TestTable", "parse_limit", "parse_limits"]
-
-# The last operator splits name and value, so names with spaces or operators work too.
-_LIMIT = re.compile(r"^\s*(.+?)\s*(<=|>=|<|>)\s*([^<>=\s]+)\s*$")
-
-
-@dataclass(frozen=True)
-class Bound:
-    """One side of a constraint: ``name <= value`` (``side='high'``) or ``name >= value``.
-
-    Parameters
-    ----------
-    name : str
-        A criterion or functional constraint of the study.
-    side : {"low", "high"}
-        ``"high"`` for ``name <= value``, ``"low"`` for ``name >= value``.
-    value : float
-        The bound, in the quantity's unit (±inf for none).
-    """
-
-    name: str
-    side: str  # "low" | "high"
-    value: float
-
-    def __str__(self) -> str:
-        return f"{self.name} {'<=' if self.side == 'high' else '>='} {self.value:.6g}"
-
-
-def parse_limit(text: str) -> Bound:
-    """Parse ``'NAME<=VALUE'`` or ``'NAME>=VALUE'`` (``inf`` removes the bound).
-
-    Raises
-    ------
-    StudyDefinitionError
-        With the expected form when ``text`` does not parse.
-    """
-    m = _LIMIT.match(text)
-    if not m:
-        raise StudyDefinitionError(
-            "--limit",
-            f"cannot read {text!r}",
-            "write NAME<=VALUE or NAME>=VALUE, e.g. --limit 'f1<=40' (quote it for the shell)",
-        )
-    name, op, raw = m.groups()
-    try:
-        value = float(raw)
-    except ValueError:
-        raise StudyDefinitionError(
-            "--limit", f"value {raw!r} in {text!r} is not a number", "write e.g. f1<=40.5"
-        ) from None
-    if math.isnan(value):
-        raise StudyDefinitionError("--limit", f"NaN limit in {text!r}", "write a number or inf")
-    return Bound(name, "high" if op.startswith("<") else "low", value)
-
-
-def parse_limits(texts: Iterable[str]) -> list[Bound]:
-    """Parse several ``--limit`` options."""
-    return [parse_limit(t) for t in texts]
-
 
 @dataclass
 class TestTable:
@@ -226,6 +169,10 @@ class Analysis:
         limit) or, for a functional constraint, ``name -> (low, high)``.
     roles : mapping, optional
         Override pure/pseudo roles by criterion name.
+    weighting : Weighting, optional
+        How the trials weigh as a sample of the box's uniform density (a sequential
+        sampler's importance weights or holding times; see
+        :class:`vectorid.samplers.Weighting`); None: every trial counts once.
 
     Attributes
     ----------
@@ -251,17 +198,34 @@ class Analysis:
         The trial lies in the Edgeworth–Pareto set of D over the pure criteria.
     pure : list of int
         Column indices (into ``F``) of the pure criteria.
+    limits : Limits
+        The bounds in force (the study's, under ``limits``).
+    weighting : Weighting or None
+        As given.
     """
 
     def __init__(
         self,
         spec: StudySpec,
         trials: Trials,
-        limits: Iterable[Bound] | Mapping[str, Any] | None = None,
+        limits: Iterable[Bound] | Mapping[str, Any] | Limits | None = None,
         roles: Mapping[str, str] | None = None,
+        weighting: Weighting | None = None,
+    ) -> None:
+        self._setup(spec, trials, Limits(spec, limits), roles, weighting)
+        self._compute()
+
+    def _setup(
+        self,
+        spec: StudySpec,
+        trials: Trials,
+        limits: Limits,
+        roles: Mapping[str, str] | None,
+        weighting: Weighting | None,
     ) -> None:
         self.spec = spec
         self.trials = trials
+        self.weighting = weighting
         self.criteria = list(spec.criteria)
         self.constraints = list(spec.constraints)
         self.crit_names = [c.name for c in self.criteria]
@@ -279,24 +243,34 @@ class Analysis:
                         f"roles.{name}", f"expected 'pure' or 'pseudo', got {role!r}"
                     )
                 self.roles[self.crit_names.index(name)] = role
-        # bounds[name] = [low, high]
-        self.bounds: dict[str, list[float]] = {}
-        for c in self.criteria:
-            lo, hi = -math.inf, math.inf
-            if c.limit is not None:
-                if c.sense == "min":
-                    hi = c.limit
-                else:
-                    lo = c.limit
-            self.bounds[c.name] = [lo, hi]
-        for c in self.constraints:
-            self.bounds[c.name] = [
-                -math.inf if c.low is None else c.low,
-                math.inf if c.high is None else c.high,
-            ]
-        for b in self._normalise_limits(limits):
-            self.bounds[b.name][0 if b.side == "low" else 1] = b.value
-        self._compute()
+        self.limits = limits
+        # bounds[name] = [low, high]: the Limits' own (one definition of D)
+        self.bounds: dict[str, list[float]] = limits.bounds
+
+    @classmethod
+    def of_store(
+        cls,
+        store: Store,
+        limits: Iterable[Bound] | Mapping[str, Any] | Limits | None = None,
+        roles: Mapping[str, str] | None = None,
+    ) -> Analysis:
+        """The analysis of a store's sample (every sample stage) under ``limits``, weighted
+        as the study's sampler says (:meth:`vectorid.samplers.Sampler.weighting`).
+
+        Parameters
+        ----------
+        store : Store
+            An open store.
+        limits, roles
+            As the constructor takes them.
+
+        Returns
+        -------
+        Analysis
+        """
+        trials = store.load()
+        weighting = sampler_for(store.spec).weighting(store, trials)
+        return cls(store.spec, trials, limits, roles, weighting)
 
     def narrowed(
         self,
@@ -326,40 +300,23 @@ class Analysis:
             The narrowed analysis (sharing this one's trials), or None when a bound is
             looser or a role differs.
         """
-        b = Analysis(
-            self.spec, self.trials.subset(np.zeros(len(self.trials), dtype=bool)), limits, roles
-        )
-        if b.roles != self.roles:
+        new = Limits(self.spec, limits)
+        b = Analysis.__new__(Analysis)
+        b._setup(self.spec, self.trials, new, roles, self.weighting)
+        if b.roles != self.roles or not new.within(self.limits):
             return None
-        for name, (lo, hi) in b.bounds.items():
-            olo, ohi = self.bounds[name]
-            if lo < olo or hi > ohi:
-                return None
-        b.trials = self.trials
         b.ok = self.ok
         b.pure = self.pure
-        rows = np.flatnonzero(self.functional_ok)
-        same_functional = all(b.bounds[n] == self.bounds[n] for n in self.con_names)
+        same_functional = all(new.bounds[n] == self.bounds[n] for n in self.con_names)
         if same_functional:
             b.functional_ok = self.functional_ok
         else:
-            keep = np.ones(len(rows), dtype=bool)
-            for name in self.con_names:
-                lo, hi = b.bounds[name]
-                col = self._column(name)[rows]
-                with np.errstate(invalid="ignore"):
-                    keep &= (col >= lo) & (col <= hi)
+            rows = np.flatnonzero(self.functional_ok)
+            keep = new.functional_mask(self.trials.status[rows], self.trials.G[rows])
             b.functional_ok = np.zeros(len(self.ok), dtype=bool)
             b.functional_ok[rows[keep]] = True
         idx = np.flatnonzero(self.feasible)
-        keep = b.functional_ok[idx]
-        for name in self.crit_names:
-            lo, hi = b.bounds[name]
-            if (lo, hi) == tuple(self.bounds[name]) and same_functional:
-                continue
-            col = self._column(name)[idx]
-            with np.errstate(invalid="ignore"):
-                keep &= (col >= lo) & (col <= hi)
+        keep = b.functional_ok[idx] & new.criteria_mask(self.trials.F, idx)
         b.feasible = np.zeros(len(self.ok), dtype=bool)
         b.feasible[idx[keep]] = True
         if np.array_equal(b.feasible, self.feasible):
@@ -373,39 +330,6 @@ class Analysis:
                 sub = self.trials.F[np.ix_(d, self.pure)]
                 b.pareto[d[pareto_mask(sub, [self.senses[i] for i in self.pure])]] = True
         return b
-
-    def _normalise_limits(self, limits: Any) -> list[Bound]:
-        if limits is None:
-            return []
-        out: list[Bound] = []
-        if isinstance(limits, Mapping):
-            for name, value in limits.items():
-                if name in self.con_names:
-                    lo, hi = value
-                    out += [
-                        Bound(name, "low", -math.inf if lo is None else float(lo)),
-                        Bound(name, "high", math.inf if hi is None else float(hi)),
-                    ]
-                elif name in self.crit_names:
-                    sense = self.senses[self.crit_names.index(name)]
-                    if value is None:
-                        v = math.inf if sense == "min" else -math.inf
-                    else:
-                        v = float(value)
-                    out.append(Bound(name, "high" if sense == "min" else "low", v))
-                else:
-                    out.append(Bound(name, "high", 0.0))  # rejected below
-        else:
-            out = list(limits)
-        valid = self.crit_names + self.con_names
-        for b in out:
-            if b.name not in valid:
-                raise StudyDefinitionError(
-                    "--limit",
-                    f"limit on unknown criterion or constraint {b.name!r}",
-                    suggest(b.name, valid),
-                )
-        return out
 
     # -- computation -----------------------------------------------------------------------
 
@@ -422,30 +346,15 @@ class Analysis:
 
     def active_bounds(self) -> list[Bound]:
         """Finite bounds in force: functional constraints first, then criteria in order."""
-        out = []
-        for name in self.con_names + self.crit_names:
-            lo, hi = self.bounds[name]
-            if lo > -math.inf:
-                out.append(Bound(name, "low", lo))
-            if hi < math.inf:
-                out.append(Bound(name, "high", hi))
-        return out
+        return self.limits.active()
 
     def _compute(self) -> None:
         t = self.trials
         self.ok = t.status == OK
-        self.functional_ok = self.ok.copy()
-        for name in self.con_names:
-            lo, hi = self.bounds[name]
-            col = self._column(name)
-            with np.errstate(invalid="ignore"):
-                self.functional_ok &= (col >= lo) & (col <= hi)
-        self.feasible = self.functional_ok.copy()
-        for name in self.crit_names:
-            lo, hi = self.bounds[name]
-            col = self._column(name)
-            with np.errstate(invalid="ignore"):
-                self.feasible &= (col >= lo) & (col <= hi)
+        self.functional_ok = self.limits.functional_mask(t.status, t.G)
+        self.feasible = np.zeros(len(t), dtype=bool)
+        rows = np.flatnonzero(self.functional_ok)
+        self.feasible[rows[self.limits.criteria_mask(t.F, rows)]] = True
         pure = [i for i, r in enumerate(self.roles) if r == "pure"]
         self.pure = pure
         self.pareto = np.zeros(len(t), dtype=bool)

@@ -41,7 +41,7 @@ import numpy as np
 from ..errors import StudyDefinitionError
 from ..problem import OK
 from ..space import Choice, Integer, Space
-from ..store.sqlite import Store
+from ..store import Store
 from ._stages import find_trial, load_all, parse_note
 from .results import Analysis
 

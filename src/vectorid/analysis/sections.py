@@ -26,7 +26,7 @@ import numpy as np
 
 from ..errors import StudyDefinitionError
 from ..space import Choice, Integer, Space
-from ..store.sqlite import Store
+from ..store import Store
 from ._stages import find_trial, load_all, parse_note
 
 __all__ = ["Section", "check_range", "load_sections", "section_points", "sections_through"]

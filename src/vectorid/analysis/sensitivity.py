@@ -152,7 +152,7 @@ def sensitivity(a: Analysis) -> Sensitivity:
     n_rest = a.n - a.n_feasible
     rows = np.ones(a.n, bool)
     stride = 1.0
-    if getattr(a.trials, "log_weight", None) is not None and n_rest > WEIGHED_REST:
+    if a.weighting is not None and n_rest > WEIGHED_REST:
         # a seeded random subset, not every k-th row: every k-th point of a Sobol sequence
         # is not uniform (generation 0 is one)
         rest = np.flatnonzero(~a.feasible)

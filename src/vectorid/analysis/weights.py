@@ -1,22 +1,22 @@
 """Importance weights of a sequential store's trials, and the weighted statistics that use them.
 
-The sequential sampler (:mod:`vectorid.run.sequential`) draws later generations from kernels
-around the accepted trials, so its trials are not uniform in the box: a density, a quantile, a
-correlation or a KS statistic computed over them as if they were would describe the sampler,
-not D. Each trial's importance weight ``p_box(x) / sum_g (n_g/N) q_g(x)`` (stored generations,
-:mod:`vectorid.sequential.weights`) makes any set of them selected by limits a weighted sample
-of the box's uniform density restricted to that set: the statistic a plain Sobol table would
-give with unboundedly many trials. Plain stores have no weights (every trial counts once);
-:func:`trial_weights` returns None for them and each statistic here reduces to its unweighted
-form.
+The sequential sampler (:mod:`vectorid.samplers.sequential`) draws later generations from
+kernels around the accepted trials, so its trials are not uniform in the box: a density, a
+quantile, a correlation or a KS statistic computed over them as if they were would describe the
+sampler, not D. Each trial's importance weight ``p_box(x) / sum_g (n_g/N) q_g(x)`` (stored
+generations, :mod:`vectorid.samplers.sequential.weights`) makes any set of them selected by
+limits a weighted sample of the box's uniform density restricted to that set: the statistic a
+plain Sobol table would give with unboundedly many trials. Plain stores have no weights (every
+trial counts once); :func:`trial_weights` returns None for them and each statistic here reduces
+to its unweighted form.
 
 With 20 or more variables the sampler moves particles by Markov-chain steps instead
-(:mod:`vectorid.sequential.moves`), and its trials carry no importance weight: the weight of a
-member of D at the stated limits is its *holding time* — how many of the chains' moves kept at
-the stated limits (after the warm-up) ended with a particle on it, rejected moves included —
-which makes D's members an MCMC sample of the uniform density on D. Members never held weigh
-0; a set of rows that reaches outside D (limits loosened after the run, or trials outside D) has
-no such weights, and its rows count once each.
+(:mod:`vectorid.samplers.sequential.moves`), and its trials carry no importance weight: the
+weight of a member of D at the stated limits is its *holding time* — how many of the chains'
+moves kept at the stated limits (after the warm-up) ended with a particle on it, rejected moves
+included — which makes D's members an MCMC sample of the uniform density on D. Members never
+held weigh 0; a set of rows that reaches outside D (limits loosened after the run, or trials
+outside D) has no such weights, and its rows count once each.
 
 Counts (N, ND, NP), the test tables, the Pareto set and ranges (min and max over D) are not
 densities: they are the same with or without weights.
@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..samplers import kish_ess
 from .results import Analysis
 
 __all__ = [
@@ -47,8 +48,8 @@ def how_weighted(a: Analysis) -> str:
     """How D's densities are weighted on ``a``'s sequential store, in words: by importance
     weights (the mixture, fewer than 20 variables) or by the particles' holding times (the
     moves, 20 or more)."""
-    if getattr(a.trials.log_weight, "chains", False):
-        return "weighted by the particles' holding times"
+    if a.weighting is not None:
+        return a.weighting.how
     return "importance-weighted"
 
 
@@ -60,9 +61,9 @@ def trial_weights(a: Analysis, mask: np.ndarray | None = None) -> np.ndarray | N
     the rows include trials of a later sample stage (e.g. a refined box added after the run),
     their density is not the generations' mixture, so no weight is claimed for any row: None.
     """
-    weigh = getattr(a.trials, "log_weight", None)
-    if weigh is None:
+    if a.weighting is None:
         return None
+    weigh = a.weighting.log_weight
     rows = np.ones(a.n, bool) if mask is None else np.asarray(mask, bool)
     if rows.any() and np.any(a.trials.stage[rows] != 0):
         return None
@@ -79,11 +80,12 @@ def trial_weights(a: Analysis, mask: np.ndarray | None = None) -> np.ndarray | N
 
 
 def kish(w: np.ndarray | None, n: int) -> float:
-    """Kish's effective sample size ``(Σw)² / Σw²``; ``n`` when unweighted."""
+    """Kish's effective sample size ``(Σw)² / Σw²`` of weights ``w``
+    (:func:`vectorid.samplers.kish_ess`); ``n`` when unweighted."""
     if w is None:
         return float(n)
-    s2 = float(np.sum(np.square(w)))
-    return float(np.sum(w)) ** 2 / s2 if s2 > 0 else 0.0
+    with np.errstate(divide="ignore"):
+        return kish_ess(np.log(np.asarray(w, dtype=float)))
 
 
 def _w(x: np.ndarray, w: np.ndarray | None) -> np.ndarray:

@@ -561,7 +561,7 @@ def _worker_main(
 ) -> None:
     """Body of a worker process: build the model once, then evaluate what comes in."""
     end_with_parent(parent, pdeathsig=pdeathsig)
-    from ..store.sqlite import close_inherited_locks
+    from ..store.lock import close_inherited_locks
 
     close_inherited_locks()
     if one_thread:  # one numba/BLAS thread per worker process: the pool is the parallelism

@@ -40,7 +40,7 @@ from ..analysis.robustness import Robustness, build_robustness, neighbourhood
 from ..analysis.sections import Section, check_range, section_points
 from ..errors import StoreError
 from ..problem import EvalResult, Problem
-from ..store.sqlite import Stage, Store
+from ..store import Stage, Store
 
 __all__ = ["apply_refine", "evaluate_and_store", "relax_study", "run_robustness", "run_section"]
 

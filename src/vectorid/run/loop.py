@@ -1,39 +1,44 @@
-"""The run loop: which trials are missing, batching, progress, storing, resuming.
+"""The run loop: the one driver that evaluates and stores trials, for every sampler.
 
-The study should hold the sequence indices ``0 .. target - 1`` across its sample stages;
-stage ``s`` owns the indices from its ``start_seq`` up to the next sample stage's start.
-A run computes exactly the indices that no stored batch holds, so a run interrupted at any
-point (Ctrl-C, ``kill -9``) resumes with no trial lost and none stored twice: a batch is
-written in one transaction, and a batch that was being computed when the run died was not
-stored and is computed again.
+The study's sampler (:mod:`vectorid.samplers`) plans rounds of trials; this loop owns the
+rest, the same way for every sampler:
 
-The work is planned lazily (one batch at a time), so a target of 10^12 trials costs no more
-memory than one of 10^3: the run stores batches as they come until it is stopped.
-
-Loud failures: when every trial of the first batches (at least :data:`FIRST_LOOK` trials)
-failed, the study as defined cannot work (the model's output does not fit the study, an
-import fails in the model, every trial times out, ...): the run stops with
-:class:`~vectorid.errors.RunFailedError` naming the reason and the fix, and stores none of
-those trials, so a fixed study or model starts from a clean store. ``keep_going=True``
-(``--keep-going``) stores them anyway.
+* the **input check** (:func:`vectorid.store.inputs.check_inputs`) before the first write: a
+  run whose model code or data changed since the stored trials were computed adds nothing;
+* the **executor** (in-process, processes, Dask) and the **batches** a round is split into;
+* the **first look**: when every trial of the first batches (at least :data:`FIRST_LOOK`
+  trials) failed, the study as defined cannot work (the model's output does not fit the study,
+  an import fails in the model, every trial times out, ...): the run stops with
+  :class:`~vectorid.errors.RunFailedError` naming the reason and the fix, and stores none of
+  those trials, so a fixed study or model starts from a clean store. ``keep_going=True``
+  (``--keep-going``) stores them anyway;
+* **retries** (the executors re-run a batch that raised, lost its worker or ran past its time,
+  trial by trial) and their count in the summary;
+* every **write** (the sampler's records, new stages, batches), exactly once: a batch is
+  written in one transaction, and a batch whose range is stored already is counted as a
+  duplicate, not stored again; a run interrupted at any point (Ctrl-C, ``kill -9``) resumes
+  with no trial lost and none stored twice;
+* **progress** and the **run log** with its report (failures, recovered model errors).
 """
 
 from __future__ import annotations
 
 import collections
 import math
-import re
 import sys
 import time
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass, field
-from typing import TextIO
+from typing import Any, TextIO
 
 import numpy as np
 
 from ..errors import RunFailedError
 from ..problem import FAILED, EvalResult
-from ..store.sqlite import Store
+from ..samplers import Round, RoundResult, RunContext, StageRequest, sampler_for
+from ..samplers.table import sample_spans
+from ..store import Store
+from ..store.inputs import check_inputs
+from ..summary import FailureGroup, RunSummary, group_failures, reason_key
 from .executors import make_executor
 
 __all__ = [
@@ -65,189 +70,14 @@ class RunInterrupted(KeyboardInterrupt):
         )
 
 
-@dataclass(frozen=True)
-class FailureGroup:
-    """Failed trials that failed the same way (their messages differ at most in numbers).
-
-    Attributes
-    ----------
-    count : int
-        How many trials.
-    message : str
-        The full message of the first of them (real numbers and names).
-    trial : int
-        Its trial id.
-    """
-
-    count: int
-    message: str
-    trial: int
-
-
-@dataclass
-class RunSummary:
-    """What a run did.
-
-    Attributes
-    ----------
-    target : int
-        Trials the study should hold.
-    stored, failed, duplicates : int
-        Trials stored by this run, how many of them failed, and trials computed twice and
-        stored once.
-    total_stored : int
-        Trials the study holds after the run.
-    elapsed : float
-        Seconds.
-    reasons : Counter
-        Failed trials by group key (digits masked: a key, not a message).
-    examples : dict
-        Group key -> ``(trial id, full message)`` of the first trial of the group.
-    notes : list of str
-        Things the run decided that the user must know (a target below what is stored, ...).
-    retried : dict
-        Model errors the run recovered from by re-running trials (a batch that raised,
-        returned too few rows, lost its worker or ran past its time): group key ->
-        ``[batches, trials lost, example text]``; :attr:`model_errors` says them.
-    """
-
-    target: int
-    stored: int = 0
-    failed: int = 0
-    duplicates: int = 0
-    total_stored: int = 0
-    elapsed: float = 0.0
-    reasons: collections.Counter = field(default_factory=collections.Counter)
-    examples: dict[str, tuple[int, str]] = field(default_factory=dict)
-    notes: list[str] = field(default_factory=list)
-    retried: dict[str, list] = field(default_factory=dict)
-
-    def add_retried(self, res: EvalResult) -> None:
-        """Count the model errors a batch recovered from (once per batch and kind; the run
-        loop calls it).
-
-        Parameters
-        ----------
-        res : EvalResult
-            The evaluated batch, with the errors it was re-run after (``res.retried``).
-        """
-        if not res.retried:
-            return
-        lost = int(res.retry_lost)
-        for text in dict.fromkeys(res.retried):
-            key = _reason_key(text)
-            entry = self.retried.setdefault(key, [0, 0, text])
-            entry[0] += 1
-            entry[1] += lost
-
-    @property
-    def model_errors(self) -> list[str]:
-        """One line per kind of model error the run recovered from, e.g. "3 batches raised
-        ValueError: ... ; re-run trial by trial: 0 lost"."""
-        out = []
-        for batches, lost, text in sorted(self.retried.values(), key=lambda e: -e[0]):
-            out.append(
-                f"{batches} batch{'es' if batches > 1 else ''} {text}; re-run trial by "
-                f"trial: {lost} lost"
-            )
-        return out
-
-    @property
-    def rate(self) -> float:
-        """Trials per second."""
-        return self.stored / self.elapsed if self.elapsed > 0 else math.nan
-
-    @property
-    def failures(self) -> list[FailureGroup]:
-        """Failure groups, most frequent first, each with a real example message."""
-        return [
-            FailureGroup(count, self.examples[key][1], self.examples[key][0])
-            for key, count in self.reasons.most_common()
-        ]
-
-    def add_failures(self, start_id: int, res: EvalResult) -> None:
-        """Count the failed trials of one evaluated batch (the run loop calls it).
-
-        Parameters
-        ----------
-        start_id : int
-            Trial id of the batch's first row.
-        res : EvalResult
-            The batch's evaluation.
-        """
-        failed = np.flatnonzero(res.status == FAILED)
-        self.failed += len(failed)
-        for i in failed:
-            msg = res.messages.get(int(i), "unknown failure (no message)")
-            key = _reason_key(msg)
-            self.reasons[key] += 1
-            self.examples.setdefault(key, (int(start_id + i), msg))
-
-    def describe(self) -> str:
-        """Human-readable summary, with failure reasons (real example messages)."""
-        lines = [
-            f"{self.stored} trials computed in {self.elapsed:.1f} s "
-            f"({self.rate:.0f} trials/s); the study holds {self.total_stored} of {self.target}"
-        ]
-        lines += [f"note: {n}" for n in self.notes]
-        if self.retried:
-            lines.append(
-                "model errors (the values were re-computed; failed trials are counted below):"
-            )
-            lines += [f"  {m}" for m in self.model_errors]
-        if self.failed:
-            share = 100.0 * self.failed / max(self.stored, 1)
-            lines.append(f"{self.failed} of {self.stored} trials failed ({share:.0f} %):")
-            for g in self.failures[:10]:
-                lines.append(f"  {g.count:>7} × {g.message} (e.g. trial {g.trial})")
-            if len(self.reasons) > 10:
-                rest = sum(c for _, c in self.reasons.most_common()[10:])
-                lines.append(f"  {rest:>7} × other reasons (`vectorid info` lists them)")
-            if share > 50:
-                lines.append(
-                    "warning: most trials failed; check the reasons above before analysing "
-                    "the study"
-                )
-        if self.duplicates:
-            lines.append(f"{self.duplicates} trials were computed twice and stored once")
-        return "\n".join(lines)
-
-
-_NUMBER = re.compile(r"(?<![\w.])[-+]?\d+(\.\d+)?([eE][-+]?\d+)?(?![\w.])")
-
-
-def _reason_key(message: str) -> str:
-    """Group key of a failure message: numbers standing alone masked ("shape (#, #)"), names
-    such as ``f1`` or ``x12`` kept, the source location dropped. A key, never shown alone."""
-    text = re.sub(r" \(at [^)]*\)$", "", message)
-    text = _NUMBER.sub("#", text)
-    return text[:160]
-
-
-def group_failures(
-    messages: dict[tuple[int, int], str], ids: dict[tuple[int, int], int] | None = None
-) -> list[FailureGroup]:
-    """Group stored failure messages (``(stage, seq) -> message``) by reason, most frequent
-    first, each with the full message of its first trial (``ids`` maps keys to trial ids;
-    default ``seq + 1``)."""
-    counts: collections.Counter = collections.Counter()
-    first: dict[str, tuple[int, str]] = {}
-    for (stage, seq), msg in sorted(messages.items()):
-        key = _reason_key(msg)
-        counts[key] += 1
-        if key not in first:
-            tid = ids.get((stage, seq), seq + 1) if ids is not None else seq + 1
-            first[key] = (tid, msg)
-    return [FailureGroup(c, first[k][1], first[k][0]) for k, c in counts.most_common()]
-
-
 def plan(
     store: Store,
     target: int,
     batch_size: int,
     ranges: Sequence[tuple[int, int, int]] | None = None,
 ) -> Iterator[tuple[int, int, int]]:
-    """Missing work as ``(stage, seq_start, n)`` batches, in sequence order, one at a time.
+    """Missing work of the plain table as ``(stage, seq_start, n)`` batches, in sequence
+    order, one at a time (so a target of 10^12 trials costs no memory).
 
     Parameters
     ----------
@@ -256,57 +86,28 @@ def plan(
         Trials the study should hold.
     batch_size : int
     ranges : sequence of (stage, start, end), optional
-        Only these sequence ranges (a repair), instead of everything up to ``target``.
+        Only these sequence ranges, instead of everything up to ``target``.
     """
-    if ranges is None:
-        sample = [s for s in store.stages() if s.kind == "sample"]
-        spans = []
-        for i, stage in enumerate(sample):
-            end = sample[i + 1].start_seq if i + 1 < len(sample) else target
-            end = min(end, target)
-            if end > stage.start_seq:
-                spans.append((stage.stage, stage.start_seq, end))
-    else:
-        spans = list(ranges)
+    spans = list(ranges) if ranges is not None else sample_spans(store, target)
     for stage, start, end in spans:
-        for a, b in store.missing(stage, start, end):
-            for s in range(a, b, batch_size):
-                yield (stage, s, min(batch_size, b - s))
+        yield from _batches(store, stage, start, end, batch_size)
 
 
-#: Points scipy's Sobol engine can give (``bits=30``); index i is point i + 1 unscrambled.
-SOBOL_POINTS = 2**30
+def _batches(
+    store: Store, stage: int, start: int, end: int, size: int
+) -> Iterator[tuple[int, int, int]]:
+    for a, b in store.missing(stage, start, end):
+        for s in range(a, b, size):
+            yield (stage, s, min(size, b - s))
 
 
-def _check_capacity(spec, target: int) -> None:
-    """Refuse a target the point sequence cannot reach (before computing anything)."""
-    if spec.sampler != "sobol":
-        return
-    most = SOBOL_POINTS - (0 if spec.scramble else 1)
-    if target > most:
-        from ..errors import StudyDefinitionError
-
-        raise StudyDefinitionError(
-            "trials",
-            f"{target} trials are more than the Sobol sequence can give here: at most {most} "
-            f"(scipy's Sobol engine holds 2**30 = {SOBOL_POINTS} points)",
-            f'use at most {most} trials, or sampler = "lhs" (Latin hypercube blocks, no such '
-            "limit)",
-        )
-
-
-def _missing_count(store: Store, target: int, ranges=None) -> int:
-    return sum(n for _, _, n in plan(store, target, 1 << 62, ranges))
-
-
-def _auto_batch(missing: int, workers: int) -> int:
-    if missing <= 0:
+def _batch_size(work: int, workers: int, parts: int) -> int:
+    if work <= 0:
         return 1
-    per_worker = math.ceil(missing / (workers * 8))
-    return int(min(1024, max(16, per_worker)))
+    return int(min(1024, max(16, math.ceil(work / (workers * parts)))))
 
 
-def _hint(message: str, spec) -> str:
+def _hint(message: str, spec: Any) -> str:
     """How to fix a study whose every trial failed with ``message``."""
     names = lambda items: ", ".join(c.name for c in items)  # noqa: E731
     p, k, q = len(spec.space), len(spec.criteria), len(spec.constraints)
@@ -339,6 +140,120 @@ def _hint(message: str, spec) -> str:
     return "the model raises on every trial: fix the model (the message says where)"
 
 
+class _Run:
+    """One run of the driver: the store, the pool, the summary, the first look."""
+
+    def __init__(self, store: Store, summary: RunSummary, pool: Any, keep_going: bool,
+                 accept_changes: bool, settings: Any, executor: str) -> None:  # fmt: skip
+        self.store = store
+        self.executor = executor
+        self.run_id: int | None = None
+        self.started = False
+        self.summary = summary
+        self.pool = pool
+        self.settings = settings
+        self.accept_changes = accept_changes
+        self.checked = False
+        self.held: list[tuple[int, int, np.ndarray, EvalResult]] | None = None if keep_going else []
+        self.seen = 0
+        self.bar: Any = None
+
+    def before_write(self) -> None:
+        """The input check, then the run's record and settings, once, before the run writes
+        anything: a refused run leaves the store as it was."""
+        if not self.checked:
+            self.checked = True
+            self.summary.notes += check_inputs(self.store, accept_changes=self.accept_changes)
+        self.begin()
+        if self.settings.save:
+            self.store.set_study_keys(**self.settings.save)
+            self.settings.save = {}
+
+    def begin(self) -> None:
+        """Open the run's record in the store's run log."""
+        if self.run_id is None:
+            self.run_id = self.store.begin_run(
+                self.executor, self.pool.workers, self.settings.target
+            )
+
+    def store_result(self, stage: int, start: int, X: np.ndarray, res: EvalResult) -> None:
+        wrote = self.store.write_batch(
+            stage, start, X, res.criteria, res.functionals, res.status, res.wall, res.messages
+        )
+        if wrote == 0:
+            self.summary.duplicates += res.n
+            return
+        self.summary.stored += wrote
+        self.summary.add_failures(start + 1, res)
+        self.summary.add_retried(res)
+        if self.bar is not None:
+            self.bar.update(wrote)
+
+    def release(self) -> None:
+        """Store what the first look held back (some trial succeeded, or the look is over)."""
+        if self.held is None:
+            return
+        pending, self.held = self.held, None
+        for args in pending:
+            self.store_result(*args)
+
+    def evaluate(self, rnd: Round, batch_size: int | None) -> RoundResult:
+        """Evaluate and store the trials of ``rnd`` the store does not hold."""
+        store = self.store
+        stage = rnd.stage
+        if isinstance(stage, StageRequest):
+            self.before_write()
+            stage = store.add_stage(store.spec.space, kind=stage.kind, note=stage.note).stage
+        todo = store.missing(stage, rnd.start, rnd.end)
+        work = sum(b - a for a, b in todo)
+        if rnd.record is not None and not self._recorded(rnd.record):
+            self.before_write()
+            r = rnd.record
+            store.add_sampler_record(r["index"], r["seq_start"], r["n"], r["info"], r["arrays"])
+        if not work:
+            return RoundResult(stage, 0)
+        self.before_write()
+        if not self.started:
+            self.pool.start()  # now: a Dask cluster says how many threads it has
+            self.started = True
+        size = rnd.batch or batch_size or _batch_size(work, self.pool.workers, rnd.parts_per_worker)
+        inflight: dict[tuple[int, int], np.ndarray] = {}
+
+        def batches() -> Iterator[tuple[tuple[int, int], np.ndarray]]:
+            for a, b in todo:
+                for s in range(a, b, size):
+                    X = np.asarray(rnd.points(s, min(size, b - s)), dtype=float)
+                    inflight[(stage, s)] = X
+                    yield (stage, s), X
+
+        kept: dict[int, tuple[np.ndarray, EvalResult]] = {}
+        limit = min(FIRST_LOOK, work)
+        for (st, start), res in self.pool.map_unordered(batches()):
+            X = inflight.pop((st, start))
+            if rnd.results:
+                kept[start] = (X, res)
+            if self.held is None:
+                self.store_result(st, start, X, res)
+                continue
+            self.held.append((st, start, X, res))
+            self.seen += res.n
+            if not np.all(res.status == FAILED):
+                self.release()
+            elif self.seen >= limit:
+                _stop_loudly(store.spec, self.held, self.seen)
+        self.release()
+        out = RoundResult(stage, work)
+        if rnd.results and kept:
+            order = sorted(kept)
+            out.X = np.concatenate([kept[s][0] for s in order])
+            out.result = EvalResult.concatenate([kept[s][1] for s in order])
+        return out
+
+    def _recorded(self, record: dict) -> bool:
+        """Whether the sampler record ``record`` is in the store already (a resumed run)."""
+        return int(record["index"]) < self.store.sampler_record_count()
+
+
 def run_store(
     store: Store,
     *,
@@ -348,13 +263,13 @@ def run_store(
     batch_size: int | None = None,
     progress: bool | TextIO = True,
     keep_going: bool = False,
-    ranges: Sequence[tuple[int, int, int]] | None = None,
     timeout: float | None = None,
     budget: int | None = None,
     population: int | None = None,
     accept_changes: bool = False,
+    search: bool = True,
 ) -> RunSummary:
-    """Run (or resume, or extend) the study held by a writable store.
+    """Run (or resume, or extend) the study held by a writable store, with its sampler.
 
     Parameters
     ----------
@@ -362,10 +277,9 @@ def run_store(
         Opened with ``write=True``.
     trials : int, optional
         Total number of trials the study should hold (default: the study's ``trials``); for a
-        sequential study (``sampler = "sequential"``, run by
-        :func:`vectorid.run.sequential.run_sequential`) the size of generation 0. A
-        larger number than before extends the study along the same sequence; a smaller one
-        than is stored computes nothing and keeps every stored trial (the summary says so).
+        sequential study (``sampler = "sequential"``) the size of generation 0. A larger
+        number than before extends the study along the same sequence; a smaller one than is
+        stored computes nothing and keeps every stored trial (the summary says so).
     executor : {"serial", "processes", "dask", "inline"}, optional
         Default: the study's executor, else ``"processes"``.
     workers : int, optional
@@ -373,27 +287,29 @@ def run_store(
     batch_size : int, optional
         Trials per batch (default: the study's, else chosen from the work size).
     progress : bool or file
-        Show a progress bar (on stderr, or on the given file).
+        Show progress (on stderr, or on the given file): a bar over the trials of the plain
+        table, one line per generation of the sequential sampler.
     keep_going : bool
         Store the first batches even when every one of their trials failed (see the module
         docstring); default False: stop with :class:`~vectorid.errors.RunFailedError`.
-    ranges : sequence of (stage, start, end), optional
-        Only compute the missing trials of these sequence ranges (used by repairs).
     timeout : float, optional
-        Most seconds one trial may take (default: the study's ``timeout``).
+        Most seconds one trial may take (default: the study's ``timeout``; see
+        :mod:`vectorid.run.executors` for how a batch that runs over is split).
     budget, population : int, optional
         Sequential studies only: most model evaluations and members of D wanted (saved in
         the study; default: the study's).
-        Most seconds one trial may take (default: the study's ``timeout``; see
-        :mod:`vectorid.run.executors` for how a batch that runs over is split).
     accept_changes : bool
         When the data files or the model's code changed since the stored trials were
         computed, take the change and record it in the store's history instead of stopping
         (:func:`vectorid.store.inputs.check_inputs`).
+    search : bool
+        Let the sampler run its extra search when it did not reach what it aims at (the
+        sequential sampler's local search).
 
     Returns
     -------
     RunSummary
+        The sampler's kind of summary (a sequential study's says how far D was reached).
 
     Raises
     ------
@@ -402,149 +318,67 @@ def run_store(
     RunFailedError
         When every trial of the first batches failed (unless ``keep_going``).
     """
-    spec = store.spec
-    if spec.sampler != "sequential" and (budget is not None or population is not None):
-        from ..errors import StudyDefinitionError
-
-        raise StudyDefinitionError(
-            "--budget" if budget is not None else "--population",
-            f"budget and population apply to sampler 'sequential', this study's sampler is "
-            f"{spec.sampler!r}",
-            'use --trials for a plain study, or set sampler = "sequential" in a new study',
-        )
-    if spec.sampler == "sequential":
-        from .sequential import run_sequential
-
-        if trials is not None and int(trials) != spec.trials and not store.count_sample():
-            store.set_target(int(trials))  # generation 0's size, before anything is stored
-        return run_sequential(
-            store,
-            budget=budget,
-            population=population,
-            executor=executor,
-            workers=workers,
-            batch_size=batch_size,
-            progress=progress,
-            keep_going=keep_going,
-            ranges=ranges,
-            timeout=timeout,
-        )
-    if trials is not None:
-        _check_capacity(spec, int(trials))
-    notes: list[str] = []
+    sampler = sampler_for(store.spec)
+    settings = sampler.configure(store, trials=trials, budget=budget, population=population)
+    spec = settings.spec
     stored_before = store.count_sample()
-    if trials is not None and ranges is None:
-        trials = int(trials)
-        if trials < stored_before:
-            notes.append(
-                f"the store holds {stored_before} trials, more than the {trials} asked for: "
-                "nothing to compute, every stored trial is kept (analyses use all of them), "
-                f"and the study's target stays {max(spec.trials, stored_before)}"
-            )
-            trials = max(spec.trials, stored_before)
-    target = int(trials if trials is not None else spec.trials)
-    missing = _missing_count(store, target, ranges)
-    if missing or accept_changes:
-        from ..store.inputs import check_inputs
-
-        # the same check on every path into a store, before anything is written to it
-        notes += check_inputs(store, accept_changes=accept_changes)
-    if trials is not None and ranges is None and trials != spec.trials:
-        store.set_target(trials)
-        spec = store.spec
-    _check_capacity(spec, target)
+    summary = sampler.new_summary(settings, stored_before)
+    if accept_changes:
+        summary.notes += check_inputs(store, accept_changes=True)
     executor_name = executor or spec.executor or "processes"
     pool = make_executor(
-        executor_name,
-        spec,
-        workers if workers is not None else spec.workers,
-        timeout=timeout,
+        executor_name, spec, workers if workers is not None else spec.workers, timeout=timeout
     )
-    size = batch_size or spec.batch_size or _auto_batch(missing, pool.workers)
-    sampler = spec.sampler_for()
-    spaces = {s.stage: s.space for s in store.stages()}
-    summary = RunSummary(target=target, total_stored=stored_before, notes=notes)
-
-    inflight: dict[tuple[int, int], np.ndarray] = {}
-
-    def batches() -> Iterator[tuple[tuple[int, int], np.ndarray]]:
-        for stage, start, n in plan(store, target, size, ranges):
-            X = spaces[stage].scale(sampler.points(start, n))
-            inflight[(stage, start)] = X
-            yield (stage, start), X
-
+    out = progress if not isinstance(progress, bool) else sys.stderr
+    say = (lambda text: print(text, file=out, flush=True)) if progress else (lambda text: None)
+    ctx = RunContext(settings, summary, pool.workers, say, search)
+    size = batch_size or spec.batch_size
     bar = None
-    run_id = store.begin_run(executor_name, pool.workers, target)
+    run = _Run(store, summary, pool, keep_going, accept_changes, settings, executor_name)
+    run.checked = accept_changes
+    planned = False
     t0 = time.perf_counter()
     outcome = "completed"
-    # Results held back until the run has seen FIRST_LOOK trials (or all of its work): if
-    # every one of them failed, nothing is stored and the run stops.
-    held: list[tuple[int, int, np.ndarray, EvalResult]] | None = [] if not keep_going else None
-    seen = 0
-
-    def store_result(stage: int, start: int, X: np.ndarray, res: EvalResult) -> None:
-        wrote = store.write_batch(
-            stage, start, X, res.criteria, res.functionals, res.status, res.wall, res.messages
-        )
-        if wrote == 0:
-            summary.duplicates += res.n
-            return
-        summary.stored += wrote
-        summary.add_failures(start + 1, res)
-        summary.add_retried(res)
-        if bar is not None:
-            bar.update(wrote)
-
-    def release_held() -> None:
-        nonlocal held
-        if held is None:
-            return
-        pending, held = held, None
-        for args in pending:
-            store_result(*args)
-
     try:
         with pool:
-            if missing:
-                pool.start()
-            if progress and missing:
-                from tqdm.auto import tqdm
+            rounds = sampler.rounds(store, ctx)
+            try:
+                rnd = next(rounds)
+            except StopIteration:
+                rnd = None
+            planned = rnd is not None
+            while rnd is not None:
+                if rnd.bar and progress and bar is None and settings.work:
+                    from tqdm.auto import tqdm
 
-                bar = tqdm(
-                    total=stored_before + missing,
-                    initial=stored_before,
-                    unit="trial",
-                    file=progress if not isinstance(progress, bool) else sys.stderr,
-                    dynamic_ncols=True,
-                    smoothing=0.1,
-                )
-            for (stage, start), res in pool.map_unordered(batches()):
-                X = inflight.pop((stage, start))
-                if held is None:
-                    store_result(stage, start, X, res)
-                    continue
-                held.append((stage, start, X, res))
-                seen += res.n
-                if not np.all(res.status == FAILED):
-                    release_held()
-                elif seen >= min(FIRST_LOOK, missing):
-                    _stop_loudly(spec, held, seen)
-            release_held()
+                    bar = tqdm(total=stored_before + settings.work, initial=stored_before,
+                               unit="trial", file=out, dynamic_ncols=True,
+                               smoothing=0.1)  # fmt: skip
+                    run.bar = bar
+                result = run.evaluate(rnd, size)
+                try:
+                    rnd = rounds.send(result)
+                except StopIteration:
+                    rnd = None
+            run.release()
     except KeyboardInterrupt:
         outcome = "interrupted"
         raise RunInterrupted(summary) from None
     except RunFailedError as exc:
         outcome = f"stopped: {str(exc)[:200]}"
         raise
-    except BaseException:
-        outcome = "error"
+    except BaseException as exc:
+        outcome = f"stopped: {str(exc)[:200]}" if str(exc) else "error"
         raise
     finally:
         summary.elapsed = time.perf_counter() - t0
         summary.total_stored = store.count_sample()
         if bar is not None:
             bar.close()
-        store.end_run(run_id, outcome, _run_report(summary))
+        if run.run_id is None and outcome == "completed" and planned:
+            run.begin()  # a run with nothing to compute is logged too
+        if run.run_id is not None:
+            store.end_run(run.run_id, outcome, _run_report(summary))
     return summary
 
 
@@ -561,12 +395,12 @@ def _run_report(summary: RunSummary) -> dict:
     }
 
 
-def _stop_loudly(spec, held, seen: int) -> None:
+def _stop_loudly(spec: Any, held: list, seen: int) -> None:
     stage, start, _, res = held[0]
     first = int(np.flatnonzero(res.status == FAILED)[0])
     message = res.messages.get(first, "unknown failure (no message)")
     keys = collections.Counter(
-        _reason_key(r.messages.get(i, "")) for _, _, _, r in held for i in range(r.n)
+        reason_key(r.messages.get(i, "")) for _, _, _, r in held for i in range(r.n)
     )
     same = len(keys) == 1
     raise RunFailedError(

@@ -39,7 +39,10 @@ from typing import TextIO
 import numpy as np
 
 from ..errors import StoreDamagedError, StoreError
-from ..store.sqlite import TABLES, DamagedBatch, Store
+from ..samplers import sampler_for
+from ..store import DamagedBatch, Store, VerifyReport
+from ..store.lock import WriterLock
+from ..store.schema import APPLICATION_ID, GENERATIONS, SCHEMA, SCHEMA_VERSION, TABLES
 from .executors import make_executor
 
 __all__ = ["RepairReport", "rebuild_file", "repair_store"]
@@ -121,8 +124,6 @@ def rebuild_copy(path: Path) -> tuple[Path, list[str], list[tuple[int, int, int]
     """Copy every readable row of the store at ``path`` into ``PATH.rebuild`` (the store
     itself is not touched). Returns the copy's path, the rows that could not be read, and the
     sequence ranges of batches that could not be copied."""
-    from ..store.sqlite import _GENERATIONS, _SCHEMA, APPLICATION_ID, SCHEMA_VERSION
-
     tmp = path.with_name(path.name + ".rebuild")
     for suffix in ("", "-wal", "-shm"):
         if os.path.exists(str(tmp) + suffix):
@@ -136,8 +137,8 @@ def rebuild_copy(path: Path) -> tuple[Path, list[str], list[tuple[int, int, int]
         dst.execute("PRAGMA page_size = 65536")
         dst.execute(f"PRAGMA application_id = {APPLICATION_ID}")
         dst.execute(f"PRAGMA user_version = {SCHEMA_VERSION}")
-        dst.executescript(_SCHEMA)
-        dst.executescript(_GENERATIONS)
+        dst.executescript(SCHEMA)
+        dst.executescript(GENERATIONS)
         try:
             cols = {r[1] for r in src.execute("PRAGMA table_info(blocks)")}
         except sqlite3.DatabaseError:
@@ -274,29 +275,27 @@ def repair_store(
         if study is not None:
             _restore_definition(store, Path(study))
             report.restored = Path(study)
-        rep = store.verify()
+        rep = verify_store(store)
         sqlite_ok = rep.sqlite == ["ok"] and not any(
             "cannot be read" in p or "SQLite" in p for p in rep.problems
         )
         if sqlite_ok:
             _repair_batches(store, rep, report, executor, workers, progress)
-            report.missing = store.missing_planned()
+            report.missing = missing_planned(store)
             return report
     finally:
         store.close()
     # SQLite itself is damaged: rebuild a copy, repair the copy, then swap it in (one
     # rename), all while holding the lock on the store
-    from ..store.sqlite import _WriterLock
-
-    lock = _WriterLock(path)
+    lock = WriterLock(path)
     lock.acquire()
     try:
         tmp, report.lost_rows, lost_ranges = rebuild_copy(path)
         copy = Store.open(tmp, write=True)
         try:
-            rep = copy.verify()
+            rep = verify_store(copy)
             _repair_batches(copy, rep, report, executor, workers, progress, lost_ranges)
-            report.missing = copy.missing_planned()
+            report.missing = missing_planned(copy)
         finally:
             copy.close()
         report.backup = swap_in(path, tmp)
@@ -338,14 +337,15 @@ def _repair_batches(
     # Sample trials: exactly those the plan loses when the damaged batches go (a damaged
     # header says nothing sure about its range: what the others do not hold is computed).
     keep = {d.block for d in damaged}
-    lost = _plan_gaps(store, exclude=keep)
+    sampler = sampler_for(store.spec)
+    lost = _plan_gaps(store, keep, sampler.planned(store))
     untrusted = {
         d.block for d in damaged if {"header", "size"} & set(d.parts) or d.stage not in kinds
     }
     if untrusted:  # the range such a batch held is not known: every gap of the plan
         ranges = lost
     else:
-        ranges = _subtract(lost, _plan_gaps(store, exclude=set()))
+        ranges = _subtract(lost, _plan_gaps(store, set(), sampler.planned(store)))
     ranges += [r for r in lost_ranges if kinds.get(r[0]) == "sample"]
     if any(r[0] == -1 for r in lost_ranges):
         report.lost_rows.append(
@@ -357,14 +357,12 @@ def _repair_batches(
         from ..store.inputs import check_inputs
 
         check_inputs(store)  # recomputed trials must come from the same model and data
-    sampler = spec.sampler_for()
-    spaces = {s.stage: s.space for s in store.stages()}
     size = spec.batch_size or 256
     work: dict[tuple[int, int], np.ndarray] = dict(rerun)
     for stage, a, b in ranges:
         for s0 in range(a, b, size):
             n = min(size, b - s0)
-            work[(stage, s0)] = spaces[stage].scale(sampler.points(s0, n))
+            work[(stage, s0)] = sampler.points(store, stage, s0, n)  # as the sampler planned
     results = _evaluate(spec, work, executor, workers)
     why = "repair: replaced damaged batches " + ", ".join(
         f"{d.block} (trials {d.first_id}–{d.last_id})" for d in damaged
@@ -382,31 +380,44 @@ def _repair_batches(
     report.dropped = damaged
 
 
-def _plan_gaps(store: Store, exclude: set[int]) -> list[tuple[int, int, int]]:
-    """``(stage, start, end)`` of the plan that no batch holds, batches ``exclude`` left out."""
-    target = int(store.spec.trials)
-    rows = store._query("SELECT block, stage, seq_start, n FROM blocks")
+def _plan_gaps(
+    store: Store, exclude: set[int], plan: Sequence[tuple[int, int, int]]
+) -> list[tuple[int, int, int]]:
+    """``(stage, start, end)`` of the sampler's ``plan`` that no batch holds, batches
+    ``exclude`` left out."""
     held: dict[int, list[tuple[int, int]]] = {}
-    for block, stage, start, n in rows:
+    for block, stage, start, n in store.batch_headers():
         if block in exclude or not all(isinstance(v, int) for v in (stage, start, n)):
             continue
         held.setdefault(stage, []).append((start, start + n))
-    sample = [s for s in store.stages() if s.kind == "sample"]
     out = []
-    for i, st in enumerate(sample):
-        end = min(sample[i + 1].start_seq if i + 1 < len(sample) else target, target)
-        pos = st.start_seq
-        for a, b in sorted(held.get(st.stage, [])):
+    for stage, pos, end in plan:
+        for a, b in sorted(held.get(stage, [])):
             if b <= pos:
                 continue
             if a >= end:
                 break
             if a > pos:
-                out.append((st.stage, pos, min(a, end)))
+                out.append((stage, pos, min(a, end)))
             pos = max(pos, b)
         if pos < end:
-            out.append((st.stage, pos, end))
+            out.append((stage, pos, end))
     return out
+
+
+def verify_store(store: Store) -> VerifyReport:
+    """:meth:`Store.verify` with the plan of the study's sampler (what the store should hold);
+    a store whose study definition cannot be read is verified without one."""
+    try:
+        plan = sampler_for(store.spec).planned(store)
+    except StoreError:
+        plan = None
+    return store.verify(plan)
+
+
+def missing_planned(store: Store) -> int:
+    """Trials the study's sampler planned that no stored batch holds."""
+    return store.missing_in(sampler_for(store.spec).planned(store))
 
 
 def _subtract(
@@ -453,10 +464,10 @@ def _restore_definition(store: Store, study: Path) -> None:
     from ..store.agreement import data_file_hashes
 
     spec = load_study(study)
-    rows = store._query("SELECT box FROM stages WHERE stage = 0")
-    if rows:
+    text = store.stage_box_text(0)
+    if text is not None:
         try:
-            box = json.loads(rows[0][0])
+            box = json.loads(text)
         except ValueError:
             box = None
         if box is not None and box != spec.space.to_list():
@@ -474,13 +485,13 @@ def _intact_parameters(store: Store, d: DamagedBatch) -> np.ndarray | None:
     if d.parts and any(p in ("x", "header", "size", "checksum") for p in d.parts):
         return None
     try:
-        row = store._query("SELECT x FROM blocks WHERE block = ?", (d.block,))
+        raw = store.batch_parameters(d.block)
     except StoreError:
         return None
-    if not row:
+    if raw is None:
         return None
     p = len(store.spec.space)
-    x = np.frombuffer(row[0][0], dtype="<f8")
+    x = np.frombuffer(raw, dtype="<f8")
     if x.size != d.n * p:
         return None
     return x.reshape(d.n, p).copy()

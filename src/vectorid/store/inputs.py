@@ -234,7 +234,7 @@ def _vectorid_sources(kind: str) -> dict[str, Any]:
     for f in files:
         h.update(str(f.relative_to(vid)).encode() + b"\0")
         h.update((_sha256(f) or "unreadable").encode() + b"\0")
-    from .. import __version__
+    from .._version import __version__
 
     return {
         f"vectorid {kind} model sources": {

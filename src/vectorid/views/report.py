@@ -35,7 +35,7 @@ from typing import Any
 
 import numpy as np
 
-from .. import __version__
+from .._version import __version__
 from ..analysis.choice import best_per_criterion, suggest_choice
 from ..analysis.correlation import correlation_of, parameter_spread
 from ..analysis.histograms import histograms, stage_histograms
@@ -45,7 +45,9 @@ from ..analysis.robustness import chosen_table, load_robustness
 from ..analysis.sections import load_sections
 from ..analysis.sensitivity import sensitivity
 from ..errors import VectoridError
-from ..store.sqlite import Store
+from ..samplers.sequential import assess, generations, sample_note
+from ..samplers.sequential.schedule import ESS_SHARE
+from ..store import Store
 from . import figures as fg
 from .clouds import PROPOSED_COLOUR
 from .history import history
@@ -286,14 +288,12 @@ def _counts(page: _Page, a: Analysis) -> None:
 def _sequential(page: _Page, a: Analysis, store: Store) -> None:
     """A sequential store: the sampler, its generations, D's members and ESS under the
     constraints in force, and what the weights apply to."""
-    if store.spec.sampler != "sequential" or not store.generations():
+    gens = generations(store)
+    if not gens:
         return
-    from ..run.sequential import ESS_SHARE, assess, sample_note
-
     spec = store.spec
-    limits = {b.name: b.value for b in a.active_bounds() if b.name in a.crit_names}
-    state = assess(store, a.trials, limits or None)
-    gens = store.generations()
+    limits = {n: a.limits.worse_side(n) for n in a.crit_names}
+    state = assess(store, a.trials, limits)
     members = int(state.members.sum())
     wanted = spec.sequential_population
     reached = members >= wanted and state.ess >= ESS_SHARE * wanted
@@ -307,10 +307,10 @@ def _sequential(page: _Page, a: Analysis, store: Store) -> None:
         + ("<b>D reached</b>" if reached else "<b class=x>D not reached</b>")
         + "</p>"
     )
-    note = sample_note(store, a)
+    note = sample_note(store, a.limits, a.trials)
     if note:
         page.add(f"<p class=note>{_e(note)}</p>")
-    moved = getattr(a.trials.log_weight, "chains", False)
+    moved = a.weighting is not None and a.weighting.kind == "holding"
     page.add(
         "<p>The particles moved by Markov-chain steps inside the limits, so the trials are "
         "not uniform in the box. Densities and statistics of D in this report are "
@@ -739,7 +739,7 @@ def build_report(
     import plotly.offline
 
     spec = store.spec
-    a = Analysis(spec, store.load(), limits, roles)
+    a = Analysis.of_store(store, limits, roles)
     lab = labels_of(spec)
     stages = store.stages()
     page = _Page()

@@ -22,7 +22,7 @@ __all__ = ["job_action", "job_message", "job_view", "limits_to_save", "start_job
 def limits_to_save(
     ctx: UIContext, limit_texts: Any, roles: Any = None, functional: Any = None
 ) -> dict[str, Any]:
-    """The constraints in force, as :meth:`~vectorid.store.sqlite.Store.set_limits` saves
+    """The constraints in force, as :meth:`~vectoridstore.Store.set_limits` saves
     them (the rule of ``vectorid table --save``: a criterion's saved limit is its worse-side
     bound; functional constraints keep both bounds), with where each limit came from: a
     limit still equal to the saved one keeps its source and note (a noise floor stays a

@@ -29,8 +29,9 @@ import numpy as np
 
 from ...analysis.results import Analysis, TestTable
 from ...errors import StudyDefinitionError, suggest
+from ...samplers import Weighting, sampler_for
 from ...spec import StudySpec
-from ...store.sqlite import Stage, Store, Trials
+from ...store import Stage, Store, Trials
 
 __all__ = [
     "Constraints",
@@ -290,6 +291,7 @@ class StoreCache:
         self._memo: OrderedDict[tuple, Analysis] = OrderedDict()
         self._key: tuple | None = None
         self._trials: Trials | None = None
+        self._weighting: Weighting | None = None
         self._spec: StudySpec | None = None
         self._stages: list[Stage] = []
         self._tables: OrderedDict[tuple, list[TestTable]] = OrderedDict()
@@ -341,6 +343,7 @@ class StoreCache:
                 # parameter over every trial (histograms, identifiability, plots), which is
                 # then contiguous, and no view needs a transposed copy (96 MB at 1e6)
                 self._trials.X = np.asfortranarray(self._trials.X)
+                self._weighting = sampler_for(self._spec).weighting(st, self._trials)
                 self.loads += 1
                 release_freed_memory()
             self._key = key
@@ -382,7 +385,7 @@ class StoreCache:
                         self.narrowed += 1
                         break
             if a is None:
-                a = Analysis(self.spec, trials, c.overrides, c.roles)
+                a = Analysis(self.spec, trials, c.overrides, c.roles, self._weighting)
             self._memo[full] = a
             while len(self._memo) > self._memo_size:
                 self._memo.popitem(last=False)

@@ -15,6 +15,7 @@ from ...analysis.histograms import Histogram, _edges, default_bins, histogram, h
 from ...analysis.results import Analysis
 from ...analysis.weights import how_weighted
 from ...errors import StudyDefinitionError, VectoridError
+from ...samplers import sampler_for
 from .. import clouds
 from .context import UIContext, analysis_of, fmt, num
 from .data import parse_trial_id
@@ -54,14 +55,10 @@ def sampler_note(ctx: UIContext, a: Analysis) -> str | None:
     """A sequential store's line under the constraints in force: evaluations, generations,
     D's members and ESS, and how D's densities are weighted (memoised per
     analysis); None for a plain store."""
-    if ctx.spec.sampler != "sequential":
-        return None
     memo = ctx.extra.setdefault("sampler_note", weakref.WeakKeyDictionary())
     if a not in memo:
-        from ...run.sequential import sample_note
-
         with ctx.cache.open() as st:
-            note = sample_note(st, a)
+            note = sampler_for(ctx.spec).describe(st, a.limits, a.trials)
         memo[a] = (
             None
             if note is None
@@ -87,7 +84,7 @@ def fast_histograms(ctx: UIContext, a: Analysis, min_trials: int = 50_000) -> li
     of fewer than ``min_trials`` trials, or a sequential one (weighted D), goes the plain
     way."""
     t = a.trials
-    if a.n < min_trials or getattr(t, "log_weight", None) is not None:
+    if a.n < min_trials or a.weighting is not None:
         return histograms(a)
     nbins = default_bins(a.n_feasible)
     per = trials_memo(ctx, a, "histograms")

@@ -109,7 +109,7 @@ def run_job(kind: str, store_path: str, params: Mapping[str, Any]) -> str:
         ``trials``, ``executor``, ``workers``; for ``limits``: ``criteria`` (name -> limit or
         None), ``constraints`` (name -> (low, high), None for no bound), ``sources`` (name ->
         (limit_source, limit_note)) and ``text`` (the bounds in words), as
-        :meth:`vectorid.store.sqlite.Store.set_limits` takes them.
+        :meth:`vectoridstore.Store.set_limits` takes them.
 
     Returns
     -------
@@ -120,7 +120,7 @@ def run_job(kind: str, store_path: str, params: Mapping[str, Any]) -> str:
     from ...analysis.results import Analysis
     from ...run.extra import apply_refine, run_robustness, run_section
     from ...run.loop import run_store
-    from ...store.sqlite import Store
+    from ...store import Store
 
     if kind not in JOB_KINDS:
         raise ValueError(f"unknown job kind {kind!r}; expected one of {JOB_KINDS}")
@@ -149,7 +149,7 @@ def run_job(kind: str, store_path: str, params: Mapping[str, Any]) -> str:
             )
         a = None
         if kind in ("robustness", "refine"):
-            a = Analysis(store.spec, store.load(), params.get("limits"), params.get("roles"))
+            a = Analysis.of_store(store, params.get("limits"), params.get("roles"))
         if kind == "robustness":
             rob = run_robustness(
                 store,

@@ -10,12 +10,14 @@ from typing import Any
 
 import numpy as np
 import plotly.graph_objects as go
+from scipy.special import logsumexp
 
 from ...analysis.classes import point_classes
 from ...analysis.correlation import parameter_spread
 from ...analysis.robustness import load_robustness
 from ...analysis.sections import load_sections
 from ...errors import VectoridError
+from ...samplers.sequential import generations
 from .. import figures as fg
 from .context import UIContext, analysis_of, fmt, num
 from .data import parse_trial_id
@@ -143,12 +145,10 @@ def generation_text(ctx: UIContext, a: Any, row: int) -> str:
     relative to the mean weight of D's members (of all trials when D is empty); empty for a
     plain store or a trial outside the generations."""
     t = a.trials
-    if ctx.spec.sampler != "sequential" or t.log_weight is None or int(t.stage[row]) != 0:
+    if a.weighting is None or int(t.stage[row]) != 0:
         return ""
-    from scipy.special import logsumexp
-
     with ctx.cache.open() as st:
-        gens = st.generations()
+        gens = generations(st)
     seq = int(t.seq[row])
     gen = next((g.gen for g in gens if g.seq_start <= seq < g.seq_start + g.n), None)
     if gen is None:
@@ -158,11 +158,11 @@ def generation_text(ctx: UIContext, a: Any, row: int) -> str:
         ref = a.feasible & (t.stage == 0)
         which = "D's members" if ref.any() else "all trials"
         ref = ref if ref.any() else t.stage == 0
-        lw = np.asarray(t.log_weight(t.X[ref]), float)
+        lw = np.asarray(a.weighting.log_weight(t.X[ref]), float)
         memo[a] = (float(logsumexp(lw) - np.log(len(lw))), which)
     mean, which = memo[a]
-    w = float(np.exp(t.log_weight(t.X[row : row + 1])[0] - mean))
-    if getattr(t.log_weight, "chains", False):  # a moved store: holding times in D's chains
+    w = float(np.exp(a.weighting.log_weight(t.X[row : row + 1])[0] - mean))
+    if a.weighting.kind == "holding":  # a moved store: holding times in D's chains
         if not np.isfinite(mean) or not np.isfinite(w):
             return f"; generation {gen}"
         return f"; generation {gen}, weight {w:.3g} in D (holding time; mean over {which} = 1)"

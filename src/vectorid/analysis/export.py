@@ -21,7 +21,8 @@ from typing import Any, TextIO
 import numpy as np
 
 from ..errors import StudyDefinitionError, suggest
-from .sqlite import Store
+from ..store import Store
+from .results import Analysis
 
 __all__ = ["FORMATS", "export_trials", "trial_columns", "write_analysis"]
 
@@ -29,9 +30,7 @@ FORMATS = ("csv", "json", "parquet")
 
 
 def _analysis(store: Store, limits: Any = None, roles: Mapping[str, str] | None = None) -> Any:
-    from ..analysis.results import Analysis
-
-    return Analysis(store.spec, store.load(kinds=("sample",)), limits, roles)
+    return Analysis.of_store(store, limits, roles)
 
 
 def trial_columns(

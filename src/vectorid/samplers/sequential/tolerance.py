@@ -1,7 +1,7 @@
 """The tolerance schedule: one limit per constrained criterion, tightened toward Φ**.
 
-Criteria are *oriented* so that smaller is better (a ``max`` criterion and its limit are
-negated). Generation ``g + 1``'s tolerance for criterion ``l`` is
+Criteria are *oriented* (:func:`vectorid.limits.oriented`) so that smaller is better (a ``max``
+criterion and its limit are negated). Generation ``g + 1``'s tolerance for criterion ``l`` is
 
     eps_l,g+1 = max(Φ**_l, min(eps_l,g, quantile_q(Φ_l over the accepted population)))
 
@@ -15,14 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["next_tolerance", "oriented"]
-
-
-def oriented(values: np.ndarray, senses) -> np.ndarray:
-    """Criteria values (n, k) with ``max`` columns negated: smaller is better in every column."""
-    values = np.asarray(values, dtype=float)
-    sign = np.array([1.0 if s == "min" else -1.0 for s in senses])
-    return values * sign
+__all__ = ["next_tolerance"]
 
 
 def next_tolerance(

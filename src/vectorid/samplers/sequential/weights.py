@@ -1,4 +1,5 @@
-"""Importance weights against the box over every generation, and the effective sample size.
+"""Importance weights against the box over every generation (Kish's effective sample size of
+them: :func:`vectorid.samplers.weighting.kish_ess`).
 
 The trials of all generations together are one sample from the *deterministic mixture*
 ``q(u) = sum_g (n_g / N) q_g(u)`` of the generations' proposals (``n_g`` trials evaluated in
@@ -24,7 +25,7 @@ from scipy.special import logsumexp
 
 from .kernel import Proposal
 
-__all__ = ["kish_ess", "log_weights"]
+__all__ = ["log_weights"]
 
 
 def log_weights(U: np.ndarray, proposals: Sequence[Proposal], counts: Sequence[int]) -> np.ndarray:
@@ -50,11 +51,3 @@ def log_weights(U: np.ndarray, proposals: Sequence[Proposal], counts: Sequence[i
         return np.zeros(U.shape[0])
     terms = [prop.logpdf(U) + math.log(n / total) for prop, n in zip(proposals, counts) if n > 0]
     return -logsumexp(np.vstack(terms), axis=0)
-
-
-def kish_ess(log_w: np.ndarray) -> float:
-    """Kish's effective sample size ``(sum w)^2 / sum w^2`` (0 for no weights)."""
-    log_w = np.asarray(log_w, dtype=float)
-    if log_w.size == 0:
-        return 0.0
-    return float(math.exp(2.0 * logsumexp(log_w) - logsumexp(2.0 * log_w)))

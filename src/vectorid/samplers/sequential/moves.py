@@ -219,4 +219,3 @@ def chains_ess(states: np.ndarray) -> np.ndarray:
     """:func:`chain_ess` of every variable of ``states`` (n, M, p): (p,) array."""
     states = np.asarray(states, dtype=float)
     return np.array([chain_ess(states[:, :, j]) for j in range(states.shape[2])])
-

@@ -243,7 +243,7 @@ def fit_proposal(
     shrink = 1.0
     mix = np.exp(log_mix)
     for _ in range(12):
-        L = _cholesky(cov * shrink)
+        L = cholesky(cov * shrink)
         idx = rng.choice(len(mix), size=_PROBE, p=mix)
         Z = centres[idx] + rng.standard_normal((_PROBE, p)) @ L.T
         Z[:, list(free)] = 0.5
@@ -293,7 +293,7 @@ def free_axes(cov: np.ndarray, spread: float, n: float = math.inf) -> tuple[int,
     return tuple(free)
 
 
-def _cholesky(cov: np.ndarray) -> np.ndarray:
+def cholesky(cov: np.ndarray) -> np.ndarray:
     jitter = 1e-10
     for _ in range(12):
         try:
