@@ -1,7 +1,7 @@
 """Is a moved population (20 or more variables) a faithful sample of uniform-on-D?
 
 Runs the sequential sampler on two problems whose uniform-on-D marginals are known exactly —
-the 24-variable banana of ``tests/sequential/test_moves.py`` and a 20-variable slab — and
+the 24-variable banana of ``tests/samplers/sequential/test_moves.py`` and a 20-variable slab — and
 compares, axis by axis, the Kolmogorov–Smirnov distance to the exact marginal of
 
 (i)   the distinct final particles (what the ESS used to count),
@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 from scipy import stats
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "sequential"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "samplers" / "sequential"))
 
 from test_moves import CENTRES, HALF, K, P, banana_spec
 

@@ -16,7 +16,7 @@ joint stiffness, sonde errors), read from 50 twins of the generator by
 their floor is the Monte Carlo's (how the noise moves a whitened-spectrum peak), their
 allowance the twins' (how far the gust-excited peaks of the truth and of the model at the true
 gains lie apart), in Hz. Under these limits D is the set of vectors the data cannot tell
-from the truth. Every stage runs the sequential sampler (:mod:`vectorid.run.sequential`):
+from the truth. Every stage runs the sequential sampler (:mod:`vectorid.samplers.sequential`):
 Sobol trials first, then generations that move into D at the stated limits until it holds the
 population wanted with as large an effective sample size, or the budget is spent. Only a stage
 that does not get there relaxes its limits, as the named last resort

@@ -273,7 +273,7 @@ class Study:
         -------
         RunSummary
             Trials stored and failed, the failure reasons with an example each, elapsed s
-            (a :class:`~vectorid.run.sequential.SequentialSummary` for a sequential study:
+            (a :class:`~vectorid.samplers.sequential.SequentialSummary` for a sequential study:
             generations, evaluations, members of D, ESS).
         """
         return run_store(

@@ -1,6 +1,6 @@
 """Analyses of a sequential store use its importance weights, checked against known answers.
 
-The store is the slab of tests/run/test_sequential.py: D is uniform on
+The store is the slab of tests/samplers/sequential/test_sampler.py: D is uniform on
 ``[c - h, c + h]`` along the first K axes and on [0, 1] along the others, 2.6e-6 of the box,
 so every statistic a plain Sobol table would give with unboundedly many trials is known. The
 sequential sampler's trials crowd around the slab; unweighted, the same statistics describe
@@ -15,7 +15,7 @@ import sys
 import numpy as np
 import pytest
 
-from tests.run.test_sequential import CENTRES, HALF, K, P, slab_spec, write_slab_study
+from tests.samplers.sequential.test_sampler import CENTRES, HALF, K, P, slab_spec, write_slab_study
 from vectorid.analysis import Analysis
 from vectorid.analysis.correlation import correlation_of
 from vectorid.analysis.histograms import histograms

@@ -6,7 +6,7 @@ accepted member, or a member drawn in proportion to its weight when there are mo
 ``max_centres``); every component shares one covariance, ``scale`` times the weighted
 covariance of the accepted members (Beaumont et al. 2009: twice the population's covariance
 is the kernel that minimises the Kullback–Leibler divergence to the next target for a
-Gaussian-like target; the driver, :mod:`vectorid.run.sequential`, uses a narrower factor on
+Gaussian-like target; the sampler, :mod:`vectorid.samplers.sequential.schedule`, uses a narrower factor on
 the tied axes, see ``SCALE`` there). The covariance follows the shape of the accepted
 region, so a thin slab of D (a few parameters the data pin, others free) is sampled along
 the slab, not across it.

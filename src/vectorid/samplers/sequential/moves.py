@@ -18,7 +18,7 @@ in PSI's terms:
   the current limits. The step is symmetric and the target uniform, so the move leaves the
   uniform density on the region invariant — the particles stay a uniform sample of it;
 * the limits tighten (a quantile of the particles' criteria, as
-  :func:`~vectorid.sequential.tolerance.next_tolerance`, never below Φ**) only once the
+  :func:`~vectorid.samplers.sequential.tolerance.next_tolerance`, never below Φ**) only once the
   particles are diverse again — at least :data:`DIVERSE` of them distinct — and the
   particles that meet the new limits are copied (evenly) back to ``N``;
 * at the stated limits Φ** each particle is a Markov chain whose target is uniform on D. The

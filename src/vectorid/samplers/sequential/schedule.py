@@ -84,9 +84,9 @@ COLLAPSE_SHARE = 0.1
 SCALE = 0.75
 #: D found: axes along which the accepted members spread at least this share of the box's
 #: spread, unpredicted by the others, are drawn uniformly
-#: (:func:`~vectorid.sequential.kernel.free_axes`).
+#: (:func:`~vectorid.samplers.sequential.kernel.free_axes`).
 FREE_FROM = 0.8
-#: With moves (:data:`~vectorid.sequential.moves.MOVE_FROM` or more variables): particles
+#: With moves (:data:`~vectorid.samplers.sequential.moves.MOVE_FROM` or more variables): particles
 #: per ``population``.
 PARTICLES_FACTOR = 2
 #: With moves: share of the particles that meet the next generation's limits.
@@ -138,7 +138,7 @@ def propose(cache, spec, state: SequentialState, gens, n: int, trials: Trials,
 
 def move_status(spec, state: SequentialState, trials: Trials, gen: Generation, population: int):
     """(converged, ESS) after a generation of moves: converged when the limits are the stated
-    ones, the chains have made at least :data:`~vectorid.sequential.moves.MIN_FINAL_MOVES`
+    ones, the chains have made at least :data:`~vectorid.samplers.sequential.moves.MIN_FINAL_MOVES`
     moves there and their ESS (from the autocorrelation of the kept moves) reaches
     ``population``."""
     _, _, eps = moved_particles(spec, state, trials, gen)
@@ -150,7 +150,7 @@ def move_status(spec, state: SequentialState, trials: Trials, gen: Generation, p
 
 def propose_move(cache, spec, state: SequentialState, gens, n: int, trials: Trials,
                   left: int):  # fmt: skip
-    """Generation ``len(gens)`` with moves (:mod:`vectorid.sequential.moves`): ``n``
+    """Generation ``len(gens)`` with moves (:mod:`vectorid.samplers.sequential.moves`): ``n``
     particles, each moved once; at most ``left`` draws evaluated. A function of the seed, the
     generation number, the limits and the stored trials of earlier generations only."""
     g = len(gens)

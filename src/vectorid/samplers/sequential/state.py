@@ -128,7 +128,7 @@ class SequentialState:
     ess : float
         Kish's effective sample size of the members' importance weights; with moves (many
         variables, at the stated limits) the chains' ESS from their autocorrelation instead
-        (:func:`~vectorid.sequential.moves.chain_ess`, min over the variables, over the moves
+        (:func:`~vectorid.samplers.sequential.moves.chain_ess`, min over the variables, over the moves
         kept after the warm-up at the stated limits; 0 before four are kept).
     particles : (N,) int array or None
         With moves: rows of the current particles (after the last generation's moves).
@@ -270,7 +270,7 @@ def final_chains(spec, state: SequentialState, trials: Trials, gens) -> np.ndarr
 
 def chain_ess_of(spec, trials: Trials, kept: np.ndarray) -> float:
     """The chains' ESS over the kept moves (min over the variables; 0 for fewer than four
-    moves): :func:`~vectorid.sequential.moves.chain_ess` in unit coordinates."""
+    moves): :func:`~vectorid.samplers.sequential.moves.chain_ess` in unit coordinates."""
     if kept.ndim != 2 or kept.shape[0] < 4:
         return 0.0
     return float(np.min(chains_ess(unit(spec.space, trials.X[kept]))))
@@ -308,7 +308,7 @@ def cached_log_weights(
     counts: Sequence[int],
     mask: np.ndarray,
 ) -> np.ndarray:
-    """:func:`~vectorid.sequential.weights.log_weights` of ``trials[mask]``, each proposal's
+    """:func:`~vectorid.samplers.sequential.weights.log_weights` of ``trials[mask]``, each proposal's
     density evaluated once per block of one generation's trials.
 
     A block always holds the same rows (all stored trials of that generation), so an
