@@ -173,7 +173,7 @@ def main() -> None:
     ap.add_argument("--moves", type=int, default=0, help="least moves at the stated limits")
     ap.add_argument("--every", type=int, default=10, help="analyse every this many moves")
     ap.add_argument(
-        "--set", nargs="*", default=[], help="NAME=VALUE of vectorid.samplers.sequential's constants"
+        "--set", nargs="*", default=[], help="NAME=VALUE: a constant of the sequential sampler"
     )
     ap.add_argument("--verbose", action="store_true", help="KS distance of every axis")
     args = ap.parse_args()
