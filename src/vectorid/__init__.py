@@ -99,8 +99,8 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
     from .analysis.pareto import pareto_mask
     from .analysis.results import Analysis, EmptyDiagnosis, TestTable
     from .errors import StoreError, StoreLockedError, StudyDefinitionError, VectoridError
-    from .problem import Criterion, FunctionalConstraint, Problem, as_batch
     from .limits import Bound, Limits
+    from .problem import Criterion, FunctionalConstraint, Problem, as_batch
     from .samplers import Sampler
     from .sampling import PointSequence
     from .space import Choice, Continuous, Integer, Space
