@@ -6,10 +6,10 @@ accepted member, or a member drawn in proportion to its weight when there are mo
 ``max_centres``); every component shares one covariance, ``scale`` times the weighted
 covariance of the accepted members (Beaumont et al. 2009: twice the population's covariance
 is the kernel that minimises the Kullback–Leibler divergence to the next target for a
-Gaussian-like target; the sampler, :mod:`vectorid.samplers.sequential.schedule`, uses a narrower factor on
-the tied axes, see ``SCALE`` there). The covariance follows the shape of the accepted
-region, so a thin slab of D (a few parameters the data pin, others free) is sampled along
-the slab, not across it.
+Gaussian-like target; the sampler's schedule, :mod:`vectorid.samplers.sequential.schedule`,
+uses a narrower factor on the tied axes, see ``SCALE`` there). The covariance follows the
+shape of the accepted region, so a thin slab of D (a few parameters the data pin, others
+free) is sampled along the slab, not across it.
 
 Axes along which the members spread like the box's uniform density, unpredicted by the other
 axes (:func:`free_axes`), are *free*: they are drawn uniformly on [0, 1], independently of

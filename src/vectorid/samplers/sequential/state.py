@@ -128,8 +128,8 @@ class SequentialState:
     ess : float
         Kish's effective sample size of the members' importance weights; with moves (many
         variables, at the stated limits) the chains' ESS from their autocorrelation instead
-        (:func:`~vectorid.samplers.sequential.moves.chain_ess`, min over the variables, over the moves
-        kept after the warm-up at the stated limits; 0 before four are kept).
+        (:func:`~vectorid.samplers.sequential.moves.chain_ess`, min over the variables, over
+        the moves kept after the warm-up at the stated limits; 0 before four are kept).
     particles : (N,) int array or None
         With moves: rows of the current particles (after the last generation's moves).
     chains : (m, N) int array or None
@@ -308,8 +308,8 @@ def cached_log_weights(
     counts: Sequence[int],
     mask: np.ndarray,
 ) -> np.ndarray:
-    """:func:`~vectorid.samplers.sequential.weights.log_weights` of ``trials[mask]``, each proposal's
-    density evaluated once per block of one generation's trials.
+    """:func:`~vectorid.samplers.sequential.weights.log_weights` of ``trials[mask]``, each
+    proposal's density evaluated once per block of one generation's trials.
 
     A block always holds the same rows (all stored trials of that generation), so an
     interrupted and resumed run computes the same numbers, bit for bit, as an uninterrupted
