@@ -267,11 +267,26 @@ class Limits:
         return id(self)
 
     def same_as_stated(self) -> bool:
-        """True when every bound is the study's own (no override changes one)."""
+        """True when every bound is the study's own (no override changes one).
+
+        Returns
+        -------
+        bool
+        """
         return self.bounds == Limits(self.spec).bounds
 
     def within(self, other: Limits) -> bool:
-        """True when every bound is the same as ``other``'s or tighter (D can only shrink)."""
+        """True when every bound is the same as ``other``'s or tighter (D can only shrink).
+
+        Parameters
+        ----------
+        other : Limits
+            Limits of the same study.
+
+        Returns
+        -------
+        bool
+        """
         for name, (lo, hi) in self.bounds.items():
             olo, ohi = other.bounds[name]
             if lo < olo or hi > ohi:
@@ -279,12 +294,29 @@ class Limits:
         return True
 
     def worse_side(self, name: str) -> float:
-        """A criterion's limit on its worse side (upper for min, lower for max; ±inf: none)."""
+        """A criterion's limit on its worse side.
+
+        Parameters
+        ----------
+        name : str
+            A criterion of the study.
+
+        Returns
+        -------
+        float
+            The upper bound of a ``min`` criterion, the lower of a ``max`` one, in its unit
+            (±inf: none).
+        """
         lo, hi = self.bounds[name]
         return hi if self.senses[self.crit_names.index(name)] == "min" else lo
 
     def active(self) -> list[Bound]:
-        """Finite bounds in force: functional constraints first, then criteria in order."""
+        """Finite bounds in force: functional constraints first, then criteria in order.
+
+        Returns
+        -------
+        list of Bound
+        """
         out = []
         for name in self.con_names + self.crit_names:
             lo, hi = self.bounds[name]

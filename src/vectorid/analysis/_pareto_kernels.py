@@ -14,7 +14,8 @@ _configure_simd()  # before numba compiles: full-width vectors on AVX-512 CPUs (
 import numba as nb  # noqa: E402
 import numpy as np  # noqa: E402
 
-from .pareto import _BLOCK  # noqa: E402
+#: Front members compared per vectorised block in the k >= 4 kernel.
+_BLOCK = 64
 
 #: Rows the streaming pre-filter tries first for every row (vectorised over rows).
 #: Slot 0: the pivot of lowest key; slot 1: the latest dominator. The unrolled k = 2 and

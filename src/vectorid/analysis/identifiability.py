@@ -50,11 +50,12 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .results import Analysis
+if TYPE_CHECKING:  # pragma: no cover - for annotations only (results imports this module)
+    from .results import Analysis
 
 __all__ = ["VERDICTS", "ParameterVerdict", "identifiability", "thin_threshold", "verdicts_json"]
 

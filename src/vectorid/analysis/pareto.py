@@ -52,8 +52,6 @@ import numpy.typing as npt
 
 __all__ = ["pareto_indices", "pareto_mask"]
 
-#: Front members compared per vectorised block in the k >= 4 kernel.
-_BLOCK = 64
 #: The k >= 4 kernel keeps its front in a grid of at most this many cells ...
 _MAX_CELLS = 1024
 #: ... and about one cell per this many rows it has to filter.

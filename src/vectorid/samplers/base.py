@@ -298,13 +298,38 @@ class Sampler(abc.ABC):
     # -- reading ---------------------------------------------------------------------------
 
     def planned(self, store: Store) -> list[tuple[int, int, int]]:
-        """The sample's sequence ranges ``(stage, start, end)`` this sampler planned: what the
-        store should hold once every run finished (``verify`` counts what is missing)."""
+        """The sample's sequence ranges this sampler planned: what the store should hold once
+        every run finished (``verify`` counts what is missing).
+
+        Parameters
+        ----------
+        store : Store
+            The study's store.
+
+        Returns
+        -------
+        list of (stage, start, end)
+        """
         return []
 
     def points(self, store: Store, stage: int, start: int, n: int) -> np.ndarray:
-        """The planned parameter vectors of sample stage ``stage``'s sequence indices
-        ``start .. start + n - 1`` (a repair recomputes them), in the study's units."""
+        """The planned parameter vectors of stored or planned sample trials (a repair
+        recomputes them).
+
+        Parameters
+        ----------
+        store : Store
+            The study's store.
+        stage : int
+            A sample stage.
+        start, n : int
+            The sequence indices ``start .. start + n - 1``.
+
+        Returns
+        -------
+        (n, p) float array
+            In the study's units.
+        """
         raise NotImplementedError(f"sampler {self.spec.sampler!r} cannot give planned points")
 
     def status_lines(self, store: Store, held: int, failed: int) -> list[str]:
@@ -321,7 +346,20 @@ class Sampler(abc.ABC):
         return [f"trials     {held} stored of {self.spec.trials} wanted; {failed} failed"]
 
     def weighting(self, store: Store, trials: Trials) -> Weighting | None:
-        """How the stored sample ``trials`` weighs (None: every trial counts once)."""
+        """How the stored sample weighs as a sample of the box's uniform density.
+
+        Parameters
+        ----------
+        store : Store
+            The study's store.
+        trials : Trials
+            Its sample, as loaded.
+
+        Returns
+        -------
+        Weighting or None
+            None: every trial counts once (a plain table).
+        """
         return None
 
     def describe(

@@ -16,7 +16,7 @@ from vectorid.space import Continuous, Space
 from vectorid.spec import StudySpec
 from vectorid.store import Store
 
-SRC = Path(__file__).resolve().parents[2] / "src" / "vectorid"
+SRC = Path(__file__).resolve().parents[3] / "src" / "vectorid"
 BLAME = re.compile(
     r"(model|limits)[^.;\n]{0,40}(do|does|may) not fit (the|these) (data|flights?)", re.I
 )
