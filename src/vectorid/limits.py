@@ -25,7 +25,15 @@ import numpy as np
 from .errors import StudyDefinitionError, suggest
 from .problem import OK
 
-__all__ = ["Bound", "Limits", "oriented", "parse_limit", "parse_limits", "parse_user_limits"]
+__all__ = [
+    "Bound",
+    "Limits",
+    "oriented",
+    "parse_limit",
+    "parse_limits",
+    "parse_user_limits",
+    "study_with_limits",
+]
 
 # The last operator splits name and value, so names with spaces or operators work too.
 _LIMIT = re.compile(r"^\s*(.+?)\s*(<=|>=|<|>)\s*([^<>=\s]+)\s*$")
@@ -437,3 +445,74 @@ class Limits:
         out = np.zeros(len(status), dtype=bool)
         out[rows[self.criteria_mask(F, rows)]] = True
         return out
+
+
+def study_with_limits(
+    study: dict[str, Any],
+    criteria: Mapping[str, float | None] | None = None,
+    constraints: Mapping[str, tuple[float | None, float | None]] | None = None,
+    sources: Mapping[str, tuple[str, str]] | None = None,
+) -> dict[str, Any]:
+    """A study definition (``StudySpec.to_dict()``) with criteria constraints Φ** and
+    functional bounds replaced, as :meth:`vectorid.store.Store.set_limits` saves them.
+
+    Parameters
+    ----------
+    study : dict
+        The study definition; changed in place and returned.
+    criteria : mapping, optional
+        ``name -> limit`` (the worst accepted value, in the criterion's unit; None or a
+        non-finite value removes the limit).
+    constraints : mapping, optional
+        ``name -> (low, high)`` of functional constraints (None for no bound).
+    sources : mapping, optional
+        ``name -> (limit_source, limit_note)`` of the criteria limits set here. A limit set
+        without one is the expert's, except that a limit saved again unchanged keeps its
+        source and note.
+
+    Returns
+    -------
+    dict
+
+    Raises
+    ------
+    StudyDefinitionError
+        A limit on a criterion or constraint the study does not have.
+    """
+    crit = {c["name"]: c for c in study["criteria"]}
+    cons = {c["name"]: c for c in study.get("constraints", [])}
+    for name, value in (criteria or {}).items():
+        if name not in crit:
+            raise StudyDefinitionError(
+                "limits", f"unknown criterion {name!r}", suggest(name, list(crit))
+            )
+        old = crit[name].get("limit")
+        if value is None or not np.isfinite(value):
+            crit[name].pop("limit", None)
+            for key in ("limit_source", "limit_note"):
+                crit[name].pop(key, None)
+        else:
+            crit[name]["limit"] = float(value)
+            if sources and name in sources:
+                src, note = sources[name]
+            elif old is not None and float(old) == float(value):
+                continue  # saved again unchanged: keep its source
+            else:
+                src, note = "expert", ""
+            crit[name].pop("limit_source", None)
+            crit[name].pop("limit_note", None)
+            if src and (src != "expert" or note):
+                crit[name]["limit_source"] = src
+            if note:
+                crit[name]["limit_note"] = note
+    for name, (lo, hi) in (constraints or {}).items():
+        if name not in cons:
+            raise StudyDefinitionError(
+                "limits", f"unknown constraint {name!r}", suggest(name, list(cons))
+            )
+        for key, value in (("low", lo), ("high", hi)):
+            if value is None or not np.isfinite(value):
+                cons[name].pop(key, None)
+            else:
+                cons[name][key] = float(value)
+    return study

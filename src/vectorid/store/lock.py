@@ -23,6 +23,7 @@ __all__ = [
     "file_closed",
     "file_opened",
     "forget_opened",
+    "new_store_file",
     "path_identity",
     "writer_text",
 ]
@@ -198,3 +199,59 @@ def forget_opened(key: tuple[int, int] | None) -> None:
     with _LOCK_GUARD:
         if key is not None and _OPEN.get(key, 0) > 0:
             _OPEN[key] -= 1
+
+
+def new_store_file(path: Path) -> WriterLock:
+    """Create the empty file of a new store, exclusively, and take its writer lock.
+
+    Parameters
+    ----------
+    path : Path
+        The ``.db`` file to create.
+
+    Returns
+    -------
+    WriterLock
+        Held on the new file.
+
+    Raises
+    ------
+    StoreError
+        If ``path`` is a folder, exists already or cannot be created.
+    """
+    if path.is_dir():
+        raise StoreError(
+            f"{path} is a folder; give the store a file name, e.g. --store {path / 'study.db'}"
+        )
+    if path.exists() or path.is_symlink():
+        raise StoreError(
+            f"{path} exists already; open it with Store.open (vectorid run {path}) to extend "
+            "the study, Study.create_or_open to resume it from Python, or choose another "
+            "--store path"
+        )
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise StoreError(
+            f"cannot create store {path}: its folder {path.parent} cannot be made "
+            f"({exc.strerror}); choose a writable folder with --store"
+        ) from None
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_CREAT | os.O_EXCL, 0o644)
+    except FileExistsError:
+        raise StoreError(
+            f"{path} exists already (created just now by another process); open it with "
+            f"`vectorid run {path}`, or choose another --store path"
+        ) from None
+    except OSError as exc:
+        raise StoreError(
+            f"cannot create store {path}: {exc.strerror}; choose a writable folder with "
+            "--store (or store = ... under [study])"
+        ) from None
+    lock = WriterLock(path)
+    try:
+        lock.acquire(fd)
+    except BaseException:
+        os.unlink(path)
+        raise
+    return lock

@@ -1,7 +1,43 @@
 """The store file's layout: schema, connections, migrations, and the batch codec.
 
-The layout (schema version 3; ``PRAGMA application_id`` marks the file as a vectorid store)
-is described in :mod:`vectorid.store`. Schema 1 (before checksums) is still read; its batches
+Layout (schema version 3; ``PRAGMA application_id`` marks the file as a vectorid store):
+
+``meta(key, value)``
+    ``schema_version``, ``vectorid_version``, ``created``, ``study`` (the study definition
+    as JSON, so a store alone is enough to analyse or extend the study), ``study_checksum``
+    (CRC-32 of that JSON), ``base_dir``, ``data_files`` (content hashes of the data files
+    the study reads, see :mod:`vectorid.store.agreement`) and ``writer`` (the process that
+    last took the writer lock).
+``stages(stage, kind, start_seq, created, box, note)``
+    Stage 0 is the study's box Π; double tuning adds stages with a narrower box that keep
+    drawing from the sequence at ``start_seq`` onward. ``kind`` is ``"sample"`` for stages
+    drawn by the study's sampler (other kinds, such as sections, hold extra trials that
+    never mix into the sample's statistics).
+``blocks(block, stage, seq_start, n, created, x, f, g, status, wall, checksum)``
+    Append-only trial records. One row is one evaluated batch of ``n`` trials with
+    consecutive sequence indices ``seq_start .. seq_start + n - 1``: parameters ``x``
+    (n, p), criteria ``f`` (n, k), functionals ``g`` (n, q) and wall time per trial
+    ``wall`` (n,) as little-endian float64, ``status`` (n,) as int8 (0 ok, 1 failed).
+    ``checksum`` is ``"crc32:"`` followed by six CRC-32s (of the header ``stage:seq_start:n``
+    and of each of the five arrays), written with the batch and verified whenever it is read:
+    a batch whose bytes changed on disk is reported (which batch, which trial ids, which
+    array) and left out of every analysis, never read as numbers. Storing a batch as one
+    columnar row makes a batch one transaction and loading a million trials a matter of
+    concatenating a few hundred buffers.
+``failures(stage, seq, message)``
+    The reason of every failed trial.
+``runs(run, started, finished, pid, host, executor, workers, target, outcome)``
+    A log of run sessions (interrupted ones and repairs included).
+``generations(gen, seq_start, n, created, proposal, x, centres, log_mix, chol, checksum)``
+    Schema 3: the study's sampler's records (:class:`~vectorid.store.records.SamplerRecord`),
+    kept for the sampler and never interpreted here: record ``gen`` plans the stage-0
+    sequence indices ``seq_start .. seq_start + n - 1``, ``proposal`` is its JSON ``info``
+    and ``x``, ``centres``, ``log_mix``, ``chol`` its four float64 arrays (the names are those
+    the sequential sampler, its first user, gave them). Written *before* the planned trials
+    are evaluated, so a resumed run evaluates exactly the missing ones. Empty for a plain
+    Sobol study.
+
+Schema 1 (before checksums) is still read; its batches
 count as *unverified*, and the first writer upgrades the file (:func:`add_checksums`). Schema 2
 (before the sampler's records) is read as is; the first writer adds the empty ``generations``
 table (schema 3).
@@ -9,6 +45,7 @@ table (schema 3).
 
 from __future__ import annotations
 
+import json
 import sqlite3
 import time
 import zlib
@@ -19,8 +56,10 @@ from typing import Any
 
 import numpy as np
 
+from .._version import __version__
 from ..errors import StoreDamagedError, StoreError
-from .records import ARRAYS, DamagedBatch, batch_checksum, size_problem, trial_ids
+from .lock import writer_text
+from .records import ARRAYS, DamagedBatch, Trials, batch_checksum, size_problem, trial_ids
 
 __all__ = [
     "APPLICATION_ID",
@@ -33,11 +72,14 @@ __all__ = [
     "check_file",
     "check_row",
     "connect",
+    "decode_batches",
+    "initialise",
     "insert_batch",
     "sqlite_damage",
     "stage_checksum_row",
     "suppress_os",
     "suppress_sqlite",
+    "upgrade",
     "widths",
 ]
 
@@ -347,3 +389,170 @@ def check_row(
         first = last = -1
         n_int = 0
     return DamagedBatch(int(block), int(stage), int(start), n_int, first, last, problem, parts)
+
+
+def initialise(
+    con: sqlite3.Connection,
+    study: Mapping[str, Any],
+    box: Sequence[Any],
+    base_dir: str | None,
+    data_files: Mapping[str, Any] | None,
+) -> None:
+    """Lay out a new store file: its pages, tables, the study definition and stage 0.
+
+    Parameters
+    ----------
+    con : sqlite3.Connection
+        On the new (empty) file.
+    study : mapping
+        The study definition (``StudySpec.to_dict()``).
+    box : sequence
+        Stage 0's box (``Space.to_list()``).
+    base_dir : str or None
+        The study file's folder.
+    data_files : mapping, optional
+        Content hashes of the data files the study reads.
+    """
+    # Large pages make reading the columnar blobs back several times faster.
+    con.execute("PRAGMA journal_mode=DELETE")
+    con.execute("PRAGMA page_size = 65536")
+    con.execute("VACUUM")
+    # written in rollback-journal mode (a megabyte less of log), then WAL by the caller
+    with con:
+        con.execute(f"PRAGMA application_id = {APPLICATION_ID}")
+        con.execute(f"PRAGMA user_version = {SCHEMA_VERSION}")
+        con.executescript(SCHEMA)
+        con.executescript(GENERATIONS)
+    text = json.dumps(dict(study))
+    with con:
+        con.executemany(
+            "INSERT INTO meta VALUES (?, ?)",
+            [
+                ("schema_version", str(SCHEMA_VERSION)),
+                ("vectorid_version", __version__),
+                ("created", repr(time.time())),
+                ("study", text),
+                ("study_checksum", f"{zlib.crc32(text.encode()):08x}"),
+                ("base_dir", base_dir or ""),
+                ("data_files", json.dumps(dict(data_files or {}))),
+                ("writer", writer_text()),
+            ],
+        )
+        box_text = json.dumps(list(box))
+        con.execute(
+            "INSERT INTO stages VALUES (0, 'sample', 0, ?, ?, 'study box')",
+            (time.time(), box_text),
+        )
+        con.execute("INSERT INTO meta VALUES (?, ?)", stage_checksum_row(0, "sample", 0, box_text))
+
+
+def decode_batches(
+    rows: Sequence[Sequence[Any]],
+    w: Mapping[str, int],
+    stage_kind: Mapping[int, str],
+    sizes: tuple[int, int, int],
+    messages: dict[tuple[int, int], str],
+    damaged: list[DamagedBatch],
+) -> Trials:
+    """Stored batch rows as :class:`Trials`: each row checked against its checksum and sizes
+    (a damaged one is added to ``damaged`` and left out), the sound ones concatenated.
+
+    Parameters
+    ----------
+    rows : sequence of rows
+        ``(block, stage, seq_start, n, x, f, g, status, wall, checksum)`` as stored.
+    w : mapping
+        Byte widths of a trial's arrays (:func:`widths`).
+    stage_kind : mapping
+        Stage number -> kind.
+    sizes : (p, k, q)
+        Variables, criteria and functionals of the study.
+    messages : dict
+        ``(stage, seq) -> failure message`` of the rows' trials.
+    damaged : list of DamagedBatch
+        Damage found already (extended here).
+    """
+    p, k, q = sizes
+    good = []
+    unverified = 0
+    for r in rows:
+        bad = check_row(r, w, stage_kind)
+        if bad is not None:
+            damaged.append(bad)
+        else:
+            good.append(r)
+            unverified += r[-1] is None
+    ns = np.array([r[3] for r in good], dtype=np.int64)
+    total = int(ns.sum()) if len(ns) else 0
+
+    def cat(col: int, dtype: str, width: int | None) -> np.ndarray:
+        shape = (total,) if width is None else (total, width)
+        out = np.empty(shape, dtype=dtype.lstrip("<"))
+        pos = 0
+        for r in good:
+            m = r[3]
+            chunk = np.frombuffer(r[col], dtype=dtype)
+            out[pos : pos + m] = chunk if width is None else chunk.reshape(m, width)
+            pos += m
+        return out
+
+    seq = (
+        np.concatenate([np.arange(r[2], r[2] + r[3]) for r in good])
+        if good
+        else np.empty(0, np.int64)
+    )
+    stage = np.repeat(np.array([r[1] for r in good], dtype=np.int64), ns)
+    ids = np.empty(total, dtype=np.int64)
+    for s in set(stage.tolist()):
+        m = stage == s
+        ids[m] = trial_ids(stage_kind[s], s, seq[m])
+    return Trials(
+        id=ids,
+        seq=seq.astype(np.int64),
+        stage=stage,
+        status=cat(7, "i1", None),
+        X=cat(4, "<f8", p),
+        F=cat(5, "<f8", k),
+        G=cat(6, "<f8", q),
+        wall=cat(8, "<f8", None),
+        messages=messages,
+        damaged=tuple(damaged),
+        unverified=unverified,
+    )
+
+
+def upgrade(con: sqlite3.Connection, version: int, w: Mapping[str, int]) -> tuple[int, int]:
+    """Bring an older store to the current schema, inside the caller's transaction: schema
+    1 -> 2 adds the checksum column and seals the batches held (after checking that their
+    sizes fit the study, ``w`` from :func:`widths`); 2 -> 3 adds the (empty) table of the
+    sampler's records.
+
+    Returns
+    -------
+    (int, int)
+        Batches sealed and batches whose sizes do not fit (both 0 from schema 2).
+    """
+    sealed = bad = 0
+    if version < 2:
+        sealed, bad = add_checksums(con, w)
+    con.execute(GENERATIONS)
+    study = con.execute("SELECT value FROM meta WHERE key = 'study'").fetchone()[0]
+    what = (
+        f"checksums added to {sealed} batches written without one"
+        if version < 2
+        else "generations table added"
+    )
+    con.executemany(
+        "INSERT OR REPLACE INTO meta VALUES (?, ?)",
+        [
+            ("schema_version", str(SCHEMA_VERSION)),
+            ("study_checksum", f"{zlib.crc32(study.encode()):08x}"),
+            (
+                "upgraded",
+                f"schema {version} -> {SCHEMA_VERSION} on "
+                f"{time.strftime('%Y-%m-%d %H:%M:%S')}: {what}",
+            ),
+        ],
+    )
+    con.execute(f"PRAGMA user_version = {SCHEMA_VERSION}")
+    return sealed, bad

@@ -1,43 +1,7 @@
 """The embedded study store: one SQLite file per study.
 
-Layout (schema version 3; ``PRAGMA application_id`` marks the file as a vectorid store):
-
-``meta(key, value)``
-    ``schema_version``, ``vectorid_version``, ``created``, ``study`` (the study definition
-    as JSON, so a store alone is enough to analyse or extend the study), ``study_checksum``
-    (CRC-32 of that JSON), ``base_dir``, ``data_files`` (content hashes of the data files
-    the study reads, see :mod:`vectorid.store.agreement`) and ``writer`` (the process that
-    last took the writer lock).
-``stages(stage, kind, start_seq, created, box, note)``
-    Stage 0 is the study's box Π; double tuning adds stages with a narrower box that keep
-    drawing from the sequence at ``start_seq`` onward. ``kind`` is ``"sample"`` for stages
-    drawn by the study's sampler (other kinds, such as sections, hold extra trials that
-    never mix into the sample's statistics).
-``blocks(block, stage, seq_start, n, created, x, f, g, status, wall, checksum)``
-    Append-only trial records. One row is one evaluated batch of ``n`` trials with
-    consecutive sequence indices ``seq_start .. seq_start + n - 1``: parameters ``x``
-    (n, p), criteria ``f`` (n, k), functionals ``g`` (n, q) and wall time per trial
-    ``wall`` (n,) as little-endian float64, ``status`` (n,) as int8 (0 ok, 1 failed).
-    ``checksum`` is ``"crc32:"`` followed by six CRC-32s (of the header ``stage:seq_start:n``
-    and of each of the five arrays), written with the batch and verified whenever it is read:
-    a batch whose bytes changed on disk is reported (which batch, which trial ids, which
-    array) and left out of every analysis, never read as numbers. Storing a batch as one
-    columnar row makes a batch one transaction and loading a million trials a matter of
-    concatenating a few hundred buffers.
-``failures(stage, seq, message)``
-    The reason of every failed trial.
-``runs(run, started, finished, pid, host, executor, workers, target, outcome)``
-    A log of run sessions (interrupted ones and repairs included).
-``generations(gen, seq_start, n, created, proposal, x, centres, log_mix, chol, checksum)``
-    Schema 3: the study's sampler's records (:class:`~vectorid.store.records.SamplerRecord`),
-    kept for the sampler and never interpreted here: record ``gen`` plans the stage-0
-    sequence indices ``seq_start .. seq_start + n - 1``, ``proposal`` is its JSON ``info``
-    and ``x``, ``centres``, ``log_mix``, ``chol`` its four float64 arrays (the names are those
-    the sequential sampler, its first user, gave them). Written *before* the planned trials
-    are evaluated, so a resumed run evaluates exactly the missing ones. Empty for a plain
-    Sobol study.
-
-Older schemas (:mod:`vectorid.store.schema`) are read, and upgraded by the first writer.
+The file's layout (tables, checksums, schema versions) is described in
+:mod:`vectorid.store.schema`. Older schemas are read, and upgraded by the first writer.
 
 Exactly-once: a batch whose sequence range overlaps a stored range of the same stage is
 not stored again (it is counted as a duplicate), so a batch computed twice (a retried task,
@@ -52,7 +16,6 @@ The store stores; it knows no sampler, no analysis and no model.
 
 from __future__ import annotations
 
-import itertools
 import json
 import os
 import socket
@@ -67,22 +30,22 @@ from typing import Any
 
 import numpy as np
 
-from .._version import __version__
 from ..errors import (
     StoreDamagedError,
     StoreError,
-    StudyDefinitionError,
     VectoridError,
     VectoridWarning,
-    suggest,
 )
+from ..limits import study_with_limits
 from ..space import Space
 from ..spec import StudySpec, parse_variable
+from . import integrity
 from .lock import (
     WriterLock,
     file_closed,
     file_opened,
     forget_opened,
+    new_store_file,
     path_identity,
     writer_text,
 )
@@ -94,23 +57,21 @@ from .records import (
     VerifyReport,
     damage_warning,
     record_checksum,
-    trial_ids,
 )
 from .schema import (
-    APPLICATION_ID,
     GENERATIONS,
-    SCHEMA,
     SCHEMA_VERSION,
-    add_checksums,
     blob,
     check_file,
-    check_row,
     connect,
+    decode_batches,
+    initialise,
     insert_batch,
     sqlite_damage,
     stage_checksum_row,
     suppress_os,
     suppress_sqlite,
+    upgrade,
     widths,
 )
 
@@ -156,77 +117,11 @@ class Store:
             If ``path`` exists already or cannot be created.
         """
         path = Path(path)
-        if path.is_dir():
-            raise StoreError(
-                f"{path} is a folder; give the store a file name, e.g. --store {path / 'study.db'}"
-            )
-        if path.exists() or path.is_symlink():
-            raise StoreError(
-                f"{path} exists already; open it with Store.open (vectorid run {path}) to extend "
-                "the study, Study.create_or_open to resume it from Python, or choose another "
-                "--store path"
-            )
-        try:
-            path.parent.mkdir(parents=True, exist_ok=True)
-        except OSError as exc:
-            raise StoreError(
-                f"cannot create store {path}: its folder {path.parent} cannot be made "
-                f"({exc.strerror}); choose a writable folder with --store"
-            ) from None
-        try:
-            fd = os.open(path, os.O_RDONLY | os.O_CREAT | os.O_EXCL, 0o644)
-        except FileExistsError:
-            raise StoreError(
-                f"{path} exists already (created just now by another process); open it with "
-                f"`vectorid run {path}`, or choose another --store path"
-            ) from None
-        except OSError as exc:
-            raise StoreError(
-                f"cannot create store {path}: {exc.strerror}; choose a writable folder with "
-                "--store (or store = ... under [study])"
-            ) from None
-        lock = WriterLock(path)
-        try:
-            lock.acquire(fd)
-        except BaseException:
-            os.unlink(path)
-            raise
+        lock = new_store_file(path)
         con = None
         try:
             con = connect(path)
-            # Large pages make reading the columnar blobs back several times faster.
-            con.execute("PRAGMA journal_mode=DELETE")
-            con.execute("PRAGMA page_size = 65536")
-            con.execute("VACUUM")
-            # written in rollback-journal mode (a megabyte less of log), then WAL below
-            with con:
-                con.execute(f"PRAGMA application_id = {APPLICATION_ID}")
-                con.execute(f"PRAGMA user_version = {SCHEMA_VERSION}")
-                con.executescript(SCHEMA)
-                con.executescript(GENERATIONS)
-            study = json.dumps(spec.to_dict())
-            with con:
-                con.executemany(
-                    "INSERT INTO meta VALUES (?, ?)",
-                    [
-                        ("schema_version", str(SCHEMA_VERSION)),
-                        ("vectorid_version", __version__),
-                        ("created", repr(time.time())),
-                        ("study", study),
-                        ("study_checksum", f"{zlib.crc32(study.encode()):08x}"),
-                        ("base_dir", spec.base_dir or ""),
-                        ("data_files", json.dumps(dict(data_files or {}))),
-                        ("writer", writer_text()),
-                    ],
-                )
-                box = json.dumps(spec.space.to_list())
-                con.execute(
-                    "INSERT INTO stages VALUES (0, 'sample', 0, ?, ?, 'study box')",
-                    (time.time(), box),
-                )
-                con.execute(
-                    "INSERT INTO meta VALUES (?, ?)", stage_checksum_row(0, "sample", 0, box)
-                )
+            initialise(con, spec.to_dict(), spec.space.to_list(), spec.base_dir, data_files)
             con.execute("PRAGMA journal_mode=WAL")
         except BaseException as exc:
             if con is not None:
@@ -304,30 +199,8 @@ class Store:
         """Bring an older store to the current schema: schema 1 -> 2 adds the checksum
         column and seals the batches held (after checking that their sizes fit the study);
         2 -> 3 adds the (empty) generations table of the sequential sampler."""
-        sealed = bad = 0
         with self._tx() as con:
-            if version < 2:
-                sealed, bad = add_checksums(con, widths(self.spec))
-            con.execute(GENERATIONS)
-            study = con.execute("SELECT value FROM meta WHERE key = 'study'").fetchone()[0]
-            what = (
-                f"checksums added to {sealed} batches written without one"
-                if version < 2
-                else "generations table added"
-            )
-            con.executemany(
-                "INSERT OR REPLACE INTO meta VALUES (?, ?)",
-                [
-                    ("schema_version", str(SCHEMA_VERSION)),
-                    ("study_checksum", f"{zlib.crc32(study.encode()):08x}"),
-                    (
-                        "upgraded",
-                        f"schema {version} -> {SCHEMA_VERSION} on "
-                        f"{time.strftime('%Y-%m-%d %H:%M:%S')}: {what}",
-                    ),
-                ],
-            )
-            con.execute(f"PRAGMA user_version = {SCHEMA_VERSION}")
+            sealed, bad = upgrade(con, version, widths(self.spec))
         if version >= 2:
             return  # nothing a person needs to know: no stored number changed
         warnings.warn(
@@ -558,45 +431,8 @@ class Store:
             except that a limit saved again unchanged keeps its source and note.
         """
         self._require_write()
-        spec = self.spec.to_dict()
-        crit = {c["name"]: c for c in spec["criteria"]}
-        cons = {c["name"]: c for c in spec.get("constraints", [])}
-        for name, value in (criteria or {}).items():
-            if name not in crit:
-                raise StudyDefinitionError(
-                    "limits", f"unknown criterion {name!r}", suggest(name, list(crit))
-                )
-            old = crit[name].get("limit")
-            if value is None or not np.isfinite(value):
-                crit[name].pop("limit", None)
-                for key in ("limit_source", "limit_note"):
-                    crit[name].pop(key, None)
-            else:
-                crit[name]["limit"] = float(value)
-                if sources and name in sources:
-                    src, note = sources[name]
-                elif old is not None and float(old) == float(value):
-                    continue  # saved again unchanged: keep its source
-                else:
-                    src, note = "expert", ""
-                crit[name].pop("limit_source", None)
-                crit[name].pop("limit_note", None)
-                if src and (src != "expert" or note):
-                    crit[name]["limit_source"] = src
-                if note:
-                    crit[name]["limit_note"] = note
-        for name, (lo, hi) in (constraints or {}).items():
-            if name not in cons:
-                raise StudyDefinitionError(
-                    "limits", f"unknown constraint {name!r}", suggest(name, list(cons))
-                )
-            for key, value in (("low", lo), ("high", hi)):
-                if value is None or not np.isfinite(value):
-                    cons[name].pop(key, None)
-                else:
-                    cons[name][key] = float(value)
-        # validate before writing
-        StudySpec.from_dict(spec, base_dir=self.spec.base_dir)
+        spec = study_with_limits(self.spec.to_dict(), criteria, constraints, sources)
+        StudySpec.from_dict(spec, base_dir=self.spec.base_dir)  # validate before writing
         self._write_study(spec)
 
     def stages(self) -> list[Stage]:
@@ -903,8 +739,6 @@ class Store:
                 wanted,
             )
         damaged = []
-        good = []
-        unverified = 0
         # batches of a stage the store does not hold (a damaged stage number) are damage too
         known = ",".join(str(int(s)) for s in stage_kind) or "-1"
         for block, stage, start, n in self._query(
@@ -922,38 +756,6 @@ class Store:
                     ("header",),
                 )
             )
-        for r in rows:
-            bad = check_row(r, w, stage_kind)
-            if bad is not None:
-                damaged.append(bad)
-            else:
-                good.append(r)
-                unverified += r[-1] is None
-        rows = good
-        ns = np.array([r[3] for r in rows], dtype=np.int64)
-        total = int(ns.sum()) if len(ns) else 0
-
-        def cat(col: int, dtype: str, width: int | None) -> np.ndarray:
-            shape = (total,) if width is None else (total, width)
-            out = np.empty(shape, dtype=dtype.lstrip("<"))
-            pos = 0
-            for r in rows:
-                m = r[3]
-                chunk = np.frombuffer(r[col], dtype=dtype)
-                out[pos : pos + m] = chunk if width is None else chunk.reshape(m, width)
-                pos += m
-            return out
-
-        seq = (
-            np.concatenate([np.arange(r[2], r[2] + r[3]) for r in rows])
-            if rows
-            else np.empty(0, np.int64)
-        )
-        stage = np.repeat(np.array([r[1] for r in rows], dtype=np.int64), ns)
-        ids = np.empty(total, dtype=np.int64)
-        for s in set(stage.tolist()):
-            m = stage == s
-            ids[m] = trial_ids(stage_kind[s], s, seq[m])
         messages = {}
         if wanted:
             marks = ",".join("?" * len(wanted))
@@ -961,132 +763,67 @@ class Store:
                 f"SELECT stage, seq, message FROM failures WHERE stage IN ({marks})", wanted
             ):
                 messages[(st, sq)] = msg
-        return Trials(
-            id=ids,
-            seq=seq.astype(np.int64),
-            stage=stage,
-            status=cat(7, "i1", None),
-            X=cat(4, "<f8", p),
-            F=cat(5, "<f8", k),
-            G=cat(6, "<f8", q),
-            wall=cat(8, "<f8", None),
-            messages=messages,
-            damaged=tuple(damaged),
-            unverified=unverified,
-        )
+        return decode_batches(rows, w, stage_kind, (p, k, q), messages, damaged)
 
     # -- integrity -------------------------------------------------------------------------
 
     def verify(self, plan: Sequence[tuple[int, int, int]] | None = None) -> VerifyReport:
-        """Check the whole store: SQLite's own pages, the tables, the study definition, and
-        every batch against its checksum (all stages, sections included).
+        """Check the whole store (:func:`vectorid.store.integrity.verify`).
 
         Parameters
         ----------
         plan : sequence of (stage, start, end), optional
-            The sequence ranges the study's sampler planned
-            (:meth:`vectorid.samplers.Sampler.planned`): the report counts those that no
-            batch holds. Without it, nothing is said about missing trials.
+            The sequence ranges the study's sampler planned (see there).
 
         Returns
         -------
         VerifyReport
         """
-        rep = VerifyReport(self.path)
-        try:
-            rep.schema = int(self._query("PRAGMA user_version")[0][0])
-        except StoreError as exc:
-            rep.problems.append(str(exc))
-        try:
-            rep.sqlite = [str(r[0]) for r in self._con.execute("PRAGMA integrity_check(20)")]
-        except sqlite3.Error as exc:
-            rep.sqlite = [f"integrity check failed: {exc}"]
-        try:
-            spec = self.spec
-            stage_kind = {s.stage: s.kind for s in self.stages()}
-        except StoreError as exc:
-            rep.problems.append(str(exc))
-            return rep
-        w = widths(spec)
-        checksum_col = "checksum" if self._has_checksums() else "NULL"
-        try:
-            blocks = self._query("SELECT block FROM blocks ORDER BY stage, seq_start")
-        except StoreError as exc:
-            rep.problems.append(str(exc))
-            return rep
-        ranges: dict[int, list[tuple[int, int]]] = {}
-        failed = 0
-        for (block,) in blocks:
-            try:
-                found = self._query(
-                    f"SELECT block, stage, seq_start, n, x, f, g, status, wall, {checksum_col} "
-                    "FROM blocks WHERE block = ?",
-                    (block,),
-                )
-            except StoreError as exc:
-                rep.problems.append(f"batch {block} cannot be read: {exc}")
-                continue
-            if not found:
-                rep.problems.append(f"batch {block} is listed but cannot be read (SQLite index)")
-                continue
-            r = found[0]
-            rep.batches += 1
-            rep.trials += int(r[3]) if isinstance(r[3], int) else 0
-            bad = check_row(r, w, stage_kind)
-            if bad is not None:
-                rep.damaged.append(bad)
-                continue
-            rep.unverified += r[-1] is None
-            failed += int(np.count_nonzero(np.frombuffer(r[7], dtype="i1")))
-            ranges.setdefault(r[1], []).append((r[2], r[2] + r[3]))
-        try:
-            n_msgs = int(self._query("SELECT count(*) FROM failures")[0][0])
-            if n_msgs < failed:
-                rep.notes.append(
-                    f"{failed - n_msgs} of {failed} failed trials have no stored reason "
-                    "(their numbers are sound; only the text is missing)"
-                )
-        except StoreError as exc:
-            rep.problems.append(f"the failure reasons cannot be read ({exc})")
-        try:
-            if plan is not None:
-                rep.planned = sum(e - s for _, s, e in plan)
-                rep.missing = self.missing_in(plan)
-        except StoreError as exc:
-            rep.problems.append(f"the plan cannot be read ({exc})")
-        for stage, rs in ranges.items():
-            rs.sort()
-            for (_, a1), (b0, b1) in itertools.pairwise(rs):
-                if b0 < a1:
-                    rep.problems.append(
-                        f"stage {stage}: batches overlap at sequence {b0}..{min(a1, b1) - 1}"
-                    )
-        return rep
+        return integrity.verify(self, plan)
 
     def check_batches(self) -> list[DamagedBatch]:
-        """Every batch (all stages) checked against its checksum and sizes, one at a time:
-        the damaged ones (a cheaper :meth:`verify`, without SQLite's page check)."""
-        spec = self.spec
-        w = widths(spec)
-        checksum_col = "checksum" if self._has_checksums() else "NULL"
-        out = []
-        with self.snapshot():
-            stage_kind = {s.stage: s.kind for s in self.stages()}
-            for (block,) in self._query("SELECT block FROM blocks ORDER BY stage, seq_start"):
-                found = self._query(
-                    f"SELECT block, stage, seq_start, n, x, f, g, status, wall, {checksum_col} "
-                    "FROM blocks WHERE block = ?",
-                    (block,),
-                )
-                if not found:
-                    raise StoreDamagedError(
-                        f"store {self.path} is damaged: batch {block} is listed but cannot be "
-                        f"read; `vectorid repair {self.path}` rebuilds the store"
-                    )
-                bad = check_row(found[0], w, stage_kind)
-                if bad is not None:
-                    out.append(bad)
-        return out
+        """Every batch checked against its checksum and sizes, one at a time
+        (:func:`vectorid.store.integrity.check_batches`).
+
+        Returns
+        -------
+        list of DamagedBatch
+        """
+        return integrity.check_batches(self)
+
+    def read_rows(self, sql: str, args: Sequence[Any] = ()) -> list[Any]:
+        """Rows of one read-only SQL query on the store file (the store package's integrity
+        checks and repair tools read what :meth:`load` would refuse this way).
+
+        Parameters
+        ----------
+        sql : str
+            A SELECT or PRAGMA statement.
+        args : sequence
+            Its parameters.
+
+        Returns
+        -------
+        list of rows
+
+        Raises
+        ------
+        StoreError
+            When SQLite cannot read the file (the message says how to repair it).
+        """
+        return self._query(sql, args)
+
+    def sqlite_check(self) -> list[str]:
+        """SQLite's own ``PRAGMA integrity_check`` of the file's pages (``["ok"]`` when
+        sound)."""
+        try:
+            return [str(r[0]) for r in self._con.execute("PRAGMA integrity_check(20)")]
+        except sqlite3.Error as exc:
+            return [f"integrity check failed: {exc}"]
+
+    def has_checksums(self) -> bool:
+        """Whether the batches carry checksums (every store written since schema 2)."""
+        return self._has_checksums()
 
     def drop_batches(self, blocks: Sequence[int], why: str) -> int:
         """Delete batches (and their failure reasons) in one transaction; logs it in the run
