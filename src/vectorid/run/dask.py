@@ -55,10 +55,9 @@ import numpy as np
 from ..errors import StudyDefinitionError, VectoridError
 from ..problem import EvalResult, Problem
 from ..spec import StudySpec, check_scheduler_address
-from .executors import (
+from .executors import Executor, ProcessExecutor
+from .faults import (
     CRASH_REASON,
-    Executor,
-    ProcessExecutor,
     SuspectTracker,
     Task,
     batch_deadline,
