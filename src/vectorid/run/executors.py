@@ -760,6 +760,10 @@ class InlineExecutor(SerialExecutor):
         if self._inline is None:
             self._inline = self.spec.problem()
 
+    def use_problem(self, problem: Problem) -> None:
+        """Evaluate with ``problem`` (the study's, built already by the caller)."""
+        self._inline = problem
+
 
 # -- registry ------------------------------------------------------------------------------
 

@@ -20,7 +20,6 @@ and stores.
 from __future__ import annotations
 
 import math
-import time
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -38,9 +37,9 @@ from ..analysis.relaxation import (
 from ..analysis.results import Analysis
 from ..analysis.robustness import Robustness, build_robustness, neighbourhood
 from ..analysis.sections import Section, check_range, section_points
-from ..errors import StoreError
 from ..problem import EvalResult, Problem
 from ..store import Stage, Store
+from .loop import evaluate_into
 
 __all__ = ["apply_refine", "evaluate_and_store", "relax_study", "run_robustness", "run_section"]
 
@@ -58,22 +57,7 @@ def evaluate_and_store(
     InputsChangedError
         When the model's code or a data file changed since the stored trials were computed.
     """
-    if not store.writable:
-        raise StoreError(
-            f"store {store.path} was opened read-only; open it with write=True to add trials"
-        )
-    from ..store.inputs import check_inputs
-
-    check_inputs(store)  # the same check as every run: same model code and data files
-    prob = problem if problem is not None else store.spec.problem()
-    t0 = time.perf_counter()
-    res = prob.evaluate(X)
-    if res.wall is None:
-        res.wall = np.full(res.n, (time.perf_counter() - t0) / max(res.n, 1))
-    store.write_batch(
-        stage, 0, X, res.criteria, res.functionals, res.status, res.wall, res.messages
-    )
-    return res
+    return evaluate_into(store, stage, X, problem)  # through the one run loop
 
 
 def run_section(

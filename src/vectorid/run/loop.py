@@ -32,9 +32,9 @@ from typing import Any, TextIO
 
 import numpy as np
 
-from ..errors import RunFailedError
-from ..problem import FAILED, EvalResult
-from ..samplers import Round, RoundResult, RunContext, StageRequest, sampler_for
+from ..errors import RunFailedError, StoreError
+from ..problem import FAILED, EvalResult, Problem
+from ..samplers import Round, RoundResult, RunContext, RunSettings, StageRequest, sampler_for
 from ..samplers.table import sample_spans
 from ..store import Store
 from ..store.inputs import check_inputs
@@ -46,6 +46,7 @@ __all__ = [
     "FailureGroup",
     "RunInterrupted",
     "RunSummary",
+    "evaluate_into",
     "group_failures",
     "plan",
     "run_store",
@@ -380,6 +381,69 @@ def run_store(
         if run.run_id is not None:
             store.end_run(run.run_id, outcome, _run_report(summary))
     return summary
+
+
+def evaluate_into(
+    store: Store, stage: int, X: np.ndarray, problem: Problem | None = None
+) -> EvalResult:
+    """Evaluate ``X`` (n, p) in this process and store it as auxiliary stage ``stage`` from
+    sequence index 0 (the trials of a section or a robustness check), through this loop: the
+    same input check, write and run log as every run.
+
+    Parameters
+    ----------
+    store : Store
+        Opened for writing.
+    stage : int
+        An auxiliary stage of the store (not a sample stage).
+    X : (n, p) float array
+        Parameter vectors, in the study's units.
+    problem : Problem, optional
+        The study's Problem, when built already (default: built from the study).
+
+    Returns
+    -------
+    EvalResult
+        The trials' criteria, functionals and status.
+
+    Raises
+    ------
+    StoreError
+        When the store was opened read-only.
+    InputsChangedError
+        When the model's code or a data file changed since the stored trials were computed.
+    """
+    if not store.writable:
+        raise StoreError(
+            f"store {store.path} was opened read-only; open it with write=True to add trials"
+        )
+    spec = store.spec
+    X = np.asarray(X, dtype=float)
+    pool = make_executor("inline", spec)
+    if problem is not None:
+        pool.use_problem(problem)
+    settings = RunSettings(spec, target=len(X), work=len(X))
+    summary = RunSummary(target=len(X), total_stored=store.count_sample())
+    run = _Run(store, summary, pool, True, False, settings, "inline")
+    outcome = "completed"
+    rnd = Round(stage, 0, len(X), lambda s, n: X[s : s + n], batch=max(len(X), 1), results=True,
+                bar=False)  # fmt: skip
+    try:
+        with pool:
+            out = run.evaluate(rnd, None)
+    except BaseException as exc:
+        outcome = f"stopped: {str(exc)[:200]}" if str(exc) else "error"
+        raise
+    finally:
+        if run.run_id is not None:
+            store.end_run(run.run_id, outcome, _run_report(summary))
+    if out.result is None:  # every trial was stored already
+        t = store.load(stages=[stage], kinds=(store.stage_kind(stage),))
+        order = np.argsort(t.seq)
+        return EvalResult(t.F[order], t.G[order], t.status[order],
+                          {i: t.message(int(r)) for i, r in enumerate(order) if t.status[r]},
+                          t.wall[order])  # fmt: skip
+    return out.result
 
 
 def _run_report(summary: RunSummary) -> dict:

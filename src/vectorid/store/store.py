@@ -460,6 +460,13 @@ class Store:
             out.append(Stage(stage, kind, start, created, space, note))
         return out
 
+    def stage_kind(self, stage: int) -> str:
+        """The kind of stage ``stage`` (``"sample"``, ``"section"``, ...)."""
+        row = self._query("SELECT kind FROM stages WHERE stage = ?", (stage,))
+        if not row:
+            raise StoreError(f"store {self.path} holds no stage {stage}")
+        return str(row[0][0])
+
     def add_stage(
         self, space: Space, *, kind: str = "sample", start_seq: int | None = None, note: str = ""
     ) -> Stage:
@@ -792,25 +799,9 @@ class Store:
         return integrity.check_batches(self)
 
     def read_rows(self, sql: str, args: Sequence[Any] = ()) -> list[Any]:
-        """Rows of one read-only SQL query on the store file (the store package's integrity
-        checks and repair tools read what :meth:`load` would refuse this way).
-
-        Parameters
-        ----------
-        sql : str
-            A SELECT or PRAGMA statement.
-        args : sequence
-            Its parameters.
-
-        Returns
-        -------
-        list of rows
-
-        Raises
-        ------
-        StoreError
-            When SQLite cannot read the file (the message says how to repair it).
-        """
+        """Rows of one read-only SQL query (``sql`` with ``args``) on the store file: the
+        integrity checks read what :meth:`load` would refuse this way. A file SQLite cannot
+        read raises :class:`StoreError` saying how to repair it."""
         return self._query(sql, args)
 
     def sqlite_check(self) -> list[str]:
