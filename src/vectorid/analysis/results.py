@@ -22,6 +22,7 @@ from ..problem import OK
 from ..samplers import Weighting, sampler_for
 from ..spec import StudySpec
 from ..store import Store, Trials
+from ._frames import constraint_rows, trial_columns, trials_frame, verdict_rows, verdicts_frame
 from .pareto import pareto_mask
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -576,7 +577,6 @@ class Analysis:
             then the bool flags ``functional_ok``, ``feasible`` (in D) and ``pareto``
             under the constraints in force. ``vectorid export`` writes the same columns.
         """
-        from ._frames import trial_columns
 
         return trial_columns(self)
 
@@ -596,7 +596,6 @@ class Analysis:
         ImportError
             pandas is not installed (the message gives the command that installs it).
         """
-        from ._frames import trials_frame
 
         return trials_frame(self)
 
@@ -613,7 +612,6 @@ class Analysis:
             ``"study"`` for a functional bound of the study, or ``"analysis"`` for a bound
             given to this analysis (``limits=`` or ``--limit``).
         """
-        from ._frames import constraint_rows
 
         return constraint_rows(self)
 
@@ -662,7 +660,6 @@ class Analysis:
             ``unit``; NaN when the set is empty), ``width`` (dimensionless),
             ``n_feasible``, ``constrained_by``, ``reason`` and ``suggestion``.
         """
-        from ._frames import verdict_rows
 
         rows = verdict_rows(self.verdicts(**thresholds))
         keys = list(rows[0]) if rows else ["name", "verdict"]
@@ -681,7 +678,6 @@ class Analysis:
         pandas.DataFrame
             Indexed by variable name; the other columns of :meth:`verdict_columns`.
         """
-        from ._frames import verdicts_frame
 
         return verdicts_frame(self.verdicts(**thresholds))
 

@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from .results import Analysis
-from .weights import trial_weights, weighted_ks, weighted_pearson, weighted_ranks
+from .weights import kish, trial_weights, weighted_ks, weighted_pearson, weighted_ranks
 
 __all__ = ["Sensitivity", "ks_filtering", "rank_correlation", "sensitivity"]
 
@@ -146,7 +146,6 @@ WEIGHED_REST = 3000
 def sensitivity(a: Analysis) -> Sensitivity:
     """Rank correlations over successful trials and KS filtering on D vs the rest
     (importance-weighted on a sequential store, the rest thinned to :data:`WEIGHED_REST`)."""
-    from .weights import kish
 
     X, F = a.trials.X, a.trials.F
     n_rest = a.n - a.n_feasible

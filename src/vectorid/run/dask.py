@@ -55,6 +55,7 @@ import numpy as np
 from ..errors import StudyDefinitionError, VectoridError
 from ..problem import EvalResult, Problem
 from ..spec import StudySpec, check_scheduler_address
+from ..store.inputs import code_hashes
 from .executors import Executor, ProcessExecutor
 from .faults import (
     CRASH_REASON,
@@ -222,7 +223,6 @@ def _code_on_worker(blob: bytes) -> dict[str, str]:
     :func:`vectorid.store.inputs.code_hashes`)."""
     import cloudpickle
 
-    from ..store.inputs import code_hashes
 
     spec = cloudpickle.loads(blob)
     return {k: str(v.get("sha256")) for k, v in code_hashes(spec).items()}
@@ -452,7 +452,6 @@ class DaskExecutor(Executor):
         (the code the store records): its trials would come from another model. A worker
         that finds no source file of the model cannot be compared (it reports an error of
         its own if it cannot build the model)."""
-        from ..store.inputs import code_hashes
 
         here = {k: str(v.get("sha256")) for k, v in code_hashes(self.spec).items()}
         if not here:

@@ -52,10 +52,13 @@ from __future__ import annotations
 import abc
 import contextlib
 import contextvars
+import ctypes
 import importlib
 import multiprocessing as mp
 import multiprocessing.connection as mpc
 import os
+import pickle
+import resource
 import signal
 import sys
 import threading
@@ -70,6 +73,7 @@ import numpy as np
 from ..errors import StudyDefinitionError, VectoridError, VectoridWarning, suggest
 from ..problem import EvalResult, Problem
 from ..spec import StudySpec
+from ..store.lock import close_inherited_locks
 from .faults import (
     MEMORY_POLL_S,
     SuspectTracker,
@@ -157,8 +161,6 @@ def check_workers(n: int, what: str = "worker processes", option: str = "--worke
             )
         )
     try:
-        import resource
-
         soft = resource.getrlimit(resource.RLIMIT_NOFILE)[0]
         if soft != resource.RLIM_INFINITY:
             limits.append((max(1, (soft - 64) // 4), f"open-file limit {soft}, 4 per worker"))
@@ -311,8 +313,6 @@ def _main_hidden() -> Iterator[None]:
 def _set_parent_death_signal() -> None:
     """Linux: have the kernel kill this process when the thread that started it ends."""
     try:
-        import ctypes
-
         libc = ctypes.CDLL(None, use_errno=True)
         libc.prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
     except (OSError, AttributeError):
@@ -352,7 +352,6 @@ def _worker_main(
 ) -> None:
     """Body of a worker process: build the model once, then evaluate what comes in."""
     end_with_parent(parent, pdeathsig=pdeathsig)
-    from ..store.lock import close_inherited_locks
 
     close_inherited_locks()
     if one_thread:  # one numba/BLAS thread per worker process: the pool is the parallelism
@@ -692,7 +691,6 @@ class SerialExecutor(ProcessExecutor):
         super()._prepare()
         if self._method == "fork" or isinstance(self._payload, bytes):
             return
-        import pickle
 
         try:
             pickle.dumps(self.spec)

@@ -31,6 +31,7 @@ from collections.abc import Iterator, Sequence
 from typing import Any, TextIO
 
 import numpy as np
+from tqdm.auto import tqdm
 
 from ..errors import RunFailedError, StoreError
 from ..problem import FAILED, EvalResult, Problem
@@ -350,8 +351,6 @@ def run_store(
             planned = rnd is not None
             while rnd is not None:
                 if rnd.bar and progress and bar is None and settings.work:
-                    from tqdm.auto import tqdm
-
                     bar = tqdm(total=stored_before + settings.work, initial=stored_before,
                                unit="trial", file=out, dynamic_ncols=True,
                                smoothing=0.1)  # fmt: skip

@@ -28,9 +28,11 @@ the repair (an interrupted run) are not the repair's to compute: the report name
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import sqlite3
+import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -40,7 +42,10 @@ import numpy as np
 
 from ..errors import StoreDamagedError, StoreError
 from ..samplers import sampler_for
+from ..spec import load_study
 from ..store import DamagedBatch, Store, VerifyReport
+from ..store.agreement import data_file_hashes
+from ..store.inputs import check_inputs
 from ..store.lock import WriterLock
 from ..store.schema import APPLICATION_ID, GENERATIONS, SCHEMA, SCHEMA_VERSION, TABLES
 from .executors import make_executor
@@ -354,8 +359,6 @@ def _repair_batches(
         )
     spec = store.spec
     if ranges or rerun:
-        from ..store.inputs import check_inputs
-
         check_inputs(store)  # recomputed trials must come from the same model and data
     size = spec.batch_size or 256
     work: dict[tuple[int, int], np.ndarray] = dict(rerun)
@@ -369,7 +372,6 @@ def _repair_batches(
     )
     hook = os.environ.get("VECTORID_TEST_REPAIR_PAUSE")
     if hook:  # tests: a moment to kill the repair between computing and committing
-        import time
 
         time.sleep(float(hook))
     report.recomputed += store.replace_batches(
@@ -458,10 +460,7 @@ def _evaluate(spec, work: dict, executor: str | None, workers: int | None) -> di
 
 def _restore_definition(store: Store, study: Path) -> None:
     """Write the definition of ``study`` into ``store`` after checking it against stage 0."""
-    import json
 
-    from ..spec import load_study
-    from ..store.agreement import data_file_hashes
 
     spec = load_study(study)
     text = store.stage_box_text(0)

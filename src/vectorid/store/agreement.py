@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from ..builders import analysis_only
+from ..builders import analysis_only, data_files
 from ..spec import StudySpec
 
 __all__ = ["Agreement", "Difference", "compare", "data_file_hashes"]
@@ -127,7 +127,6 @@ def _sha256(path: Path) -> str | None:
 def data_file_hashes(spec: StudySpec) -> dict[str, Any]:
     """``{field: {"path", "sha256", "size"}}`` of the data files ``spec`` reads (those that
     exist; a missing one is the problem builder's to report)."""
-    from ..builders import data_files
 
     out: dict[str, Any] = {}
     try:
@@ -352,8 +351,6 @@ def _stated_unit(path: str, held: Any, given: Any) -> str:
 
 
 def _data_files(spec: StudySpec) -> dict[str, Path]:
-    from ..builders import data_files
-
     try:
         return data_files(spec)
     except Exception:

@@ -36,9 +36,12 @@ from __future__ import annotations
 import ast
 import contextlib
 import hashlib
+import importlib.util
+import inspect
 import json
 import shlex
 import shutil
+import site
 import sys
 import sysconfig
 import time
@@ -48,7 +51,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from .._version import __version__
+from ..builders import data_files as _files
+from ..builders import kind_of
 from ..errors import StoreError, VectoridNote
+from .agreement import data_file_hashes, new_store_name
 
 __all__ = [
     "Change",
@@ -86,8 +93,6 @@ def _library_dirs() -> list[Path]:
         with contextlib.suppress(Exception):
             out.add(Path(sysconfig.get_paths()[key]).resolve())
     try:
-        import site
-
         for p in [*site.getsitepackages(), site.getusersitepackages()]:
             out.add(Path(p).resolve())
     except Exception:  # an embedded interpreter without site
@@ -128,7 +133,6 @@ def _top_module_file(name: str, base_dir: Path | None) -> Path | None:
     found = _module_file(name, roots)
     if found is not None:
         return found
-    import importlib.util
 
     top, _, rest = name.partition(".")
     try:
@@ -234,7 +238,6 @@ def _vectorid_sources(kind: str) -> dict[str, Any]:
     for f in files:
         h.update(str(f.relative_to(vid)).encode() + b"\0")
         h.update((_sha256(f) or "unreadable").encode() + b"\0")
-    from .._version import __version__
 
     return {
         f"vectorid {kind} model sources": {
@@ -250,7 +253,6 @@ def code_hashes(spec: Any) -> dict[str, Any]:
     """``{label: {"path", "sha256", ...}}`` of the files that are the study's model code
     (see the module docstring); empty for a model without a source file (an FMU is a data
     file; a function typed at an interactive prompt has no file)."""
-    from ..builders import kind_of
 
     base = Path(spec.base_dir).resolve() if spec.base_dir else None
     kind = kind_of(spec)
@@ -291,8 +293,6 @@ def code_hashes(spec: Any) -> dict[str, Any]:
                 else:
                     files.append((q, "file the command reads"))
     elif callable(model):
-        import inspect
-
         try:
             src = inspect.getsourcefile(model) or inspect.getsourcefile(type(model))
         except TypeError:
@@ -397,12 +397,10 @@ def input_changes(store: Any, spec: Any = None) -> tuple[list[Change], list[str]
     current : dict
         ``{"data_files": ..., "code_files": ...}`` as they are now.
     """
-    from .agreement import data_file_hashes
 
     spec = spec if spec is not None else store.spec
     current = {"data_files": data_file_hashes(spec), "code_files": code_hashes(spec)}
     # a data file that cannot be read now still counts: it is gone
-    from ..builders import data_files as _files
 
     try:
         for name in _files(spec):
@@ -442,8 +440,6 @@ def record_history(store: Any, entries: list[dict[str, Any]], **meta: Any) -> No
 
 
 def _message(store: Any, changes: list[Change]) -> str:
-    from .agreement import new_store_name
-
     n = store.count_sample()
     lines = [
         f"{len(changes)} input{'s' if len(changes) > 1 else ''} of the study in {store.path} "
