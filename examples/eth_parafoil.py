@@ -42,7 +42,7 @@ flight in the model, while the authors' own wind model (data README: gusts integ
 height, ``b_w_xy = 8 * 0.0251``, ``b_w_z = 2 * 0.0251``, ``k_w = -0.00385``) varies along the
 descent. :func:`gust_allowance` turns that gust model into a bound on the position deviation
 it causes over each flight (a kinematic Monte Carlo: the canopy drifts with the air). The study
-runs through the library's stage driver (``vectorid.identify.stages.run_stage``) on the
+runs through the library's stage driver (``vectorid.workflows.stages.run_stage``) on the
 sequential sampler: generations of trials move into D at these limits until it holds 200
 members, or the budget is spent; then a local search from the best trials says by how much the
 model misses the limits. Only then are the limits relaxed, as the named last resort (outer
@@ -71,7 +71,7 @@ from pathlib import Path
 import numpy as np
 
 from vectorid.analysis.weights import trial_weights, weighted_quantile
-from vectorid.identify import Channel, FlightData, Identification, load_flight
+from vectorid.identify import FlightChannel, FlightData, Identification, load_flight
 from vectorid.problem import Criterion
 from vectorid.space import Continuous, Space
 from vectorid.spec import StudySpec
@@ -205,7 +205,7 @@ def load(folder: Path, name: str) -> FlightData:
     )  # fmt: skip
     raw = np.genfromtxt(folder / f"{name}_states.csv", delimiter=",", names=True)
     course = np.unwrap(np.radians(raw["heading_deg"]))
-    euler = Channel(
+    euler = FlightChannel(
         "euler", raw["t_s"], np.column_stack([0 * course, 0 * course, course]),
         ("roll", "pitch", "yaw"), "rad",
     )  # fmt: skip
@@ -215,7 +215,7 @@ def load(folder: Path, name: str) -> FlightData:
     t, da = t[keep], da[keep]
     left = BRAKE_BASE - np.maximum(da, 0.0)
     right = BRAKE_BASE + np.minimum(da, 0.0)
-    controls = Channel(
+    controls = FlightChannel(
         "controls", t, np.column_stack([left, right]), ("flap_left", "flap_right"), "-"
     )
     channels = dict(states.channels, euler=euler, controls=controls)
@@ -368,7 +368,8 @@ def noise_limits(
     the flights are averaged as the criteria are, and the joint 95 % quantile of the two
     criteria is the limit. ``noise`` (flight -> NoiseModel) replaces the estimate of a
     flight."""
-    from vectorid.identify.noise import NoiseFloor, estimate_noise, noise_floor
+    from vectorid.identify.noise import estimate_noise
+    from vectorid.identify.noise.floor import NoiseFloor, noise_floor
 
     samples, used = [], {}
     for k, (name, ident) in enumerate(model.idents.items()):
@@ -399,12 +400,13 @@ def run(
     budget: int | None = None,
 ):
     """One PSI study of ``model`` through the library's stage driver; returns its
-    :class:`~vectorid.identify.stages.Stage`. ``limits``: criterion -> (limit, note) from the
-    noise floors. With limits, the sequential sampler (``trials`` Sobol points first, then
-    generations toward D, at most ``budget`` evaluations); without (every trial is in D and
-    the Pareto set ranks them), a plain table with double tuning (a coarse run of a quarter of
-    ``trials``, the box narrowed where it identifies a variable, then ``trials`` more)."""
-    from vectorid.identify.stages import run_stage
+    :class:`~vectorid.workflows.stages.IdentificationStage`. ``limits``: criterion ->
+    (limit, note) from the noise floors. With limits, the sequential sampler (``trials``
+    Sobol points first, then generations toward D, at most ``budget`` evaluations); without
+    (every trial is in D and the Pareto set ranks them), a plain table with double tuning (a
+    coarse run of a quarter of ``trials``, the box narrowed where it identifies a variable,
+    then ``trials`` more)."""
+    from vectorid.workflows.stages import run_stage
 
     global _CURRENT
     _CURRENT = model
@@ -498,7 +500,7 @@ def identify(
 
 
 def main(argv: list[str] | None = None) -> int:
-    from vectorid.identify.stages import print_stage_limits, print_verdicts
+    from vectorid.workflows.stages import print_stage_limits, print_verdicts
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("data", nargs="?", default=str(DEFAULT_DATA), help="the eth-parafoil folder")

@@ -25,7 +25,7 @@ drop's barometer and GPS noise estimated from its data (``noise = "estimate"``),
 floors of a perfect model under it, and a discrepancy allowance for the wind the model flies
 as uniform — from the ETH authors' low-level gust model (no wind model is stated for these
 drops; it is a stand-in, named as such), over the height each drop descends. The study runs
-through the library's stage driver (``vectorid.identify.stages.run_stage``) on the sequential
+through the library's stage driver (``vectorid.workflows.stages.run_stage``) on the sequential
 sampler: ``trials`` Sobol points, then generations that move into D at these limits until it
 holds 200 members or ``budget`` evaluations are spent. Where D is not reached, the sampler
 says how far it got and a local search from the best trials says by how much the model misses
@@ -46,7 +46,7 @@ from pathlib import Path
 import numpy as np
 
 from vectorid.analysis.weights import trial_weights, weighted_pearson
-from vectorid.identify import Channel, FlightData, Identification
+from vectorid.identify import FlightChannel, FlightData, Identification
 from vectorid.identify.noise import estimate_noise
 from vectorid.problem import Criterion
 from vectorid.space import Continuous, Space
@@ -75,13 +75,13 @@ def load(path: Path, drop: int) -> FlightData:
     d = np.genfromtxt(path, delimiter=",", names=True)
     s = d[d["drop"] == drop]
     t = s["t_s"]
-    alt = Channel("altitude", t, s["alt_m"][:, None], ("altitude",), "m")
+    alt = FlightChannel("altitude", t, s["alt_m"][:, None], ("altitude",), "m")
     fix = np.isfinite(s["lat_deg"]) & np.isfinite(s["lon_deg"])
     lat, lon, tf, h = s["lat_deg"][fix], s["lon_deg"][fix], t[fix], s["alt_m"][fix]
     new = np.concatenate([[True], (np.diff(lat) != 0) | (np.diff(lon) != 0)])
     lat, lon, tf, h = lat[new], lon[new], tf[new], h[new]
     n, e, _ = pymap3d.geodetic2ned(lat, lon, 0.0 * lat, lat[0], lon[0], 0.0)
-    pos = Channel("position", tf, np.column_stack([n, e, -h]), ("north", "east", "down"), "m")
+    pos = FlightChannel("position", tf, np.column_stack([n, e, -h]), ("north", "east", "down"), "m")
     return FlightData(f"drop{drop}", {"altitude": alt, "position": pos}, {}, None)
 
 
@@ -168,7 +168,7 @@ def run(
     """One PSI study of the two drops under ``limits`` (criterion -> (limit, note) from the
     noise floors), through the library's stage driver on the sequential sampler (``trials``
     Sobol points first, at most ``budget`` evaluations)."""
-    from vectorid.identify.stages import run_stage
+    from vectorid.workflows.stages import run_stage
 
     global _CURRENT
     _CURRENT = model
@@ -257,7 +257,7 @@ def identify(
 
 
 def main(argv: list[str] | None = None) -> int:
-    from vectorid.identify.stages import print_stage_limits, print_verdicts
+    from vectorid.workflows.stages import print_stage_limits, print_verdicts
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("data", nargs="?", default=str(DEFAULT_DATA), help="the ssi-parafoil folder")

@@ -1,5 +1,7 @@
 """Extra runs: the trials a study adds beside its Sobol sample, in one place that evaluates
-and stores.
+and stores. Each goes into its own *stage* of the store (the store's word for a box and a kind
+of trials: ``"sample"``, ``"section"``, ``"robustness"``), never into an identification stage
+(:mod:`vectorid.workflows.stages`).
 
 * :func:`run_section` — a section ("criterion vs parameter, type II", seed 000 Fig. 10)
   through a stored trial, stored as an auxiliary stage of kind ``"section"``;
@@ -40,6 +42,7 @@ from ..analysis.robustness import Robustness, build_robustness, neighbourhood
 from ..analysis.sections import Section, check_range, section_points
 from ..errors import StoreError
 from ..problem import EvalResult, Problem
+from ..store.inputs import check_inputs
 from ..store.sqlite import Stage, Store
 
 __all__ = ["apply_refine", "evaluate_and_store", "relax_study", "run_robustness", "run_section"]
@@ -62,8 +65,6 @@ def evaluate_and_store(
         raise StoreError(
             f"store {store.path} was opened read-only; open it with write=True to add trials"
         )
-    from ..store.inputs import check_inputs
-
     check_inputs(store)  # the same check as every run: same model code and data files
     prob = problem if problem is not None else store.spec.problem()
     t0 = time.perf_counter()
