@@ -5,9 +5,9 @@ Flight data (:mod:`vectorid.identify.flight`), loaders (:mod:`vectorid.identify.
 profiles and wind uncertainty (:mod:`vectorid.identify.windprofiles`), the adequacy-criteria
 library (:mod:`vectorid.identify.criteria`), spectral tools (:mod:`vectorid.identify.spectral`),
 noise statements, estimates and noise floors (:mod:`vectorid.identify.noise`), the
-identification of a drop or of several (:mod:`vectorid.identify.identification`) and of a
-model of your own (:mod:`vectorid.identify.system`): what a worker needs to build and evaluate a
-model.
+identification of a drop or of several (:mod:`vectorid.identify.identification`,
+:mod:`vectorid.identify.multiflight`) and of a model of your own
+(:mod:`vectorid.identify.system`): what a worker needs to build and evaluate a model.
 
 This package imports nothing from the store, the run, the samplers, the analysis, the
 workflows or the views. Running identifications (double tuning, stages, the two-step
