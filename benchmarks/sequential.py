@@ -104,7 +104,7 @@ class Outcome:
 def parachute_problem(folder: Path, free: int, seed: int = 0) -> Problem:
     """The parachute twin with 3 or all 15 parameters free (see the module docstring)."""
     from vectorid import models
-    from vectorid.identify.noise import resolve_noise_limits
+    from vectorid.identify.noise.resolve import resolve_noise_limits
     from vectorid.identify.twins import twin_drop, write_twin, write_wind_csv
     from vectorid.models import InitialState, WindProfile
     from vectorid.spec import StudySpec
@@ -161,7 +161,7 @@ def parafoil_problem(folder: Path) -> Problem:
     """The parafoil demo's drop with all 33 gains free and the demo's stated limits."""
     from vectorid import models
     from vectorid.demo_parafoil import DEMO_DATA, MODEL_OPTIONS, stage_toml
-    from vectorid.identify.noise import resolve_noise_limits
+    from vectorid.identify.noise.resolve import resolve_noise_limits
     from vectorid.spec import load_study
 
     data = folder / "data"

@@ -11,7 +11,8 @@ longitude (a new fix about once a second), from 78 m and 247 m above the ground 
 no mass, canopy size, airspeed, wind or control record, and the payload turns continuously.
 
 The model is ``parafoil6dof`` with a small canopy of the ETH test vehicle's class (1.5 m²,
-the stated aerodynamic set of ``examples/eth_parafoil.py``) standing in for the unknown one.
+the stated set of ``examples/eth_parafoil.py``, the library's
+:data:`vectorid.models.stated_parafoil.ETH_PARAFOIL`) standing in for the unknown one.
 Design variables, with both drops at once (criteria averaged over them):
 
 * ``payload_mass`` (kg): with the canopy area fixed it is the wing loading
@@ -24,8 +25,10 @@ Criteria (pure): the altitude residual ∫|Δh| dt and the horizontal position r
 drop's barometer and GPS noise estimated from its data (``noise = "estimate"``), the noise
 floors of a perfect model under it, and a discrepancy allowance for the wind the model flies
 as uniform — from the ETH authors' low-level gust model (no wind model is stated for these
-drops; it is a stand-in, named as such), over the height each drop descends. The study runs
-through the library's stage driver (``vectorid.identify.stages.run_stage``) on the sequential
+drops; it is a stand-in, named as such: :data:`vectorid.identify.gusts.ETH_GUSTS`), over the
+height each drop descends. Both drops are one batch model, the library's several-flights
+identification (:class:`vectorid.identify.multiflight.MultiFlight`). The study runs
+through the library's stage driver (``vectorid.workflows.stages.run_stage``) on the sequential
 sampler: ``trials`` Sobol points, then generations that move into D at these limits until it
 holds 200 members or ``budget`` evaluations are spent. Where D is not reached, the sampler
 says how far it got and a local search from the best trials says by how much the model misses
@@ -39,15 +42,17 @@ feasible set), and without airspeed or wind the glide ratio is not separable fro
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import sys
 from pathlib import Path
 
 import numpy as np
 
 from vectorid.analysis.weights import trial_weights, weighted_pearson
-from vectorid.identify import Channel, FlightData, Identification
+from vectorid.identify import FlightChannel, FlightData
+from vectorid.identify.gusts import ETH_GUSTS, gust_allowance
+from vectorid.identify.multiflight import MultiFlight
 from vectorid.identify.noise import estimate_noise
+from vectorid.models.stated_parafoil import ETH_PARAFOIL
 from vectorid.problem import Criterion
 from vectorid.space import Continuous, Space
 from vectorid.spec import StudySpec
@@ -59,15 +64,6 @@ BOXES = {"payload_mass": (0.5, 30.0), "CD0": (0.3, 10.0)}
 WIND_BOX = (-15.0, 15.0)
 
 
-def _eth():
-    spec = importlib.util.spec_from_file_location(
-        "eth_parafoil", ROOT / "examples" / "eth_parafoil.py"
-    )
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
-
-
 def load(path: Path, drop: int) -> FlightData:
     """One drop: pressure altitude, and the GPS track (new fixes only) in a local frame."""
     import pymap3d
@@ -75,72 +71,33 @@ def load(path: Path, drop: int) -> FlightData:
     d = np.genfromtxt(path, delimiter=",", names=True)
     s = d[d["drop"] == drop]
     t = s["t_s"]
-    alt = Channel("altitude", t, s["alt_m"][:, None], ("altitude",), "m")
+    alt = FlightChannel("altitude", t, s["alt_m"][:, None], ("altitude",), "m")
     fix = np.isfinite(s["lat_deg"]) & np.isfinite(s["lon_deg"])
     lat, lon, tf, h = s["lat_deg"][fix], s["lon_deg"][fix], t[fix], s["alt_m"][fix]
     new = np.concatenate([[True], (np.diff(lat) != 0) | (np.diff(lon) != 0)])
     lat, lon, tf, h = lat[new], lon[new], tf[new], h[new]
     n, e, _ = pymap3d.geodetic2ned(lat, lon, 0.0 * lat, lat[0], lon[0], 0.0)
-    pos = Channel("position", tf, np.column_stack([n, e, -h]), ("north", "east", "down"), "m")
+    pos = FlightChannel("position", tf, np.column_stack([n, e, -h]), ("north", "east", "down"), "m")
     return FlightData(f"drop{drop}", {"altitude": alt, "position": pos}, {}, None)
 
 
-class TwoDrops:
-    """Batch model: (payload_mass, CD0 gain, wind per drop) -> criteria averaged over drops."""
-
-    def __init__(self, flights: dict[str, FlightData]):
-        eth = _eth()
-        options = eth.model_options()
-        options["extra_parameters"] = ["payload_mass", "wind_north", "wind_east"]
-        self.names = list(flights)
-        self.idents = {}
-        for name, fl in flights.items():
-            p = fl["position"]
-            t0, t1 = max(p.t[0], fl["altitude"].t[0]), min(p.t[-1], fl["altitude"].t[-1])
-            table = {
-                "model": "parafoil6dof", "model_options": options, "dt": 0.02, "output_dt": 0.2,
-                "init_span": 1.0,
-                "drops": [{"name": name, "window": [float(t0), float(t1)], "origin_altitude": 0.0}],
-            }  # fmt: skip
-            self.idents[name] = Identification.from_table(
-                table, variables=["payload_mass", "CD0", "wind_north", "wind_east"],
-                criteria=["alt_abs", "pos_h_abs"], flights={name: fl},
-            )  # fmt: skip
-
-    @property
-    def variables(self) -> list[str]:
-        return ["payload_mass", "CD0", *(f"{c}.{n}" for n in self.names
-                                         for c in ("wind_north", "wind_east"))]  # fmt: skip
-
-    def columns(self, X: np.ndarray, k: int) -> np.ndarray:
-        return np.column_stack([X[:, 0], X[:, 1], X[:, 2 + 2 * k], X[:, 3 + 2 * k]])
-
-    def __call__(self, X: np.ndarray) -> np.ndarray:
-        X = np.atleast_2d(np.asarray(X, dtype=float))
-        parts = [self.idents[n].evaluate(self.columns(X, k))[0] for k, n in enumerate(self.names)]
-        return np.mean(parts, axis=0)
-
-    def errors(self, x: np.ndarray) -> dict[str, tuple[float, float, float]]:
-        """Per drop: RMS altitude error (m), RMS horizontal error (m), duration (s)."""
-        out = {}
-        for k, n in enumerate(self.names):
-            ident = self.idents[n]
-            d = ident.drops[0]
-            res = ident.simulate(self.columns(np.atleast_2d(x), k), d)
-            h = -res.position[0, :, 2] - d.origin_altitude
-            eh = h - d.measured("altitude")[:, 0]
-            ep = res.position[0, :, :2] - d.measured("position")[:, :2]
-            out[n] = (
-                float(np.sqrt(np.mean(eh**2))),
-                float(np.sqrt(np.mean((ep**2).sum(axis=1)))),
-                d.duration,
-            )
-        return out
+def two_drops(flights: dict[str, FlightData]) -> MultiFlight:
+    """Batch model: (payload_mass, CD0 gain, wind per drop) -> criteria averaged over the drops,
+    each drop compared where its altitude and GPS records overlap."""
+    options = ETH_PARAFOIL.model_options(
+        extra_parameters=("payload_mass", "wind_north", "wind_east")
+    )
+    table = {"model": "parafoil6dof", "model_options": options, "dt": 0.02, "output_dt": 0.2,
+             "init_span": 1.0}  # fmt: skip
+    return MultiFlight.from_flights(
+        flights, table, ("payload_mass", "CD0"), ["alt_abs", "pos_h_abs"],
+        window_channels=("position", "altitude"), drop={"origin_altitude": 0.0},
+    )  # fmt: skip
 
 
 #: The model of the study being run: the study file names ``ssi_parafoil:evaluate`` (a module-level
 #: function, so the store can name it), which evaluates this object.
-_CURRENT: TwoDrops | None = None
+_CURRENT: MultiFlight | None = None
 
 
 def evaluate(X: np.ndarray) -> np.ndarray:
@@ -158,7 +115,7 @@ UNITS = {"payload_mass": "kg", "CD0": "-"}
 
 
 def run(
-    model: TwoDrops,
+    model: MultiFlight,
     store: Path,
     trials: int,
     limits: dict | None,
@@ -168,7 +125,7 @@ def run(
     """One PSI study of the two drops under ``limits`` (criterion -> (limit, note) from the
     noise floors), through the library's stage driver on the sequential sampler (``trials``
     Sobol points first, at most ``budget`` evaluations)."""
-    from vectorid.identify.stages import run_stage
+    from vectorid.workflows.stages import run_stage
 
     global _CURRENT
     _CURRENT = model
@@ -189,24 +146,34 @@ def run(
                      sampler="sequential", budget=budget)  # fmt: skip
 
 
+#: Study criterion name of each library criterion.
+STUDY_NAMES = {"alt_abs": "alt", "pos_h_abs": "pos_h"}
+
+
+def _errors(model: MultiFlight, x: np.ndarray) -> dict[str, tuple[float, float, float]]:
+    """Per drop: RMS altitude error (m), RMS horizontal error (m), duration (s)."""
+    return {
+        n: (e["altitude"], e["horizontal"], e["duration"]) for n, e in model.rms_errors(x).items()
+    }
+
+
 def identify(
     folder: str | Path, out: str | Path, trials: int = 2048, budget: int = 20_000
 ) -> dict:
     """Both drops at once; ``trials``: the first generation (Sobol points), ``budget``: the
     sequential sampler's evaluations at most."""
-    eth = _eth()
     folder, out = Path(folder), Path(out)
     out.mkdir(parents=True, exist_ok=True)
     path = folder / "parafoildata_clean.csv"
     flights = {f"drop{k}": load(path, k) for k in DROPS}
-    model = TwoDrops(flights)
+    model = two_drops(flights)
     durations, sink = {}, {}
     for n, ident in model.idents.items():
         d = ident.drops[0]
         durations[n] = float(d.grid[-1] - d.grid[0])
         h = d.measured("altitude")[:, 0]
         sink[n] = float((h[0] - h[-1]) / durations[n])
-    gust = eth.gust_allowance(durations, sink=sink)
+    gust = gust_allowance(durations, ETH_GUSTS, sink=sink)
     allowance = {
         n: {"position_h": g["position_h"], "altitude": g["position_v"]} for n, g in gust.items()
     }
@@ -221,7 +188,8 @@ def identify(
             if m != n and missing and all(other.component(c, 0) is not None for c in missing):
                 est[n] = other.merged(nm)
                 borrowed[n] = (m, missing)
-    limits, noise = eth.noise_limits(model, allowance, channels=chans, noise=est)
+    lim, noise = model.noise_limits(allowance, channels=chans, noise=est)
+    limits = {STUDY_NAMES[n]: v for n, v in lim.items()}
     st = run(model, out / "ssi-drops.db", trials, limits, budget=budget)
     best = st.result
     a = best.analysis
@@ -246,7 +214,7 @@ def identify(
         "borrowed": borrowed,
         "allowance": allowance,
         "sink": sink,
-        "errors": model.errors(x) if x is not None else {},
+        "errors": _errors(model, x) if x is not None else {},
         "wing_loading": (float(load_ws.min()), float(load_ws.max())) if len(Xd) else (np.nan,) * 2,
         "ridge_slope": float(slope),
         "ridge_corr": corr,
@@ -257,7 +225,7 @@ def identify(
 
 
 def main(argv: list[str] | None = None) -> int:
-    from vectorid.identify.stages import print_stage_limits, print_verdicts
+    from vectorid.workflows.stages import print_stage_limits, print_verdicts
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("data", nargs="?", default=str(DEFAULT_DATA), help="the ssi-parafoil folder")

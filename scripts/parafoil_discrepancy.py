@@ -66,7 +66,8 @@ def twin_needs(seed: int, folder: Path, draws: int) -> dict[str, float]:
     from vectorid import models
     from vectorid.demo_parafoil import MODEL_OPTIONS, stage_toml
     from vectorid.identify import Identification
-    from vectorid.identify.noise import noise_floor, parse_noise
+    from vectorid.identify.noise import parse_noise
+    from vectorid.identify.noise.floor import noise_floor
     from vectorid.spec import load_study
 
     gen = _generator()

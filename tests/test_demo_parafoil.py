@@ -14,8 +14,8 @@ import pytest
 from vectorid.analysis.identifiability import ParameterVerdict
 from vectorid.cli import main
 from vectorid.demo_parafoil import DEMO_DATA, DEMO_DISCREPANCY, stage_toml
-from vectorid.identify.stages import print_verdicts
 from vectorid.spec import load_study
+from vectorid.workflows.stages import print_verdicts
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -24,7 +24,9 @@ file from a moved one (see :mod:`vectorid.store.agreement`); how a definition is
 once when its store is created (``prepare(spec) -> spec``: an identification computes its
 noise-floor criteria constraints there); and which keys of its table only shape the
 analysis (``analysis_keys``: the noise statement behind those constraints), so that editing
-them is taken into an existing store rather than refused.
+them is taken into an existing store rather than refused; and what each design variable
+means (``meanings(spec) -> {name: text}``: an identification reads its model's parameter
+meanings), so that the analysis can say it without importing the builder.
 """
 
 from __future__ import annotations
@@ -48,6 +50,7 @@ __all__ = [
     "prepare_spec",
     "register_problem_builder",
     "table_kinds",
+    "variable_meanings",
 ]
 
 
@@ -62,6 +65,7 @@ class Builder:
     prepare: Callable[[Any], Any] | str | None = None
     analysis_keys: tuple[str, ...] = ()
     check: Callable[[Any], None] | str | None = None
+    meanings: Callable[[Any], Mapping[str, str]] | str | None = None
 
     def resolve(self, attr: str) -> Callable[..., Any] | None:
         ref = getattr(self, attr)
@@ -84,6 +88,7 @@ def register_problem_builder(
     prepare: Callable[[Any], Any] | str | None = None,
     analysis_keys: tuple[str, ...] = (),
     check: Callable[[Any], None] | str | None = None,
+    meanings: Callable[[Any], Mapping[str, str]] | str | None = None,
 ) -> None:
     """Register how studies of ``kind`` become a Problem.
 
@@ -109,10 +114,15 @@ def register_problem_builder(
         ``check(spec)``: raises :class:`~vectorid.errors.StudyDefinitionError` for a
         definition the builder cannot run (run when a study file is loaded, before any store
         is touched).
+    meanings : callable or str, optional
+        ``meanings(spec) -> {variable name: meaning}``: what each design variable is, for
+        people (the identifiability verdicts print it beside the name).
     """
     if not isinstance(kind, str) or not kind or ":" in kind:
         raise ValueError(f"a builder kind is a non-empty name without ':', got {kind!r}")
-    _BUILDERS[kind] = Builder(kind, build, table, data_files, prepare, tuple(analysis_keys), check)
+    _BUILDERS[kind] = Builder(
+        kind, build, table, data_files, prepare, tuple(analysis_keys), check, meanings
+    )
 
 
 def table_kinds() -> list[str]:
@@ -143,6 +153,12 @@ def builder_for(spec: Any) -> Builder:
         raise StudyDefinitionError("study.model", f"no problem builder for kind {kind!r}") from None
 
 
+def _hook(spec: Any, attr: str) -> Callable[..., Any] | None:
+    """The ``attr`` hook of ``spec``'s builder, imported on first use; None when it has none."""
+    b = builder_for(spec)
+    return None if getattr(b, attr) is None else b.resolve(attr)
+
+
 def build_problem(spec: Any) -> Any:
     """The Problem of ``spec``, built by the builder of its kind."""
     build = builder_for(spec).resolve("build")
@@ -153,32 +169,29 @@ def build_problem(spec: Any) -> Any:
 def data_files(spec: Any) -> dict[str, Path]:
     """``{field: path}`` of the data files the study reads (empty when its builder does not
     say). Paths are resolved against the study file's folder."""
-    b = builder_for(spec)
-    if b.data_files is None:
-        return {}
-    fn = b.resolve("data_files")
-    assert fn is not None
-    return dict(fn(spec))
+    fn = _hook(spec, "data_files")
+    return {} if fn is None else dict(fn(spec))
 
 
 def check_spec(spec: Any) -> None:
     """Run the ``check`` hook of ``spec``'s builder (nothing when it has none)."""
-    b = builder_for(spec)
-    if b.check is None:
-        return
-    fn = b.resolve("check")
-    assert fn is not None
-    fn(spec)
+    fn = _hook(spec, "check")
+    if fn is not None:
+        fn(spec)
 
 
 def prepare_spec(spec: Any) -> Any:
     """``spec`` completed by its builder's ``prepare`` hook (unchanged when it has none)."""
-    b = builder_for(spec)
-    if b.prepare is None:
-        return spec
-    fn = b.resolve("prepare")
-    assert fn is not None
-    return fn(spec)
+    fn = _hook(spec, "prepare")
+    return spec if fn is None else fn(spec)
+
+
+def variable_meanings(spec: Any) -> dict[str, str]:
+    """What each design variable of ``spec`` means, from its builder's ``meanings`` hook
+    (empty when the builder has none): variable name -> text, e.g. ``x6`` -> "C_D base value
+    (eq. 11)" for an identification of the G-12 model."""
+    fn = _hook(spec, "meanings")
+    return {} if fn is None else dict(fn(spec))
 
 
 def analysis_only(spec: Any, path: str) -> bool:
@@ -239,7 +252,7 @@ register_problem_builder(
     "vectorid.identify.identification:problem_from_spec",
     table=True,
     data_files=_identification_files,
-    prepare="vectorid.identify.noise:resolve_noise_limits",
+    prepare="vectorid.identify.noise.resolve:resolve_noise_limits",
     analysis_keys=(
         "noise",
         "discrepancy",
@@ -250,4 +263,5 @@ register_problem_builder(
         "noise_seed",
     ),
     check="vectorid.timesteps:check_identification_steps",
+    meanings="vectorid.identify.identification:parameter_meanings",
 )

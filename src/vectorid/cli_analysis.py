@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 
 from ._hints import install_hint
+from .builders import variable_meanings
 from .cli import add_limit_options, parse_limits_for, positive_int
 from .errors import StudyDefinitionError
 
@@ -201,7 +202,7 @@ def _weighted_words() -> str:
 
 
 def _cmd_section(args: argparse.Namespace) -> int:
-    from .run.extra import run_section
+    from .workflows.extra import run_section
 
     study = _open(args.store, write=True)
     with study:
@@ -245,7 +246,7 @@ def _parse_bounds(texts: list[str]) -> dict[str, tuple[float, float]]:
 
 def _cmd_refine(args: argparse.Namespace) -> int:
     from .analysis.refine import propose_refine
-    from .run.extra import apply_refine
+    from .workflows.extra import apply_refine
 
     study = _open(args.store, write=args.apply)
     with study:
@@ -295,7 +296,7 @@ def _cmd_refine(args: argparse.Namespace) -> int:
 
 def _cmd_robustness(args: argparse.Namespace) -> int:
     from .analysis.robustness import chosen_table
-    from .run.extra import run_robustness
+    from .workflows.extra import run_robustness
 
     study = _open(args.store, write=True)
     with study:
@@ -556,11 +557,7 @@ def _cmd_identifiability(args: argparse.Namespace) -> int:
     with study:
         a = _analysis(study, args)
         spec = study.spec
-        meanings = {}
-        if "identification" in spec.extra:  # the model's parameter meanings (lazy import)
-            from .identify.twostep import parameter_meanings
-
-            meanings = parameter_meanings(spec)
+        meanings = variable_meanings(spec)  # the model's parameter meanings, from the builder
         verdicts = identifiability(a, identified=args.identified, weak=args.weak, meanings=meanings)
         note = _sampler_note(study, a)
     if args.json:

@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from . import analytic
+from ._toml import toml_value
 
 __all__ = ["DEMO_PROBLEM", "run_analytic_demo", "run_demo", "study_toml"]
 
@@ -219,20 +220,6 @@ DEMO_HINTS = {
 }
 
 
-def _toml_value(v) -> str:
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, int | float):
-        return repr(v)
-    if isinstance(v, str):
-        return json.dumps(v)
-    if isinstance(v, list | tuple):
-        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
-    if isinstance(v, dict):
-        return "{ " + ", ".join(f"{k} = {_toml_value(x)}" for k, x in v.items()) + " }"
-    raise TypeError(f"cannot write {v!r} as TOML")
-
-
 def _drop_table(kind: str, truth: dict) -> list[str]:
     """The [[identification.drops]] table of one embedded drop."""
     gps = {
@@ -274,7 +261,7 @@ def _drop_table(kind: str, truth: dict) -> list[str]:
         )
     lines = ["[[identification.drops]]", f'name = "{kind}"']
     lines.append("files = [")
-    lines += [f"  {_toml_value(f)}," for f in files]
+    lines += [f"  {toml_value(f)}," for f in files]
     lines.append("]")
     lines.append(f'wind = "data/{kind}_wind.csv"')
     lines.append('wind_format = "dropsonde"')
@@ -333,10 +320,10 @@ def identification_toml(step: int, *, trials: int, truth: dict, seed: int = 1) -
         "output_dt = 0.25",
         "init_span = 1.0",
         "# the sensor noise the generator added (scripts/make_demo_data.py):",
-        f"noise = {_toml_value(truth['sensor_noise'])}",
+        f"noise = {toml_value(truth['sensor_noise'])}",
         'limits = "noise"                   # each criterion: its noise floor, joint 95 %',
         "# what the model is granted for what it does not fly (gusts, sonde errors, ...):",
-        f"discrepancy = {_toml_value(DEMO_DISCREPANCY)}",
+        f"discrepancy = {toml_value(DEMO_DISCREPANCY)}",
         "# wind_realisations = 3   # criteria = expectation over M seeded wind realisations",
         "# seed = 7",
         "# wind_uncertainty = { sigma_speed = 0.5, sigma_direction_deg = 5.0, "
@@ -392,20 +379,14 @@ def _print_limits(r, indent: str = "  ") -> None:
 
 def _truth_in_d(r, ident, true: dict) -> tuple[bool, str]:
     """Whether the generator's truth meets every criteria constraint, and in words."""
-    x = np.array([[true[n] for n in r.spec.space.names]])
-    F, _ = ident.evaluate(x)
-    over = []
-    for j, c in enumerate(r.analysis.criteria):
-        lim = r.limits.get(c.name)
-        if lim is not None and F[0, j] > lim:
-            over.append(f"{c.name} {F[0, j] / lim:.2f}x its limit")
-    if not over:
-        worst = max(
-            (F[0, j] / r.limits[c.name], c.name)
-            for j, c in enumerate(r.analysis.criteria)
-            if c.name in r.limits
-        )
-        return True, f"in D (every limit met; closest {worst[1]} at {worst[0]:.2f}x)"
+    from .workflows.truth import check_truth
+
+    crit = [c.name for c in r.analysis.criteria]
+    check = check_truth(ident.evaluate, true, r.spec.space.names, crit, r.limits)
+    if check.meets:
+        name, ratio = check.closest()
+        return True, f"in D (every limit met; closest {name} at {ratio:.2f}x)"
+    over = [f"{c} {q:.2f}x its limit" for c, q in check.over.items()]
     return False, (
         "outside D (" + ", ".join(over) + "): it flies what the model lacks (gusts, sonde "
         "wind errors, heavier payload, x13/x14, actuator lag) beyond the allowance granted"
@@ -540,8 +521,8 @@ def run_identification_demo(
 ) -> int:
     """The two-step identification demo (see the module docstring). Returns an exit code."""
     from .identify import Identification
-    from .identify.twostep import control_contribution, run_two_step
     from .spec import load_study
+    from .workflows.twostep import control_contribution, run_two_step
 
     t_start = time.perf_counter()
     out = Path(out)

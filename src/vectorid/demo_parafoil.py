@@ -20,7 +20,7 @@ from the truth. Every stage runs the sequential sampler (:mod:`vectorid.samplers
 Sobol trials first, then generations that move into D at the stated limits until it holds the
 population wanted with as large an effective sample size, or the budget is spent. Only a stage
 that does not get there relaxes its limits, as the named last resort
-(:func:`vectorid.run.extra.relax_study`: "limits relaxed xf — last resort: D at the
+(:func:`vectorid.workflows.extra.relax_study`: "limits relaxed xf — last resort: D at the
 stated limits was not reached"; the ranges read are then outer bounds). Every chosen vector is
 printed through the identifiability verdicts (:func:`vectorid.analysis.identifiability`): a
 value only for an identified gain, otherwise its range.
@@ -65,11 +65,14 @@ from typing import Any
 
 import numpy as np
 
+from ._toml import toml_value
 from .analysis.identifiability import VERDICTS
 from .analysis.relaxation import MIN_D
 from .analysis.sections import sections_through
 from .identify.spectral import rate_peaks
-from .identify.stages import Stage, print_stage_limits, print_verdicts, run_stage
+from .workflows.reduction import propose_reduction
+from .workflows.stages import IdentificationStage, print_stage_limits, print_verdicts, run_stage
+from .workflows.truth import check_truth
 
 __all__ = ["DEMO_DATA", "DEMO_DISCREPANCY", "run_parafoil_demo", "stage_toml"]
 
@@ -139,20 +142,6 @@ DT = 0.05  # s, integration step (RK4; the results agree with dt = 0.02 s to 1e-
 # -- study files --------------------------------------------------------------------------------
 
 
-def _toml(v: Any) -> str:
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, int | float):
-        return repr(v)
-    if isinstance(v, str):
-        return json.dumps(v)
-    if isinstance(v, Sequence):
-        return "[" + ", ".join(_toml(x) for x in v) + "]"
-    if isinstance(v, Mapping):
-        return "{ " + ", ".join(f"{k} = {_toml(x)}" for k, x in v.items()) + " }"
-    raise TypeError(f"cannot write {v!r} as TOML")
-
-
 def _drop_lines(truth: Mapping[str, Any]) -> list[str]:
     gps = {
         "time": "time_s",
@@ -187,7 +176,7 @@ def _drop_lines(truth: Mapping[str, Any]) -> list[str]:
         "[[identification.drops]]",
         'name = "drop"',
         "files = [",
-        *(f"  {_toml(f)}," for f in files),
+        *(f"  {toml_value(f)}," for f in files),
         "]",
         'wind = "data/wind.csv"',
         'wind_format = "dropsonde"',
@@ -263,25 +252,25 @@ def stage_toml(
         "init_span = 1.0",
     ]
     if options:
-        lines.append(f"model_options = {_toml(options)}")
+        lines.append(f"model_options = {toml_value(options)}")
     if fixed:
-        lines.append(f"parameters = {_toml({k: float(v) for k, v in fixed.items()})}")
+        lines.append(f"parameters = {toml_value({k: float(v) for k, v in fixed.items()})}")
     lines += [
         "# the sensor noise the generator added (scripts/make_parafoil_demo_data.py):",
-        f"noise = {_toml(truth['sensor_noise'])}",
+        f"noise = {toml_value(truth['sensor_noise'])}",
     ]
     disc = DEMO_DISCREPANCY if discrepancy is None else discrepancy
     if limits and limits_from:
         lines += [
             "# the criteria's limits above are the noise floors computed for stage 1 with",
-            f"# discrepancy = {_toml(dict(disc))}",
+            f"# discrepancy = {toml_value(dict(disc))}",
         ]
     elif limits:
         lines += [
             'limits = "noise"     # each criterion: its noise floor (joint 95 %) + the allowance',
             "# what the model is granted for what it does not fly (gusts, flap lag, joint",
             "# stiffness, sonde errors), read from twins of the generator:",
-            f"discrepancy = {_toml(dict(disc))}",
+            f"discrepancy = {toml_value(dict(disc))}",
         ]
     lines.append("")
     for cname, use, _, _, _ in CRITERIA:
@@ -292,7 +281,7 @@ def stage_toml(
     lines += _drop_lines(truth)
     if reference:
         ref = {k: [float(v[0]), float(v[1])] for k, v in reference.items()}
-        lines += ["", "[x-identifiability]", f"reference = {_toml(ref)}"]
+        lines += ["", "[x-identifiability]", f"reference = {toml_value(ref)}"]
     return "\n".join(lines) + "\n"
 
 
@@ -502,17 +491,16 @@ def _step_header(r, what: str) -> None:
     )
 
 
-def _truth_in_d(st: Stage, ident, true: Mapping[str, float]) -> tuple[bool, str]:
+def _truth_in_d(st: IdentificationStage, ident, true: Mapping[str, float]) -> tuple[bool, str]:
     """Whether the generator's truth (the stage's variables at their true values, the other
     gains as the stage fixes them) meets the noise-grounded limits, in words."""
     r = st.result
     names = r.spec.space.names
-    F, _ = ident.evaluate(np.array([[true[n] for n in names]]))
     crit = [c.name for c in r.analysis.criteria]
-    ratios = {c: F[0, j] / st.noise_limits[c] for j, c in enumerate(crit) if c in st.noise_limits}
-    over = {c: q for c, q in ratios.items() if not q <= 1.0}
+    check = check_truth(ident.evaluate, true, names, crit, st.noise_limits)
+    over = check.over
     if not over:
-        c, q = max(ratios.items(), key=lambda kv: kv[1])
+        c, q = check.closest()
         return True, f"meets every noise-grounded limit (closest {c} at {q:.2f}x its limit)"
     text = ", ".join(f"{c} {q:.2f}x its limit" for c, q in over.items())
     pn = list(ident.model.parameter_names)
@@ -531,7 +519,7 @@ def _truth_in_d(st: Stage, ident, true: Mapping[str, float]) -> tuple[bool, str]
     )
 
 
-def _print_stage(st: Stage, ident, true, *, title: str) -> dict:
+def _print_stage(st: IdentificationStage, ident, true, *, title: str) -> dict:
     """The block of one stage: header, limits, double tuning, truth in D, verdicts."""
     r = st.result
     _step_header(r, title)
@@ -648,8 +636,6 @@ def run_parafoil_demo(
         Exit code.
     """
     from . import models
-    from .analysis.correlation import correlation_of
-    from .analysis.sensitivity import sensitivity
     from .identify import Identification
     from .spec import load_study
 
@@ -798,30 +784,12 @@ def run_parafoil_demo(
     sys.stdout.flush()
 
     # ---- Figure 14 -> tie / fix proposal -> stage 3 --------------------------------------
-    sens = sensitivity(a2)
-    corr = (
-        correlation_of(a2, "feasible", threshold=0.25, spread_threshold=0.0)
-        if a2.n_feasible >= 3
-        else None
-    )
-    pairs = corr.pairs if corr is not None else []
-    trajectory = [j for j, c in enumerate(CRITERIA) if not c[0].startswith("peak_")]
-    rho = np.abs(sens.spearman[:, trajectory]).max(axis=1)
-    identified2 = {v.name for v in r2.verdicts if v.verdict != "not identified"}
-    insensitive = [
-        n for n, r, p in zip(sens.params, rho, sens.ks_pvalue)
-        if n not in STAGE1 and n not in identified2 and r < 0.1 and not p < 0.05
-    ]  # fmt: skip
-    ks = dict(zip(sens.params, sens.ks))
-    ties: list[tuple[str, str, float]] = []
-    used = set(insensitive)
-    for pr in pairs if a2.n_feasible >= 30 else []:
-        a_, b_ = pr["a"], pr["b"]
-        if abs(pr["r"]) < TIE_THRESHOLD or a_ in used or b_ in used:
-            continue
-        keep, drop = (a_, b_) if ks[a_] >= ks[b_] else (b_, a_)
-        ties.append((keep, drop, float(pr["r"])))
-        used.add(drop)
+    trajectory = [c[0] for c in CRITERIA if not c[0].startswith("peak_")]
+    red = propose_reduction(
+        a2, r2.verdicts, dict(zip(names, x_nom)), criteria=trajectory, keep=STAGE1,
+        tie_at=TIE_THRESHOLD,
+    )  # fmt: skip
+    sens, rho, insensitive, pairs = red.sensitivity, red.influence, red.insensitive, red.pairs
     print()
     print("Correlation and sensitivity over stage 2 (seed 000 Fig. 14), turned into a proposal:")
     print(
@@ -852,20 +820,13 @@ def run_parafoil_demo(
         why = MECHANISMS.get((pr["a"], pr["b"])) or MECHANISMS.get((pr["b"], pr["a"])) or ""
         print(f"    {pr['a']:>8} ~ {pr['b']:<8} r = {pr['r']:+.2f}  {why}")
     verdict2 = {v.name: v for v in r2.verdicts}
-    med = {}
-    if a2.n_feasible:  # D's median, importance-weighted (the sequential sampler's trials)
-        from .analysis.weights import trial_weights, weighted_quantile
-
-        wd = trial_weights(a2, a2.feasible)
-        Xd = a2.trials.X[a2.feasible]
-        med = {n: float(weighted_quantile(Xd[:, j], 0.5, wd)) for j, n in enumerate(names)}
-    fixed = {n: float(x_nom[names.index(n)]) for n in insensitive}
-    for keep, drop, r in ties:
-        if verdict2[drop].identified:
-            fixed[drop] = float(med[drop])
+    fixed = red.fixed
+    for tie in red.ties:
+        keep, drop, r = tie.keep, tie.follower, tie.r
+        if tie.identified:
             print(
                 f"  tie: {drop} follows {keep} (r = {r:+.2f} over D): fix {drop} at its median "
-                f"{med[drop]:.3g} (identified), vary {keep}"
+                f"{red.medians[drop]:.3g} (identified), vary {keep}"
             )
         else:
             print(
@@ -873,7 +834,7 @@ def run_parafoil_demo(
                 f"{verdict2[drop].verdict}: fixing it at a value the\n    data do not determine "
                 f"would bias {keep}, so both stay free (the model cannot express the tie itself)"
             )
-    if not ties:
+    if not red.ties:
         print(f"  tie: no pair with |r| >= {TIE_THRESHOLD} over D")
     v3 = [v for v in v2 if v[0] not in fixed]
     reduction = 1 - len(v3) / len(v2)

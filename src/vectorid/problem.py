@@ -108,7 +108,7 @@ class Criterion:
         Where the limit came from: the expert (a number in the study file, or ``--limit ...
         --save``), the noise floor of an identification (``limit = "noise"``, see
         :mod:`vectorid.identify.noise`) or the quantile stand-in
-        (:func:`vectorid.identify.twostep.auto_limits`). A limit given without a source is
+        (:func:`vectorid.workflows.twostep.auto_limits`). A limit given without a source is
         the expert's (:attr:`source`). ``limit = "noise"`` not yet computed is
         ``limit=None, limit_source="noise"``.
     limit_note : str

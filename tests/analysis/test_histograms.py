@@ -7,8 +7,8 @@ from tests.analysis_helpers import make_store
 from vectorid import Study
 from vectorid.analysis.histograms import default_bins, histogram, histograms, stage_histograms
 from vectorid.analysis.refine import propose_refine
-from vectorid.run.extra import apply_refine
 from vectorid.space import Integer
+from vectorid.workflows.extra import apply_refine
 
 
 @pytest.fixture

@@ -9,8 +9,8 @@ from tests.analysis_helpers import make_store
 from vectorid import Study
 from vectorid.analysis.refine import propose_refine, refine_history
 from vectorid.errors import StudyDefinitionError
-from vectorid.run.extra import apply_refine
 from vectorid.sampling import PointSequence
+from vectorid.workflows.extra import apply_refine
 
 
 @pytest.fixture(scope="module")

@@ -8,7 +8,7 @@ import pytest
 from tests.analysis_helpers import make_store
 from vectorid import Study
 from vectorid.analysis.relaxation import relaxation_text, relaxed_limits
-from vectorid.run.extra import relax_study
+from vectorid.workflows.extra import relax_study
 
 
 def test_relaxed_limits_are_the_smallest_common_factor_that_fills_d(tmp_path):

@@ -13,8 +13,8 @@ from vectorid.analysis.robustness import (
 )
 from vectorid.errors import StudyDefinitionError
 from vectorid.problem import FAILED, OK
-from vectorid.run.extra import run_robustness
 from vectorid.space import Continuous, Integer, Space
+from vectorid.workflows.extra import run_robustness
 
 
 def test_neighbourhood_two_scales_inside_radius_and_box():

@@ -7,8 +7,8 @@ from tests.analysis_helpers import make_store
 from vectorid import Study, analytic
 from vectorid.analysis.sections import load_sections, section_points
 from vectorid.errors import StudyDefinitionError
-from vectorid.run.extra import run_section
 from vectorid.space import Choice, Continuous, Integer, Space
+from vectorid.workflows.extra import run_section
 
 
 @pytest.fixture

@@ -19,12 +19,12 @@ import pytest
 from vectorid import models
 from vectorid.demo import DEMO_DISCREPANCY
 from vectorid.identify import Identification
-from vectorid.identify.noise import resolve_noise_limits
+from vectorid.identify.noise.resolve import resolve_noise_limits
 from vectorid.identify.twins import twin_drop, write_twin, write_wind_csv
-from vectorid.identify.twostep import run_step
 from vectorid.models import InitialState, WindProfile
 from vectorid.models.parachute6dof import Parachute6DoF
 from vectorid.spec import StudySpec
+from vectorid.workflows.twostep import run_step
 
 pytestmark = pytest.mark.slow
 

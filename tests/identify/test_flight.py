@@ -6,19 +6,21 @@ import numpy as np
 import pytest
 
 from vectorid.errors import VectoridError
-from vectorid.identify import Channel, FlightData, FlightDataError
+from vectorid.identify import FlightChannel, FlightData, FlightDataError
 
 
 def make() -> FlightData:
     t1 = np.arange(0.0, 10.01, 0.5)
     t2 = np.arange(1.0, 9.01, 1.0)
-    alt = Channel("altitude", t1, 100 - 2 * t1, ("altitude",), "m")
-    pos = Channel("position", t2, np.stack([t2, 0 * t2, -t2], 1), ("north", "east", "down"), "m")
+    alt = FlightChannel("altitude", t1, 100 - 2 * t1, ("altitude",), "m")
+    pos = FlightChannel(
+        "position", t2, np.stack([t2, 0 * t2, -t2], 1), ("north", "east", "down"), "m"
+    )
     return FlightData("f", {"altitude": alt, "position": pos}, {"main": 3.0, "landed": 9.5})
 
 
 def test_channel_at_interpolates_and_refuses_extrapolation():
-    c = Channel("x", np.array([0.0, 1.0, 3.0]), np.array([0.0, 2.0, 6.0]), ("x",), "m")
+    c = FlightChannel("x", np.array([0.0, 1.0, 3.0]), np.array([0.0, 2.0, 6.0]), ("x",), "m")
     assert c.values.shape == (3, 1)
     assert c.at([0.5, 2.0]) == pytest.approx(np.array([[1.0], [4.0]]))
     with pytest.raises(FlightDataError, match=r"covers \[0 s, 3 s\]"):
@@ -39,7 +41,7 @@ def test_channel_at_interpolates_and_refuses_extrapolation():
 )
 def test_channel_validation(t, v, comps, match):
     with pytest.raises(FlightDataError, match=match):
-        Channel("x", np.array(t), np.array(v), comps, "m")
+        FlightChannel("x", np.array(t), np.array(v), comps, "m")
 
 
 def test_getitem_lists_channels():
@@ -81,7 +83,7 @@ def test_window_require_and_optional_channels():
     fd = make()
     w = fd.window(0.5, 4.0, require=["altitude"])
     assert w["position"].t[0] == 1.0 and w["position"].t[-1] == 4.0
-    extra = Channel("temp", np.array([6.0, 7.0]), np.array([1.0, 2.0]), ("temp",), "degC")
+    extra = FlightChannel("temp", np.array([6.0, 7.0]), np.array([1.0, 2.0]), ("temp",), "degC")
     fd.channels["temp"] = extra
     w = fd.window(2.0, 5.0)  # temp has no data there: left out
     assert "temp" not in w and "altitude" in w

@@ -11,19 +11,18 @@ from vectorid import Study
 from vectorid.descent import RocketDescent
 from vectorid.errors import StudyDefinitionError
 from vectorid.identify import Identification
-from vectorid.identify.flight import Channel, FlightData
+from vectorid.identify.flight import FlightChannel, FlightData
 from vectorid.identify.noise import (
     ComponentNoise,
-    NoiseFloor,
     estimate_correlated,
     estimate_noise,
     estimate_sigma,
     highfreq_sigma,
-    noise_floor,
     parse_discrepancy,
     parse_noise,
-    resolve_noise_limits,
 )
+from vectorid.identify.noise.floor import NoiseFloor, noise_floor
+from vectorid.identify.noise.resolve import resolve_noise_limits
 from vectorid.models import ControlSchedule, InitialState
 from vectorid.spec import StudySpec
 
@@ -153,7 +152,7 @@ def test_estimate_noise_of_a_flight():
     fl = FlightData(
         "f",
         {
-            "euler": Channel(
+            "euler": FlightChannel(
                 "euler", t, eul + rng.normal(0, 0.005, eul.shape), ("r", "p", "y"), "rad"
             )
         },
@@ -216,7 +215,7 @@ def _twin(seed: int, sigma: float = SIGMA_H) -> FlightData:
     )
     h = -res.position[0, :, 2] - ORIGIN
     h = h + np.random.default_rng(seed).normal(0.0, sigma, h.size)
-    return FlightData("twin", {"altitude": Channel("altitude", res.t, h, ("h",), "m")})
+    return FlightData("twin", {"altitude": FlightChannel("altitude", res.t, h, ("h",), "m")})
 
 
 TABLE = {
@@ -448,8 +447,8 @@ def test_index_criteria_are_evaluated_in_two_batched_calls_with_the_same_values(
     by draw."""
     from types import SimpleNamespace
 
-    from vectorid.identify import noise as noise_mod
     from vectorid.identify.criteria import get_criterion
+    from vectorid.identify.noise import floor as noise_mod
 
     rng = np.random.default_rng(4)
     t = np.arange(0.0, 60.0, 0.2)

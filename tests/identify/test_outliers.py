@@ -7,14 +7,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from vectorid.identify.flight import Channel, FlightData
+from vectorid.identify.flight import FlightChannel, FlightData
 from vectorid.identify.loaders import load_telemega
 from vectorid.identify.outliers import SPIKE_FLOORS, drop_spikes, find_spikes
 
 
 def _flight(values, unit="rad"):
     t = np.arange(len(values)) * 0.1
-    ch = Channel("euler", t, values, ("roll", "pitch", "yaw"), unit)
+    ch = FlightChannel("euler", t, values, ("roll", "pitch", "yaw"), unit)
     return FlightData("f", {"euler": ch}, {})
 
 

@@ -166,7 +166,11 @@ def test_spectral_criteria_with_a_band_on_batches():
 
 
 @pytest.mark.parametrize("detrend", ["linear", "constant", False])
-@pytest.mark.parametrize(("T", "seg", "nfft"), [(750, 300, 1200), (101, 40, 256), (200, 80, 321)])
+@pytest.mark.parametrize(
+    ("T", "seg", "nfft"),
+    # nfft == seg (odd and even): eigenfrequencies' unpadded segments
+    [(750, 300, 1200), (101, 40, 256), (200, 80, 321), (130, 45, 45), (256, 64, 64)],
+)
 def test_batched_welch_equals_scipy(detrend, T, seg, nfft):
     from scipy import signal
 

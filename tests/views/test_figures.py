@@ -13,8 +13,8 @@ from vectorid.analysis.histograms import histograms
 from vectorid.analysis.refine import propose_refine
 from vectorid.analysis.sensitivity import sensitivity
 from vectorid.errors import StudyDefinitionError
-from vectorid.run.extra import run_robustness, run_section
 from vectorid.views import figures as fg
+from vectorid.workflows.extra import run_robustness, run_section
 
 
 @pytest.fixture(scope="module")

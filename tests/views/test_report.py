@@ -17,8 +17,8 @@ from tests.analysis_helpers import make_store
 from vectorid import Study
 from vectorid.analysis import parse_limits
 from vectorid.analysis.refine import propose_refine
-from vectorid.run.extra import apply_refine, run_robustness, run_section
 from vectorid.views.report import write_report
+from vectorid.workflows.extra import apply_refine, run_robustness, run_section
 
 ARTIFACTS = Path(__file__).resolve().parents[2] / "test-artifacts"
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")

@@ -1,6 +1,6 @@
 """Helpers shared by the modules that read auxiliary stages (sections, robustness checks):
 finding a stored trial by id and the ``key=value`` notes that describe an auxiliary stage.
-Evaluating and storing them is :mod:`vectorid.run.extra`'s."""
+Evaluating and storing them is :mod:`vectorid.workflows.extra`'s."""
 
 from __future__ import annotations
 

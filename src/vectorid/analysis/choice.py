@@ -12,7 +12,7 @@ import numpy as np
 
 from .results import Analysis
 
-__all__ = ["best_per_criterion", "suggest_choice"]
+__all__ = ["best_per_criterion", "pure_scores", "suggest_choice"]
 
 
 def best_per_criterion(a: Analysis, feasible_only: bool = True) -> dict[str, int]:
@@ -30,17 +30,24 @@ def best_per_criterion(a: Analysis, feasible_only: bool = True) -> dict[str, int
     return out
 
 
-def suggest_choice(a: Analysis) -> int | None:
-    """Id of the Pareto trial closest to the ideal point (see the module docstring), or None
-    when the Pareto set is empty."""
-    rows = np.flatnonzero(a.pareto)
-    if len(rows) == 0:
-        return None
+def pure_scores(a: Analysis, rows: np.ndarray) -> np.ndarray:
+    """The pure criteria (all criteria where none is pure) of trial rows ``rows``, each
+    normalised to [0, 1] over those rows with 0 the best (``max`` criteria flipped): shape
+    (len(rows), k), dimensionless."""
     cols = a.pure or list(range(len(a.crit_names)))
     F = a.trials.F[np.ix_(rows, cols)].astype(float)
     for c, j in enumerate(cols):
         if a.senses[j] == "max":
             F[:, c] = -F[:, c]
     lo, hi = F.min(axis=0), F.max(axis=0)
-    Z = (F - lo) / np.where(hi > lo, hi - lo, 1.0)
+    return (F - lo) / np.where(hi > lo, hi - lo, 1.0)
+
+
+def suggest_choice(a: Analysis) -> int | None:
+    """Id of the Pareto trial closest to the ideal point (see the module docstring), or None
+    when the Pareto set is empty."""
+    rows = np.flatnonzero(a.pareto)
+    if len(rows) == 0:
+        return None
+    Z = pure_scores(a, rows)
     return int(a.trials.id[rows[int(np.argmin(np.sqrt((Z**2).sum(axis=1))))]])

@@ -110,7 +110,7 @@ class RefineProposal:
         ]
 
     def note(self) -> str:
-        """The stage note written by :func:`vectorid.run.extra.apply_refine`."""
+        """The stage note written by :func:`vectorid.workflows.extra.apply_refine`."""
         lim = ",".join(s.replace(" ", "") for s in self.limits) or "study"
         return (
             f"refine basis={self.basis} quantile={self.quantile:g} margin={self.margin:g} "

@@ -11,7 +11,7 @@ saved under its name ("limits relaxed xf — last resort: D at the stated limits
 reached"), never passed off as the stated limits.
 
 :func:`relaxed_limits` computes the factor from an analysis (this module only reads);
-:func:`vectorid.run.extra.relax_study` saves the relaxed limits (or the stated ones, where no
+:func:`vectorid.workflows.extra.relax_study` saves the relaxed limits (or the stated ones, where no
 relaxation is needed) in a study's store.
 """
 
@@ -104,7 +104,7 @@ def relaxed_limits(
 
 @dataclass
 class Relaxation:
-    """What :func:`vectorid.run.extra.relax_study` saved.
+    """What :func:`vectorid.workflows.extra.relax_study` saved.
 
     Attributes
     ----------

@@ -633,15 +633,17 @@ class Analysis:
         list of ParameterVerdict
             In the order of the study's variables; ranges in each variable's unit.
         """
+        from ..builders import variable_meanings
         from .identifiability import identifiability
 
-        meanings: dict[str, str] = {}
-        if "identification" in self.spec.extra:  # the model's parameter meanings
-            from ..identify.twostep import parameter_meanings
-
-            meanings = parameter_meanings(self.spec)
+        # what each variable means, from the study's builder (an identification: its model's
+        # parameter meanings), through the registry: the analysis imports no builder
         return identifiability(
-            self, identified=identified, weak=weak, min_feasible=min_feasible, meanings=meanings
+            self,
+            identified=identified,
+            weak=weak,
+            min_feasible=min_feasible,
+            meanings=variable_meanings(self.spec),
         )
 
     def verdict_columns(self, **thresholds: Any) -> dict[str, np.ndarray]:

@@ -2,7 +2,7 @@
 
 Before the final choice the seed compares a few Pareto vectors (their criteria side by
 side with the minimum and maximum over them: :func:`chosen_table`) and checks that each
-one's criteria respond smoothly in its vicinity. :func:`vectorid.run.extra.run_robustness`
+one's criteria respond smoothly in its vicinity. :func:`vectorid.workflows.extra.run_robustness`
 evaluates a small neighbourhood of a trial and stores it as an auxiliary stage of kind
 ``"robustness"`` (never mixed into the sample's statistics); the stage note records
 ``trial=ID radius=R points=N seed=S``.

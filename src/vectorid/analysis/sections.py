@@ -2,7 +2,7 @@
 
 Around a chosen trial, one parameter is varied over its range (or a chosen sub-range) with
 all others fixed at the trial's values; the new trials are evaluated through the study's
-Problem (:func:`vectorid.run.extra.run_section`) and stored as an auxiliary stage of kind
+Problem (:func:`vectorid.workflows.extra.run_section`) and stored as an auxiliary stage of kind
 ``"section"``, which never mixes into the Sobol sample's statistics (``Store.load()`` reads
 sample stages only). The stage's note records ``trial=ID param=NAME low=LO high=HI points=N``
 so the section can be read back.

@@ -3,7 +3,7 @@ double tuning, correlation and spread, robustness, sensitivity, signal tools and
 
 Every function returns plain data (numpy arrays, dataclasses); :mod:`vectorid.views`
 draws them. Nothing here writes the store: the extra runs (sections, robustness checks,
-refined stages) are :mod:`vectorid.run.extra`'s.
+refined stages) are :mod:`vectorid.workflows.extra`'s.
 """
 
 from .choice import best_per_criterion, suggest_choice

@@ -103,9 +103,9 @@ def _run_phase(
 ):
     from vectorid.analysis.identifiability import identifiability
     from vectorid.identify.identification import Identification
-    from vectorid.identify.twostep import run_step
     from vectorid.spec import StudySpec
     from vectorid.store import Store
+    from vectorid.workflows.twostep import run_step
 
     res = PhaseResult(
         ph.name, ph.variable, stated_cds=ph.canopy.stated_cds, diameter=ph.canopy.diameter

@@ -4,7 +4,7 @@ A descent under one or two parachutes (a drogue from apogee, a main later; or on
 cut into phases from the data: the apogee and the touchdown are read from the altitude (not
 from a logger's "landed" state), the main's opening from an event of the log, a stated
 trigger height or time, or the change of descent rate in the data. Each phase is one
-identification step of the PSI method (:func:`vectorid.identify.twostep.run_step`) on the
+identification step of the PSI method (:func:`vectorid.workflows.twostep.run_step`) on the
 point-mass model ``"rocket-descent-cds"`` (:class:`~vectorid.descent.RocketDescentCdS`,
 started at each trial's own steady descent rate): one design variable, the drag area C_D S of
 the canopy that phase is flown under (m²), sampled by LP_tau in a box of a factor 1.5 either

@@ -39,6 +39,7 @@ __all__ = [
     "DEFAULT_SPECTRAL_BAND",
     "HEADING_MIN_SPEED",
     "INDICES",
+    "MIN_COLUMNS",
     "OPERATORS",
     "CriterionDef",
     "CriterionError",
@@ -48,6 +49,7 @@ __all__ = [
     "get_criterion",
     "integrate",
     "make_index_criterion",
+    "spectral_defs",
     "wrap_angle",
 ]
 
@@ -343,7 +345,7 @@ def _shape_criterion(kind: str, band=None) -> Callable[[Array, Array, Array], Ar
     return fn
 
 
-def _spectral_defs(name: str) -> tuple[IndexDef | None, CriterionDef | None]:
+def spectral_defs(name: str) -> tuple[IndexDef | None, CriterionDef | None]:
     """The index and criterion of a spectral name (with an optional band), or (None, None)."""
     base, band = _parse_band(name)
     form, _, kind = base.partition("_")
@@ -413,12 +415,14 @@ CRITERIA: dict[str, CriterionDef] = {
 }  # fmt: skip
 
 for _kind in _SPECTRAL_CHANNELS:
-    _i, _c = _spectral_defs(f"peak_{_kind}")
+    _i, _c = spectral_defs(f"peak_{_kind}")
     INDICES[_i.name] = _i
     CRITERIA[_c.name] = _c
-    CRITERIA[f"band_{_kind}"] = _spectral_defs(f"band_{_kind}")[1]
+    CRITERIA[f"band_{_kind}"] = spectral_defs(f"band_{_kind}")[1]
 
-_MIN_COLS = {
+#: Fewest components of a channel a library criterion reads (an own model's channels are
+#: scalars: only a criterion on a one-component channel applies to one).
+MIN_COLUMNS = {
     "position": 3,
     "velocity": 3,
     "euler": 3,
@@ -476,8 +480,8 @@ def make_index_criterion(index: str, operator: str = "absdiff") -> CriterionDef:
 
     Its name is ``"index:operator"``; ``evaluate_criteria`` accepts such names directly.
     """
-    if index not in INDICES and "@" in index and _spectral_defs(index)[0] is not None:
-        idx_def = _spectral_defs(index)[0]
+    if index not in INDICES and "@" in index and spectral_defs(index)[0] is not None:
+        idx_def = spectral_defs(index)[0]
     elif index not in INDICES:
         raise CriterionError(f"unknown index {index!r}; {suggest(index, INDICES)}")
     else:
@@ -499,7 +503,7 @@ def get_criterion(name: str) -> CriterionDef:
     if name in CRITERIA:
         return CRITERIA[name]
     if "@" in name and ":" not in name:
-        crit = _spectral_defs(name)[1]
+        crit = spectral_defs(name)[1]
         if crit is None:
             base = name.partition("@")[0]
             spectral = [c for c in CRITERIA if c.startswith(("peak_", "band_"))]
@@ -617,7 +621,7 @@ def evaluate_criteria(
             ok = np.all(np.isfinite(ss), axis=(1, 2))
             cache[key] = (ss, mm, ok)
         ss, mm, ok = cache[key]
-        need = _MIN_COLS.get(d.channel, 1)
+        need = MIN_COLUMNS.get(d.channel, 1)
         _need_cols(d.name, mm, need)
         col = np.full(ss.shape[0], np.nan)
         if np.any(ok):

@@ -20,11 +20,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vectorid.errors import StudyDefinitionError, suggest
+from vectorid.identify.flight import FlightChannel, FlightData, FlightDataError
+from vectorid.identify.loaders import load_flight
+from vectorid.identify.windprofiles import load_dropsonde_csv, load_wyoming
 from vectorid.models.base import InitialState, Model
 from vectorid.models.controls import ControlSchedule
 from vectorid.models.wind import WindProfile
 
-__all__ = ["Drop", "build_drop", "merge_flights", "resolve_time"]
+__all__ = ["Drop", "build_drop", "fit_initial_state", "merge_flights", "resolve_time"]
 
 _DROP_KEYS = {
     "name": "drop name",
@@ -173,8 +176,6 @@ class Drop:
 
 
 def _load_wind(path: Path, fmt: str | None, options: Mapping[str, Any]) -> WindProfile:
-    from vectorid.identify import load_dropsonde_csv, load_wyoming
-
     fmt = fmt or ("wyoming" if path.suffix.lower() == ".txt" else "dropsonde")
     if fmt == "wyoming":
         return load_wyoming(path)
@@ -226,8 +227,6 @@ def build_drop(
     ``[t0 + min(extend[0], 0), t1 + max(extend[1], 0)]`` so that window variables
     (``window_start``, ``window_end``) can move the window inside it.
     """
-    from vectorid.identify import load_flight
-
     where = f"drops[{index}]"
     _check_keys(where, table, _DROP_KEYS)
     name = str(table.get("name", f"drop{index + 1}"))
@@ -297,8 +296,6 @@ def build_drop(
     if ext_lo == 0.0 and ext_hi == 0.0:
         windowed = chans.window(t0, t1)
     else:
-        from vectorid.identify.flight import FlightDataError
-
         try:
             windowed = chans.window(t0 + ext_lo, t1 + ext_hi)
         except FlightDataError as exc:
@@ -328,13 +325,13 @@ def build_drop(
         if not wpath.exists():
             raise _err(f"{where}.wind", f"wind file {str(wpath)!r} not found", "check the path")
         wind = _load_wind(wpath, table.get("wind_format"), table.get("wind_options", {}))
-    initial = _initial_state(windowed, t0, init_span, origin_alt, wind, where)
+    initial = fit_initial_state(windowed, t0, init_span, origin_alt, wind, where)
     inputs = _inputs(table, windowed, flight, model, t0, duration, where)
     weight = _positive(f"{where}.weight", table.get("weight", 1.0))
 
     def starter(t_start: float, length: float) -> tuple[InitialState, ControlSchedule | None]:
         return (
-            _initial_state(windowed, t_start, init_span, origin_alt, wind, where),
+            fit_initial_state(windowed, t_start, init_span, origin_alt, wind, where),
             _inputs(table, windowed, flight, model, t_start, length, where),
         )
 
@@ -366,8 +363,6 @@ def merge_flights(name: str, parts: Sequence[Any]):
     """
     if len(parts) == 1:
         return parts[0]
-    from vectorid.identify.flight import FlightData
-
     chans: dict[str, Any] = {}
     events: dict[str, float] = {}
     origin = None
@@ -395,17 +390,20 @@ def merge_flights(name: str, parts: Sequence[Any]):
 def _unwrap_yaw(flight):
     if "euler" not in flight.channels:
         return flight
-    from vectorid.identify.flight import Channel
-
     ch = flight.channels["euler"]
     v = np.array(ch.values)
     v[:, -1] = np.unwrap(v[:, -1])
     chans = dict(flight.channels)
-    chans["euler"] = Channel(ch.name, ch.t, v, ch.components, ch.unit)
+    chans["euler"] = FlightChannel(ch.name, ch.t, v, ch.components, ch.unit)
     return type(flight)(flight.name, chans, dict(flight.events), flight.origin)
 
 
-def _initial_state(flight, t0, span, origin_alt, wind, where) -> InitialState:
+def fit_initial_state(
+    flight: FlightData, t0: float, span: float, origin_alt: float, wind, where: str
+) -> InitialState:
+    """The state at ``t0`` fitted to the first ``span`` s of the data: least-squares lines
+    through position (or altitude), velocity, attitude and rates (the drop's initial state;
+    the noise floor applies the same fit to noise alone). ``where`` names the drop in errors."""
     chans = flight.channels
     north = east = 0.0
     altitude = None

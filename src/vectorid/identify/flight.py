@@ -1,6 +1,6 @@
 """Flight data: channels with their own time bases, events, window selection.
 
-A drop (or any test flight) is a :class:`FlightData`: a set of :class:`Channel` objects, each
+A drop (or any test flight) is a :class:`FlightData`: a set of :class:`FlightChannel` objects, each
 sampled on its own time base (GPS at 1–4 Hz, IMU up to 100 Hz), plus named events (times in s)
 and the geodetic origin of the local north-east-down (NED) frame.
 
@@ -30,7 +30,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from vectorid.errors import VectoridError, suggest
 
-__all__ = ["STANDARD_CHANNELS", "Channel", "FlightData", "FlightDataError"]
+__all__ = ["STANDARD_CHANNELS", "FlightChannel", "FlightData", "FlightDataError"]
 
 #: Standard channel names -> (default components, SI unit).
 STANDARD_CHANNELS: dict[str, tuple[tuple[str, ...], str]] = {
@@ -55,8 +55,11 @@ def _fmt_t(x: float) -> str:
 
 
 @dataclass(frozen=True)
-class Channel:
-    """One measured (or simulated) signal with its own time base.
+class FlightChannel:
+    """One measured (or simulated) signal of a :class:`FlightData`, with its own time base.
+
+    (A model declares the channels it reads and writes with :class:`vectorid.models.Channel`:
+    a name, unit and meaning, no samples.)
 
     Parameters
     ----------
@@ -168,7 +171,7 @@ class Channel:
             out[:, j] = np.interp(tq, self.t, self.values[:, j])
         return out
 
-    def window(self, start: float, end: float) -> Channel:
+    def window(self, start: float, end: float) -> FlightChannel:
         """The samples with ``start <= t <= end``, plus interpolated end points.
 
         The ends are interpolated so that the window starts and ends exactly at ``start`` and
@@ -176,7 +179,7 @@ class Channel:
         """
         inner = (self.t > start) & (self.t < end)
         tt = np.concatenate([[start], self.t[inner], [end]]) if end > start else np.array([start])
-        return Channel(self.name, tt, self.at(tt), self.components, self.unit)
+        return FlightChannel(self.name, tt, self.at(tt), self.components, self.unit)
 
 
 @dataclass
@@ -187,7 +190,7 @@ class FlightData:
     ----------
     name : str
         Label of the flight (file name, drop number, ...).
-    channels : dict of str to Channel
+    channels : dict of str to FlightChannel
         The channels by name.
     events : dict of str to float
         Event name -> time, s (e.g. ``"canopy_deployed"``, ``"drogue"``, ``"main"``).
@@ -199,16 +202,16 @@ class FlightData:
     """
 
     name: str
-    channels: dict[str, Channel]
+    channels: dict[str, FlightChannel]
     events: dict[str, float] = field(default_factory=dict)
     origin: tuple[float, float, float] | None = None
     notes: list[str] = field(default_factory=list)
 
     def __post_init__(self) -> None:
         for key, ch in self.channels.items():
-            if not isinstance(ch, Channel):
+            if not isinstance(ch, FlightChannel):
                 raise FlightDataError(
-                    f"flight {self.name!r}: channels[{key!r}] must be a Channel, got "
+                    f"flight {self.name!r}: channels[{key!r}] must be a FlightChannel, got "
                     f"{type(ch).__name__}"
                 )
         for key, value in self.events.items():
@@ -220,7 +223,7 @@ class FlightData:
                 )
         self.events = {str(k): float(v) for k, v in self.events.items()}
 
-    def __getitem__(self, name: str) -> Channel:
+    def __getitem__(self, name: str) -> FlightChannel:
         try:
             return self.channels[name]
         except KeyError:

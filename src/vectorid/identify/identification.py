@@ -87,29 +87,19 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+import vectorid.identify.criteria as lib
 from vectorid import models
 from vectorid.errors import StudyDefinitionError, suggest
-from vectorid.identify.drops import (  # noqa: F401 - re-exported (moved from this module)
-    _DROP_KEYS,
-    Drop,
-    _check_keys,
-    _err,
-    _event_input,
-    _initial_state,
-    _inputs,
-    _linear_at_start,
-    _load_wind,
-    _positive,
-    _slope_at_start,
-    _unwrap_yaw,
-    build_drop,
-    merge_flights,
-    resolve_time,
-)
+from vectorid.identify.drops import Drop, _check_keys, _err, _positive, build_drop
+from vectorid.identify.noise.statements import parse_discrepancy, parse_noise
+from vectorid.identify.system import SystemIdentification, resolve_model
+from vectorid.identify.windprofiles import WindUncertainty
 from vectorid.models.atmosphere import ISA
 from vectorid.models.base import Model, SimulationResult
+from vectorid.models.system import SystemModel
 from vectorid.models.wind import WindProfile
 from vectorid.problem import Criterion, FunctionalConstraint, Problem
+from vectorid.timesteps import check_time_steps
 
 __all__ = [
     "INTEGRAL_CRITERIA",
@@ -118,7 +108,9 @@ __all__ = [
     "DropoutDef",
     "IdentCriterion",
     "Identification",
+    "parameter_meanings",
     "problem_from_spec",
+    "sim_channel",
     "window_variable",
 ]
 
@@ -228,14 +220,10 @@ class DropoutDef:
     drops: tuple[str, ...] | None = None
 
 
-def _library():
-    from vectorid.identify import criteria as lib
-
-    return lib
-
-
-def _sim_channel(res: SimulationResult, channel: str, origin_alt: float) -> NDArray[np.float64]:
-    """Simulated channel (n, T, m) in the data's conventions (NED relative to the origin)."""
+def sim_channel(res: SimulationResult, channel: str, origin_alt: float) -> NDArray[np.float64]:
+    """Simulated channel (n, T, m) in the data's conventions (NED relative to the origin): the
+    arrays the criteria compare with the measured channel (``position`` with the origin's
+    altitude added back, ``altitude`` above the origin, other channels as simulated)."""
     if channel == "position":
         pos = np.array(res.position)
         pos[..., 2] += origin_alt
@@ -346,7 +334,6 @@ class Identification:
                     "remove it from one of them",
                 )
             self.base[pnames.index(k)] = float(v)
-        lib = _library()
         self.criteria = list(criteria)
         if not self.criteria:
             raise _err("criteria", "no criteria", "add [[criteria]] with library names")
@@ -369,8 +356,6 @@ class Identification:
             self._check_drops(f"dropout.{d.name}.drops", d.drops)
         self.dt = _positive("dt", dt)
         self.output_dt = _positive("output_dt", output_dt)
-        from ..timesteps import check_time_steps
-
         check_time_steps(self.dt, self.output_dt, where="identification")
         self.window_step = (
             self.output_dt if window_step is None else _positive("window_step", window_step)
@@ -397,8 +382,6 @@ class Identification:
             if m == 1 or d.wind is None:
                 self.winds[d.name] = [d.wind]
                 continue
-            from vectorid.identify import WindUncertainty
-
             wu = WindUncertainty(**dict(wind_uncertainty or {}), seed=self.seed + 1009 * i)
             self.winds[d.name] = list(wu.realisations(d.wind, m))
         for d in self.drops:
@@ -598,7 +581,6 @@ class Identification:
         """Criteria (n, len(crit)) and drop-outs (n, len(outs)) of one simulated batch on
         ``grid``; row i is compared over ``grid[: steps[i] + 1]``. ``mean``: integral criteria
         divided by the window length (time-means)."""
-        lib = _library()
         n = res.status.shape[0]
         ok = res.status == 0
         F = np.full((n, len(crit)), np.nan)
@@ -608,7 +590,7 @@ class Identification:
 
         def channel(ch: str) -> tuple[NDArray, NDArray]:
             if ch not in sims:
-                sims[ch] = _sim_channel(res, ch, d.origin_altitude)
+                sims[ch] = sim_channel(res, ch, d.origin_altitude)
                 meas[ch] = d.flight[ch].at(grid)
             return sims[ch], meas[ch]
 
@@ -685,9 +667,6 @@ class Identification:
         ``window_bounds`` (window variable name -> (low, high), s) says how far window
         variables may move each drop's window, so that enough data is kept around it.
         """
-        from vectorid.identify.system import SystemIdentification, resolve_model
-        from vectorid.models.system import SystemModel
-
         _check_keys("(table)", table, {**_TABLE_KEYS, "data": ""})
         model = resolve_model(table, default_model, base_dir)
         if isinstance(model, SystemModel):  # a model of your own: records, not drops
@@ -852,20 +831,45 @@ class Identification:
 
 def _check_noise(table: Mapping[str, Any], criteria: Sequence[str]) -> None:
     """Validate the noise statements early (their use is in :mod:`vectorid.identify.noise`)."""
-    from vectorid.identify import noise
-
     if table.get("noise") is not None:
-        noise.parse_noise(table["noise"], "noise")
+        parse_noise(table["noise"], "noise")
     for i, d in enumerate(table.get("drops") or ()):
         if isinstance(d, Mapping) and d.get("noise") is not None:
-            noise.parse_noise(d["noise"], f"drops[{i}].noise")
-    noise.parse_discrepancy(table.get("discrepancy"), criteria)
+            parse_noise(d["noise"], f"drops[{i}].noise")
+    parse_discrepancy(table.get("discrepancy"), criteria)
     if table.get("limits") not in (None, "noise"):
         raise _err(
             "limits",
             f'expected "noise", got {table["limits"]!r}',
             'write limits = "noise", or give each [[criteria]] its own limit',
         )
+
+
+def parameter_meanings(spec) -> dict[str, str]:
+    """What each design variable of an identification study is: the model parameter's
+    meaning (e.g. ``x6`` -> "C_D base value (eq. 11)"); window variables are described too.
+
+    The identification builder's ``meanings`` hook (:func:`vectorid.builders.variable_meanings`):
+    the analysis reads it through the registry, so it never imports this package."""
+    table = spec.extra.get("identification", {})
+    name = table.get("model", spec.model) if isinstance(table, Mapping) else spec.model
+    out: dict[str, str] = {}
+    try:
+        if isinstance(name, str) and ":" in name:  # a model of your own beside the study
+            model = resolve_model(table, spec.model, spec.base_dir)
+        else:
+            model = models.get(name) if isinstance(name, str) else None
+    except Exception:  # not a registered model: no meanings
+        model = None
+    params = {p.name: p for p in getattr(model, "parameters", ())}
+    for v in spec.space:
+        if v.name in params and params[v.name].meaning:
+            out[v.name] = params[v.name].meaning
+        elif window_variable(v.name) is not None:
+            out[v.name] = "offset of the comparison window's " + (
+                "start, s" if v.name.startswith("window_start") else "end, s"
+            )
+    return out
 
 
 def problem_from_spec(spec) -> Problem:
@@ -925,10 +929,10 @@ def trial_trajectories(
     n = min(len(grid), res.position.shape[1])
     if "position" in d.flight.channels:
         meas = d.measured("position", grid)[:n]
-        sim = _sim_channel(res, "position", d.origin_altitude)[0, :n]
+        sim = sim_channel(res, "position", d.origin_altitude)[0, :n]
         flip = np.array([1.0, 1.0, -1.0])
         return meas * flip, sim * flip
     meas_h = d.measured("altitude", grid)[:n, 0]
-    sim_h = _sim_channel(res, "altitude", d.origin_altitude)[0, :n, 0]
+    sim_h = sim_channel(res, "altitude", d.origin_altitude)[0, :n, 0]
     zeros = np.zeros(n)
     return np.column_stack([zeros, zeros, meas_h]), np.column_stack([zeros, zeros, sim_h])

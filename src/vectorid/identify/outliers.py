@@ -13,10 +13,14 @@ deal with them.
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
+
+from vectorid.errors import VectoridWarning
+from vectorid.identify.flight import FlightChannel, FlightData, FlightDataError
 
 __all__ = ["SPIKE_FLOORS", "SPIKE_POLICIES", "Spikes", "drop_spikes", "find_spikes"]
 
@@ -161,11 +165,6 @@ def drop_spikes(fd, source: str = "", policy: str = "drop"):
     (no warning: for a caller that reports the notes itself), ``"strict"`` raises
     :class:`~vectorid.identify.flight.FlightDataError` naming them.
     """
-    import warnings
-
-    from vectorid.errors import VectoridWarning
-    from vectorid.identify.flight import Channel, FlightData, FlightDataError
-
     if policy not in SPIKE_POLICIES:
         raise FlightDataError(
             f"{source}: spikes = {policy!r}; expected one of {', '.join(SPIKE_POLICIES)}"
@@ -201,7 +200,7 @@ def drop_spikes(fd, source: str = "", policy: str = "drop"):
             )
         keep = np.ones(ch.t.size, dtype=bool)
         keep[sp.index] = False
-        channels[name] = Channel(ch.name, ch.t[keep], ch.values[keep], ch.components, ch.unit)
+        channels[name] = FlightChannel(ch.name, ch.t[keep], ch.values[keep], ch.components, ch.unit)
         notes.append(f"{text}: left out")
         if policy == "drop":
             warnings.warn(f"{pre}{text}: left out", VectoridWarning, stacklevel=3)

@@ -197,7 +197,8 @@ def psd(
 
 
 def _welch(x: NDArray[np.float64], fs: float, seg: int, nfft: int, detrend) -> NDArray[np.float64]:
-    """Welch PSD of the rows of ``x`` (n, T): Hann window, 50 % overlap, one-sided, density.
+    """Welch PSD of the rows of ``x`` (n, T): Hann window, 50 % overlap, one-sided, density —
+    the one Welch estimate of this module (:func:`psd` and :func:`eigenfrequencies`).
 
     Equal to ``scipy.signal.welch(x, fs, "hann", seg, seg // 2, nfft, detrend)`` (tested to
     1e-12) but written for whole batches: all segments of all rows are cut with a strided view,
@@ -481,7 +482,8 @@ def eigenfrequencies(
     ok = np.all(np.isfinite(arr), axis=1)
     if not np.any(ok):
         return out[0] if single else out
-    f, pxx = signal.welch(arr[ok], fs=fs, nperseg=seg, detrend=detrend, axis=-1)
+    f = np.fft.rfftfreq(seg, 1.0 / fs)
+    pxx = _welch(arr[ok], fs, seg, seg, detrend)  # Welch as psd(): Hann, 50 %, no padding
     hi = fs / 2 if fmax is None else float(fmax)
     band = (f > 0) & (f >= fmin) & (f <= hi)
     if not np.any(band):

@@ -83,8 +83,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+import vectorid.identify.criteria as lib
+from vectorid import models
 from vectorid.errors import StudyDefinitionError, suggest
-from vectorid.identify.criteria import integrate
+from vectorid.identify.loaders.common import UNITS
+from vectorid.identify.noise.statements import parse_component
 from vectorid.models.base import _validate_time
 from vectorid.models.system import SystemModel, SystemResult
 from vectorid.problem import Criterion, Problem
@@ -310,7 +313,7 @@ def _kind_fn(kind: str) -> Callable[[NDArray, NDArray, NDArray], NDArray]:
         if kind == "max":
             return np.max(np.abs(r), axis=(1, 2))
         a = np.abs(r) if kind == "abs" else r * r
-        v = integrate(np.moveaxis(a, 1, -1), t).sum(axis=-1)  # (n,)
+        v = lib.integrate(np.moveaxis(a, 1, -1), t).sum(axis=-1)  # (n,)
         if kind == "rms":
             return np.sqrt(v / (t[-1] - t[0]))
         return v
@@ -416,7 +419,7 @@ class SystemIdentification:
             initial=r.initial,
         )
 
-    def _applies(self, c: _Crit, r: Record) -> bool:
+    def applies(self, c: _Crit, r: Record) -> bool:
         return c.data is None or r.name in c.data
 
     def evaluate(self, X: NDArray) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -430,7 +433,7 @@ class SystemIdentification:
             res = self.simulate(X, r)
             ok = res.ok
             for j, c in enumerate(self.criteria):
-                if not self._applies(c, r):
+                if not self.applies(c, r):
                     continue
                 sim = res[c.channel][:, :, None]
                 v = np.full(n, np.nan)
@@ -496,7 +499,7 @@ class SystemIdentification:
             raise _err("output_dt", str(exc), "make output_dt a whole multiple of dt") from None
         for key in ("noise",):
             if table.get(key) is not None:
-                _parse_noise(table[key], model, key)
+                parse_record_noise(table[key], model, key)
         recs_t = table.get("data")
         if not isinstance(recs_t, Sequence) or isinstance(recs_t, str) or not recs_t:
             raise _err(
@@ -523,9 +526,9 @@ class SystemIdentification:
         )
 
 
-def _parse_noise(value: Any, model: SystemModel, where: str) -> dict[str, Any] | str:
-    from vectorid.identify.noise import _component
-
+def parse_record_noise(value: Any, model: SystemModel, where: str) -> dict[str, Any] | str:
+    """A record's (or the study's) noise statement of a model of your own: output channel ->
+    :class:`~vectorid.identify.noise.ComponentNoise` in the channel's unit, or ``"estimate"``."""
     if value == "estimate":
         return "estimate"
     if not isinstance(value, Mapping):
@@ -543,7 +546,7 @@ def _parse_noise(value: Any, model: SystemModel, where: str) -> dict[str, Any] |
                 f"(outputs: {', '.join(model.output_names)})",
                 suggest(ch, model.output_names),
             )
-        out[ch] = _component(f"{where}.{ch}", v, 1.0)
+        out[ch] = parse_component(f"{where}.{ch}", v, 1.0)
     return out
 
 
@@ -578,8 +581,6 @@ def _build_record(
     path = Path(t["file"])
     path = path if path.is_absolute() else base / path
     time_col = str(t.get("time", "t"))
-    from .loaders.common import UNITS
-
     time_unit = t.get("time_unit")
     if time_unit is None:
         raise _err(
@@ -645,7 +646,7 @@ def _build_record(
         raise _err(f"{where}.initial", str(exc), "give finite numbers for states") from None
     weight = _positive(f"{where}.weight", t.get("weight", 1.0))
     if t.get("noise") is not None:
-        _parse_noise(t["noise"], model, f"{where}.noise")
+        parse_record_noise(t["noise"], model, f"{where}.noise")
     sel = (tt >= t0 - 1e-9) & (tt <= t0 + duration + 1e-9)
     keep = slice(max(int(np.argmax(sel)) - 1, 0), min(len(tt), int(np.flatnonzero(sel)[-1]) + 2))
     return Record(
@@ -730,8 +731,6 @@ def _library_criterion(use: Any, outputs: Sequence[str]):
     """The flight library's criterion ``use`` when it reads a one-component channel that the
     model outputs under the library's name (e.g. ``alt_abs`` on an ``altitude`` output), else
     None."""
-    from vectorid.identify import criteria as lib
-
     if not isinstance(use, str) or use in KINDS:
         return None
     try:
@@ -740,10 +739,10 @@ def _library_criterion(use: Any, outputs: Sequence[str]):
         return None
     if cdef.channel not in outputs:
         return None
-    if lib._MIN_COLS.get(cdef.channel, 1) > 1:
+    if lib.MIN_COLUMNS.get(cdef.channel, 1) > 1:
         raise _err(
             f"criteria.{use}",
-            f"library criterion {use!r} reads the {lib._MIN_COLS[cdef.channel]}-component "
+            f"library criterion {use!r} reads the {lib.MIN_COLUMNS[cdef.channel]}-component "
             f"channel {cdef.channel!r}; an own model's channels are scalars",
             "use a residual kind (abs, sq, rms, max) on each component's channel",
         )
@@ -756,8 +755,6 @@ def _library_criterion(use: Any, outputs: Sequence[str]):
 def resolve_model(table: Mapping[str, Any], default_model: Any, base_dir: str | Path | None):
     """The model instance an ``[identification]`` table names (its ``model``, else the
     study's), with the study file's folder on the import path for an import path."""
-    from vectorid import models
-
     name = table.get("model", default_model) if isinstance(table, Mapping) else default_model
     if not isinstance(name, str):
         raise _err(
@@ -791,123 +788,3 @@ def resolve_model(table: Mapping[str, Any], default_model: Any, base_dir: str | 
         raise _err("model", str(exc), "check the model's import path") from None
     except (TypeError, ValueError) as exc:
         raise _err("model_options", str(exc), "see the model's constructor options") from None
-
-
-# -- noise floors ------------------------------------------------------------------------------
-
-
-def _interp_matrix(grid: NDArray, t: NDArray) -> NDArray:
-    """W (T, N) with W @ y = np.interp(grid, t, y) for every y sampled at t."""
-    W = np.zeros((grid.size, t.size))
-    j = np.clip(np.searchsorted(t, grid, side="right") - 1, 0, t.size - 2)
-    w = np.clip((grid - t[j]) / (t[j + 1] - t[j]), 0.0, 1.0)
-    rows = np.arange(grid.size)
-    W[rows, j] = 1.0 - w
-    W[rows, j + 1] += w
-    return W
-
-
-def _record_noise(spec, ident: SystemIdentification, i: int, rec: Record):
-    from vectorid.identify.noise import ComponentNoise, estimate_sigma
-
-    table = spec.extra["identification"]
-    study = table.get("noise")
-    tables = table.get("data", [])
-    own = tables[i].get("noise") if i < len(tables) and isinstance(tables[i], Mapping) else None
-    out: dict[str, tuple[Any, str]] = {}
-    for value, src in ((study, "noise"), (own, f"data[{i}].noise")):
-        if value is None:
-            continue
-        parsed = _parse_noise(value, ident.model, src)
-        if parsed == "estimate":
-            for ch, y in rec.values.items():
-                s = float(estimate_sigma(rec.t, y[:, None])[0])
-                out[ch] = (ComponentNoise(s), f"{ch} estimated σ {s:.3g} {ident.model.unit_of(ch)}")
-        else:
-            for ch, c in parsed.items():
-                out[ch] = (c, f"{ch} {c.describe(1.0, ident.model.unit_of(ch))}")
-    return out
-
-
-def noise_limits(spec, ident: SystemIdentification, targets: Sequence[str], settings) -> dict:
-    """Noise-floor limits (criterion -> (limit, note)) of ``targets`` for an own model."""
-    from vectorid.identify.noise import NoiseFloor
-
-    draws, seed = int(settings["draws"]), int(settings["seed"])
-    ref = np.array(
-        [
-            float(v.nominal) if v.nominal is not None else 0.5 * (float(v.low) + float(v.high))
-            for v in spec.space
-        ]
-    )
-    rng = np.random.default_rng(seed)
-    names = ident.criterion_names
-    S = np.zeros((draws, len(names)))
-    W = np.zeros(len(names))
-    described: list[str] = []
-    for i, rec in enumerate(ident.records):
-        noise = _record_noise(spec, ident, i, rec)
-        described += [f"{rec.name}: {d}" for _, d in noise.values()]
-        needed = [
-            j for j, c in enumerate(ident.criteria) if c.name in targets and ident._applies(c, rec)
-        ]
-        for j in needed:
-            c = ident.criteria[j]
-            if c.channel not in noise:
-                raise _err(
-                    "noise",
-                    f"criterion {c.name!r} is limited by the noise, but no noise is stated for "
-                    f"its channel {c.channel!r} (record {rec.name!r})",
-                    f"add {c.channel} = σ (in {ident.model.unit_of(c.channel)}) to "
-                    f'noise = {{ ... }} under [identification], or noise = "estimate", or give '
-                    f"{c.name} a number",
-                )
-        if not needed:
-            continue
-        # the truth on the record's sample times and on the comparison grid
-        fine = ident.model.simulate(
-            ident.parameters(ref[None, :]),
-            t_final=rec.duration,
-            dt=ident.dt,
-            output_dt=ident.dt,
-            initial=rec.initial,
-        )
-        if not fine.ok[0]:
-            raise _err(
-                "noise",
-                f"the model fails at the reference vector {dict(zip(ident.variables, ref))}: "
-                f"{fine.messages[0]}",
-                "give the variables nominal values where the model runs",
-            )
-        tf = rec.t0 + fine.t
-        inside = (rec.t >= rec.t0 - 1e-9) & (rec.t <= rec.t0 + rec.duration + 1e-9)
-        ts = rec.t[inside]
-        Wm = _interp_matrix(rec.grid, ts)
-        for j in needed:
-            c = ident.criteria[j]
-            truth_s = np.interp(ts, tf, fine[c.channel][0])
-            truth_g = np.interp(rec.grid, tf, fine[c.channel][0])
-            comp = noise[c.channel][0]
-            meas = (truth_s[None, :] + comp.draw(ts, draws, rng)) @ Wm.T  # (draws, T)
-            if c.builtin:  # residual kinds are symmetric: the draws as the batch
-                v = c.fn(meas[:, :, None], truth_g[:, None], rec.grid)
-            else:
-                sim = truth_g[None, :, None]
-                v = np.array([float(np.asarray(c.fn(sim, m[:, None], rec.grid))[0]) for m in meas])
-            S[:, j] += rec.weight * v
-            W[j] += rec.weight
-    S = S / np.where(W > 0, W, 1.0)
-    floor = NoiseFloor(
-        names=names,
-        units=[c.unit for c in ident.criteria],
-        samples=S,
-        allowance={},
-        notes={},
-        draws=draws,
-        seed=seed,
-        noise={},
-    )
-    q = settings["quantile"]
-    out = floor.limits(list(targets), quantile=q, coverage=float(settings["coverage"]))
-    said = "; ".join(dict.fromkeys(described))
-    return {n: (v, f"{note} ({said})") for n, (v, note) in out.items()}

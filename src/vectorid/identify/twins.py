@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from vectorid.identify.flight import Channel, FlightData
+from vectorid.identify.flight import FlightChannel, FlightData
 from vectorid.identify.noise import NoiseModel, parse_noise
 from vectorid.models import (
     DrydenTurbulence,
@@ -175,7 +175,7 @@ def twin_drop(
     }
     units = {"position": "m", "velocity": "m/s", "euler": "rad", "rates": "rad/s"}
     rates = {**DEFAULT_RATES, **dict(rates or {})}
-    chans: dict[str, Channel] = {}
+    chans: dict[str, FlightChannel] = {}
     for ch, y in truth.items():
         step = round(1.0 / (rates[ch] * dt))
         if step < 1 or abs(step * dt * rates[ch] - 1.0) > 1e-9:
@@ -187,12 +187,12 @@ def twin_drop(
             c = nm.component(ch, j)
             if c is not None:
                 v[:, j] += c.draw(t, 1, rng)[0]
-        chans[ch] = Channel(ch, t, v, comps[ch], units[ch])
+        chans[ch] = FlightChannel(ch, t, v, comps[ch], units[ch])
     if commands is not None:
         step = round(1.0 / (rates["controls"] * dt))
         k = np.arange(0, res.t.size, step)
         logged = riser_commands(commands[0], commands[1])
-        chans["controls"] = Channel(
+        chans["controls"] = FlightChannel(
             "controls", res.t[k], logged(res.t[k]), ("riser1", "riser2", "riser3", "riser4"), "-"
         )
     return FlightData(name, chans, {"start": 0.0}, (32.0, -106.0, float(origin_altitude)))

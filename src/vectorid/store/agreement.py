@@ -23,7 +23,6 @@ file is found even when its path did not change.
 
 from __future__ import annotations
 
-import hashlib
 import itertools
 import re
 from collections.abc import Mapping
@@ -31,6 +30,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from .._files import file_sha256
 from ..builders import analysis_only, data_files
 from ..spec import StudySpec
 
@@ -113,17 +113,6 @@ class Agreement:
         return bool(self.differences)
 
 
-def _sha256(path: Path) -> str | None:
-    try:
-        h = hashlib.sha256()
-        with open(path, "rb") as fh:
-            for chunk in iter(lambda: fh.read(1 << 20), b""):
-                h.update(chunk)
-        return h.hexdigest()
-    except OSError:
-        return None
-
-
 def data_file_hashes(spec: StudySpec) -> dict[str, Any]:
     """``{field: {"path", "sha256", "size"}}`` of the data files ``spec`` reads (those that
     exist; a missing one is the problem builder's to report)."""
@@ -134,7 +123,7 @@ def data_file_hashes(spec: StudySpec) -> dict[str, Any]:
     except Exception:  # a malformed table: the builder reports it when it builds
         return out
     for name, path in files.items():
-        digest = _sha256(path)
+        digest = file_sha256(path)
         if digest is not None:
             out[name] = {"path": str(path), "sha256": digest, "size": path.stat().st_size}
     return out
@@ -266,7 +255,7 @@ def compare(
         old_hash = (recorded.get(name) or {}).get("sha256")
         checked_against = "the file the store's trials were computed from"
         if old_hash is None and old_path is not None:
-            old_hash = _sha256(old_path)
+            old_hash = file_sha256(old_path)
             checked_against = f"{old_path} as it is now (the store recorded no hash)"
         shown_old = str(old_path) if old_path is not None else _MISSING
         shown_new = str(new_path) if new_path is not None else _MISSING
@@ -367,8 +356,8 @@ def _same_fmu(held: StudySpec, given: StudySpec, recorded: Mapping[str, Any] | N
     new = _data_files(given).get("study.model")
     if old is None or new is None:
         return False
-    old_hash = ((recorded or {}).get("study.model") or {}).get("sha256") or _sha256(old)
-    return old_hash is not None and old_hash == _sha256(new)
+    old_hash = ((recorded or {}).get("study.model") or {}).get("sha256") or file_sha256(old)
+    return old_hash is not None and old_hash == file_sha256(new)
 
 
 def new_store_name(path: Path) -> Path:

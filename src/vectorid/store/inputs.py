@@ -51,6 +51,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from .._files import file_sha256
 from .._version import __version__
 from ..builders import data_files as _files
 from ..builders import kind_of
@@ -71,17 +72,6 @@ __all__ = [
 class InputsChangedError(StoreError):
     """The data files or the model's code differ from those the store's trials were computed
     with."""
-
-
-def _sha256(path: Path) -> str | None:
-    try:
-        h = hashlib.sha256()
-        with open(path, "rb") as fh:
-            for chunk in iter(lambda: fh.read(1 << 20), b""):
-                h.update(chunk)
-        return h.hexdigest()
-    except OSError:
-        return None
 
 
 # -- which files are the model's code --------------------------------------------------------
@@ -237,7 +227,7 @@ def _vectorid_sources(kind: str) -> dict[str, Any]:
     h = hashlib.sha256()
     for f in files:
         h.update(str(f.relative_to(vid)).encode() + b"\0")
-        h.update((_sha256(f) or "unreadable").encode() + b"\0")
+        h.update((file_sha256(f) or "unreadable").encode() + b"\0")
 
     return {
         f"vectorid {kind} model sources": {
@@ -332,7 +322,7 @@ def code_hashes(spec: Any) -> dict[str, Any]:
         ]
     out: dict[str, Any] = {}
     for path, role in files:
-        digest = _sha256(path)
+        digest = file_sha256(path)
         if digest is not None:
             out[_label(path, base)] = {"path": str(path), "sha256": digest, "role": role}
     return out

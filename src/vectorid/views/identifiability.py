@@ -14,6 +14,7 @@ from typing import Any
 
 from ..analysis.identifiability import ParameterVerdict, identifiability
 from ..analysis.results import Analysis
+from ..builders import variable_meanings
 
 __all__ = ["identifiability_html", "limits_html", "report_section", "verdicts_for_report"]
 
@@ -110,12 +111,7 @@ def identifiability_html(
 def verdicts_for_report(a: Analysis, store: Any) -> list[ParameterVerdict]:
     """The verdicts of a stored study, with the model's parameter meanings when it is an
     identification study and the stages' boxes (a refined edge that cuts a range)."""
-    meanings: dict[str, str] = {}
-    if "identification" in a.spec.extra:
-        from ..identify.twostep import parameter_meanings
-
-        meanings = parameter_meanings(a.spec)
-    return identifiability(a, meanings=meanings, stages=store.stages())
+    return identifiability(a, meanings=variable_meanings(a.spec), stages=store.stages())
 
 
 def report_section(

@@ -19,7 +19,7 @@ robustness check. A study
 with an ``[identification]`` table also gets an "Identification" section: trajectories of the
 flight and of the best trial per criterion (seed 000 Fig. 11), the 3-D projection with the
 worst and best trial (seed 001 Fig. 7), channel time histories with envelopes and power
-spectra of the Euler angles (numbers from :mod:`vectorid.identify.views_data`); when the
+spectra of the Euler angles (numbers from :mod:`vectorid.views.trial_runs`); when the
 flight data cannot be loaded from the store's location the section says so instead.
 """
 
@@ -529,14 +529,14 @@ def _own_model_records(page: _Page, a: Analysis, ident: Any, chosen: Sequence[in
 def _identification(page: _Page, a: Analysis, chosen: Sequence[int], max_envelope: int) -> None:
     """The "Identification" section: trajectories, channels and spectra against the flight
     (seed 000 Fig. 11, seed 001 Figs. 2, 7, 9); numbers from
-    :mod:`vectorid.identify.views_data`."""
+    :mod:`vectorid.views.trial_runs`."""
     spec = a.spec
     if "identification" not in spec.extra:
         return
     page.h2("Identification")
     try:
         from ..identify import Identification
-        from ..identify import views_data as vd
+        from . import trial_runs as vd
 
         ident = Identification.from_spec(spec)
     except (VectoridError, OSError) as exc:

@@ -22,9 +22,9 @@ Common rules
   error that names the lines.
 - A sample is valid for a channel when all its columns are finite. Leading and trailing invalid
   samples are trimmed (the channel's time range is where it has data). Inside, invalid samples are
-  dropped — :meth:`Channel.at` interpolates linearly across them — as long as no stretch between
-  two valid samples is longer than ``max_gap`` (default 2 s); a longer stretch is an error naming
-  the channel, the times and the lines.
+  dropped — :meth:`~vectorid.identify.flight.FlightChannel.at` interpolates linearly across
+  them — as long as no stretch between two valid samples is longer than ``max_gap`` (default
+  2 s); a longer stretch is an error naming the channel, the times and the lines.
 - Units are converted to SI (see :data:`UNITS`) and checked against magnitude heuristics
   (:func:`check_units`); ``"check_units": false`` in the mapping turns the checks off.
 """

@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from vectorid.errors import suggest
-from vectorid.identify.flight import Channel, FlightData, FlightDataError
+from vectorid.identify.flight import FlightChannel, FlightData, FlightDataError
 from vectorid.identify.loaders.common import Array, _valid_samples, check_units, geodetic_to_ned
 from vectorid.identify.loaders.tables import _read_csv
 from vectorid.identify.outliers import drop_spikes
@@ -93,12 +93,12 @@ def load_telemega(
         return table.numeric(c, "TeleMega")[rows]
 
     def chan(name: str, cols: list[str], comps: tuple[str, ...], unit: str, f: float = 1.0,
-             gap: float = max_gap) -> Channel:  # fmt: skip
+             gap: float = max_gap) -> FlightChannel:  # fmt: skip
         v = np.stack([num(c) for c in cols], axis=1) * f
         tv, vv = _valid_samples(name, t, v, gap, table, rows)
-        return Channel(name, tv, vv, comps, unit)
+        return FlightChannel(name, tv, vv, comps, unit)
 
-    channels: dict[str, Channel] = {}
+    channels: dict[str, FlightChannel] = {}
     # The logger writes a row for every packet; rows of other packets carry the last
     # barometer sample over (same pressure and height, a later time). They are not new
     # measurements: a copy 0.07 s after its sample, interpolated as if measured then, is off
@@ -108,10 +108,10 @@ def load_telemega(
     fresh = np.ones(t.size, dtype=bool)
     fresh[1:] = np.any(bv[1:] != bv[:-1], axis=1)
 
-    def baro_chan(name: str, col: str, comps: tuple[str, ...], unit: str) -> Channel:
+    def baro_chan(name: str, col: str, comps: tuple[str, ...], unit: str) -> FlightChannel:
         v = num(col)[fresh][:, None]
         tv, vv = _valid_samples(name, t[fresh], v, max_gap, table, rows[fresh])
-        return Channel(name, tv, vv, comps, unit)
+        return FlightChannel(name, tv, vv, comps, unit)
 
     channels["altitude"] = baro_chan("altitude", "height", ("altitude",), "m")
     origin = None
@@ -159,7 +159,9 @@ def load_telemega(
         for c in (a, b):
             if c.t.size != both.size:
                 k = np.isin(c.t, both)
-                fd.channels[c.name] = Channel(c.name, c.t[k], c.values[k], c.components, c.unit)
+                fd.channels[c.name] = FlightChannel(
+                    c.name, c.t[k], c.values[k], c.components, c.unit
+                )
     check_units(fd, str(p))
     return fd
 
@@ -191,11 +193,11 @@ def _altusmetrum_gps(p, table, t, num, channels, max_gap):
             f"t={t[fix[k + 1]]:.6g} s (max_gap={max_gap:g} s); raise max_gap or cut the flight"
         )
     origin = (float(lat[fix[0]]), float(lon[fix[0]]), float(alt[fix[0]]))
-    channels["position"] = Channel(
+    channels["position"] = FlightChannel(
         "position", t[fix], geodetic_to_ned(lat[fix], lon[fix], alt[fix], origin),
         ("north", "east", "down"), "m",
     )  # fmt: skip
-    channels["gps_altitude"] = Channel("gps_altitude", t[fix], alt[fix], ("altitude",), "m")
+    channels["gps_altitude"] = FlightChannel("gps_altitude", t[fix], alt[fix], ("altitude",), "m")
     return origin
 
 

@@ -15,7 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vectorid.errors import suggest
-from vectorid.identify.flight import STANDARD_CHANNELS, Channel, FlightData, FlightDataError
+from vectorid.identify.flight import STANDARD_CHANNELS, FlightChannel, FlightData, FlightDataError
 from vectorid.identify.loaders.common import (
     _KIND,
     _TOP_KEYS,
@@ -602,7 +602,7 @@ def _build(table: _Table, mapping: Mapping[str, Any], name: str | None) -> Fligh
             raise FlightDataError(
                 f"mapping['origin'] must be [lat_deg, lon_deg, alt_m], got {mapping['origin']!r}"
             )
-    channels: dict[str, Channel] = {}
+    channels: dict[str, FlightChannel] = {}
     geo: tuple[Array, Array] | None = None
     for s in specs:
         v = np.stack([table.numeric(c, f"channel {s.name!r}")[rows] for c in s.columns], axis=1)
@@ -611,7 +611,7 @@ def _build(table: _Table, mapping: Mapping[str, Any], name: str | None) -> Fligh
         if s.name == "position" and s.geodetic:
             geo = (tv, vv)
             continue
-        channels[s.name] = Channel(s.name, tv, vv, s.components, s.unit_out)
+        channels[s.name] = FlightChannel(s.name, tv, vv, s.components, s.unit_out)
     if geo is not None:
         tv, vv = geo
         if origin is None:
@@ -622,7 +622,7 @@ def _build(table: _Table, mapping: Mapping[str, Any], name: str | None) -> Fligh
                 f"got lat up to {np.max(np.abs(vv[:, 0])):.4g}, lon up to "
                 f"{np.max(np.abs(vv[:, 1])):.4g}; check 'angle_unit' and the column order"
             )
-        channels["position"] = Channel(
+        channels["position"] = FlightChannel(
             "position", tv, geodetic_to_ned(vv[:, 0], vv[:, 1], vv[:, 2], origin),
             ("north", "east", "down"), "m",
         )  # fmt: skip
@@ -634,7 +634,9 @@ def _build(table: _Table, mapping: Mapping[str, Any], name: str | None) -> Fligh
                 "geodetic 'position' (lat, lon, alt)"
             )
         a = channels["altitude"]
-        channels["altitude"] = Channel(a.name, a.t, a.values - origin[2], a.components, a.unit)
+        channels["altitude"] = FlightChannel(
+            a.name, a.t, a.values - origin[2], a.components, a.unit
+        )
     events = _events(table, mapping, t_all)
     lo = min(float(c.t[0]) for c in channels.values())
     hi = max(float(c.t[-1]) for c in channels.values())

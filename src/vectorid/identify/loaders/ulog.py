@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from vectorid.identify.flight import Channel, FlightData, FlightDataError
+from vectorid.identify.flight import FlightChannel, FlightData, FlightDataError
 from vectorid.identify.loaders.common import (
     DEFAULT_MAX_GAP,
     Array,
@@ -71,7 +71,7 @@ def load_ulog(path: str | os.PathLike[str], *, max_gap: float = DEFAULT_MAX_GAP)
     table = _Table(str(p), [], lambda i: np.empty(0), 0, lambda i: f"sample {i}")
 
     def build(topic: str, fields: list[str], name: str, comps: tuple[str, ...], unit: str,
-              f: float = 1.0) -> Channel | None:  # fmt: skip
+              f: float = 1.0) -> FlightChannel | None:  # fmt: skip
         d = topics.get(topic)
         if d is None or not all(k in d for k in fields):
             return None
@@ -84,9 +84,9 @@ def load_ulog(path: str | os.PathLike[str], *, max_gap: float = DEFAULT_MAX_GAP)
         tv, vv = _valid_samples(
             f"{name} ({topic})", t, v, max_gap, table, np.arange(t.size, dtype=np.int64)
         )
-        return Channel(name, tv, vv, comps, unit)
+        return FlightChannel(name, tv, vv, comps, unit)
 
-    channels: dict[str, Channel] = {}
+    channels: dict[str, FlightChannel] = {}
     origin: tuple[float, float, float] | None = None
     lp = topics.get("vehicle_local_position")
     if lp is not None and all(k in lp for k in ("ref_lat", "ref_lon", "ref_alt")):
@@ -102,8 +102,8 @@ def load_ulog(path: str | os.PathLike[str], *, max_gap: float = DEFAULT_MAX_GAP)
             v = gp.values
             if origin is None:
                 origin = (float(v[0, 0]), float(v[0, 1]), float(v[0, 2]))
-            pos = Channel("position", gp.t, geodetic_to_ned(v[:, 0], v[:, 1], v[:, 2], origin),
-                          ("north", "east", "down"), "m")  # fmt: skip
+            ned = geodetic_to_ned(v[:, 0], v[:, 1], v[:, 2], origin)
+            pos = FlightChannel("position", gp.t, ned, ("north", "east", "down"), "m")
     if pos is not None:
         channels["position"] = pos
     vel = build("vehicle_local_position", ["vx", "vy", "vz"], "velocity",
@@ -113,7 +113,7 @@ def load_ulog(path: str | os.PathLike[str], *, max_gap: float = DEFAULT_MAX_GAP)
     att = build("vehicle_attitude", ["q[0]", "q[1]", "q[2]", "q[3]"], "euler",
                 ("w", "x", "y", "z"), "1")  # fmt: skip
     if att is not None:
-        channels["euler"] = Channel("euler", att.t, _quat_to_euler(att.values),
+        channels["euler"] = FlightChannel("euler", att.t, _quat_to_euler(att.values),
                                     ("roll", "pitch", "yaw"), "rad")  # fmt: skip
     rates = build("vehicle_angular_velocity", ["xyz[0]", "xyz[1]", "xyz[2]"], "rates",
                   ("p", "q", "r"), "rad/s")  # fmt: skip
@@ -125,7 +125,9 @@ def load_ulog(path: str | os.PathLike[str], *, max_gap: float = DEFAULT_MAX_GAP)
     alt = build("vehicle_air_data", ["baro_alt_meter"], "altitude", ("altitude",), "m")
     if alt is not None:
         off = origin[2] if origin is not None else 0.0
-        channels["altitude"] = Channel("altitude", alt.t, alt.values - off, ("altitude",), "m")
+        channels["altitude"] = FlightChannel(
+            "altitude", alt.t, alt.values - off, ("altitude",), "m"
+        )
     ao = topics.get("actuator_outputs")
     if ao is not None:
         cols = [f"output[{i}]" for i in range(16) if f"output[{i}]" in ao]

@@ -118,9 +118,9 @@ def run_job(kind: str, store_path: str, params: Mapping[str, Any]) -> str:
     """
     from ...analysis.refine import propose_refine
     from ...analysis.results import Analysis
-    from ...run.extra import apply_refine, run_robustness, run_section
     from ...run.loop import run_store
     from ...store import Store
+    from ...workflows.extra import apply_refine, run_robustness, run_section
 
     if kind not in JOB_KINDS:
         raise ValueError(f"unknown job kind {kind!r}; expected one of {JOB_KINDS}")
@@ -214,8 +214,8 @@ def _worker_main(inbox: Any, out: Any, parent: int) -> None:
     from vectorid.run.executors import end_with_parent
 
     end_with_parent(parent, pdeathsig=False)  # started from a request thread: watchdog only
-    import vectorid.run.extra
-    import vectorid.run.loop  # noqa: F401
+    import vectorid.run.loop
+    import vectorid.workflows.extra  # noqa: F401 - warmed for the jobs
 
     out.put((0, "ready", ""))
     while True:

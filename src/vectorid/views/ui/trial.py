@@ -231,8 +231,8 @@ def identification_view(
 
         raise StudyDefinitionError("drop", f"no drop named {drop!r}", suggest(str(drop), names))
     try:
-        from ...identify import views_data as vd
         from ...identify.identification import Identification
+        from .. import trial_runs as vd
         from ..flight import flight_figure, rms_table
 
         key = ("ident", ctx.cache.version()[3])

@@ -1,5 +1,6 @@
-"""The numbers behind the identification views of the report and the UI (seed 000 Fig. 11,
-seed 001 Figs. 1–2, 7, 9; the Euler-angle spectra of seed 001 Table I, criteria 13–15).
+"""Trial runs: the numbers behind the identification views of the report and the UI (seed
+000 Fig. 11, seed 001 Figs. 1–2, 7, 9; the Euler-angle spectra of seed 001 Table I, criteria
+13–15).
 
 Everything here starts from a study with an ``[identification]`` table and some design
 vectors, and returns plain arrays that :mod:`vectorid.views.figures` draws
@@ -8,9 +9,9 @@ vectors, and returns plain arrays that :mod:`vectorid.views.figures` draws
 * :func:`simulate_trials` simulates several design vectors over one drop in **one** batch
   call of :meth:`Identification.simulate` and keeps the measured and simulated channels on
   the drop's output grid, in the data's conventions — the very arrays the criteria compare
-  (the channel conventions come from ``identification._sim_channel``, the same private helper
-  :meth:`Identification.evaluate` uses, so a criterion recomputed from a :class:`TrialRuns`
-  equals the stored one when the study uses one wind realisation).
+  (the channel conventions come from :func:`vectorid.identify.identification.sim_channel`,
+  the same function :meth:`Identification.evaluate` uses, so a criterion recomputed from a
+  :class:`TrialRuns` equals the stored one when the study uses one wind realisation).
 * :meth:`TrialRuns.trajectories` gives north/east/up positions (as
   :func:`~vectorid.identify.trial_trajectories`, batched), :meth:`TrialRuns.channel_histories`
   the time histories of one channel with the drop-out envelope ``measurement ± band`` of the
@@ -34,8 +35,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from vectorid.analysis.choice import best_per_criterion, pure_scores, suggest_choice
+from vectorid.analysis.signals import power_spectrum
 from vectorid.identify.criteria import wrap_angle
-from vectorid.identify.identification import Drop, Identification, _sim_channel
+from vectorid.identify.identification import Drop, Identification, sim_channel
 
 __all__ = [
     "VIEW_CHANNELS",
@@ -242,8 +245,6 @@ class TrialRuns:
         """Welch power spectra of the Euler angles: ``{"flight" | label: (freq (F,) Hz,
         psd (F, 3) rad²/Hz)}`` by :func:`vectorid.analysis.signals.power_spectrum` (the
         function ``spectra_figure`` draws with)."""
-        from vectorid.analysis.signals import power_spectrum
-
         flight, runs = self.euler_series(rows)
         out = {
             "flight": power_spectrum(
@@ -325,7 +326,7 @@ def simulate_trials(
     for c in channels:
         ch = d.flight[c]
         measured[c] = d.measured(c)[:T]
-        simulated[c] = np.asarray(_sim_channel(res, c, d.origin_altitude))[:, :T]
+        simulated[c] = np.asarray(sim_channel(res, c, d.origin_altitude))[:, :T]
         components[c] = tuple(ch.components)
         units[c] = ch.unit
     bands = {c: b[:T] for c, b in dropout_bands(ident, d).items() if c in measured}
@@ -363,13 +364,7 @@ def worst_trial(a: Any) -> int | None:
     rows = np.flatnonzero(a.ok & np.all(np.isfinite(a.trials.F), axis=1))
     if len(rows) == 0:
         return None
-    cols = a.pure or list(range(len(a.crit_names)))
-    F = a.trials.F[np.ix_(rows, cols)].astype(float)
-    for c, j in enumerate(cols):
-        if a.senses[j] == "max":
-            F[:, c] = -F[:, c]
-    lo, hi = F.min(axis=0), F.max(axis=0)
-    Z = (F - lo) / np.where(hi > lo, hi - lo, 1.0)
+    Z = pure_scores(a, rows)
     return int(a.trials.id[rows[int(np.argmax(Z.sum(axis=1)))]])
 
 
@@ -420,8 +415,6 @@ def pick_trials(a: Any, chosen: Sequence[int] = (), *, max_envelope: int = 40) -
     max_envelope : int
         Most trials in the model envelope.
     """
-    from vectorid.analysis.choice import best_per_criterion, suggest_choice
-
     pure = {a.crit_names[j] for j in a.pure} or set(a.crit_names)
     best = best_per_criterion(a) or best_per_criterion(a, feasible_only=False)
     best = {k: v for k, v in best.items() if k in pure}

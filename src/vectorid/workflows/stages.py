@@ -1,4 +1,11 @@
-"""A stage of an identification: run a study until D at the stated limits can be read.
+"""An identification stage: run a study until D at the stated limits can be read.
+
+Words: an identification *stage* is one sampler run of a chained identification (the
+parafoil demo's stage 1, 2, 3; each in a fresh store), read as a
+:class:`~vectorid.workflows.twostep.StepResult` plus the limits it was judged under
+(:class:`IdentificationStage`). It is not the store's *stage* (a box and kind of trials inside
+one store, :class:`vectorid.store.Stage`), nor a *step* of the two-step identification
+(:mod:`vectorid.workflows.twostep`).
 
 :func:`run_stage` runs one study with double tuning (a coarse run, the box narrowed where it
 identifies a variable, the main run), keeps the criteria constraints stated from the noise
@@ -13,6 +20,7 @@ The parafoil demo and the examples on real parafoils run their studies through i
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -21,10 +29,14 @@ from typing import Any
 
 import numpy as np
 
+from ..analysis.identifiability import identifiability
 from ..analysis.relaxation import Relaxation, relaxation_text
-from ..run.extra import relax_study
+from ..study import Study
+from .extra import apply_refine, relax_study
+from .truth import truth_in_ranges
+from .twostep import noise_refine, step_result
 
-__all__ = ["Stage", "print_stage_limits", "print_verdicts", "run_stage"]
+__all__ = ["IdentificationStage", "print_stage_limits", "print_verdicts", "run_stage"]
 
 
 def print_verdicts(
@@ -50,21 +62,17 @@ def print_verdicts(
     if truth is not None:
         head += f" {'truth':>8} {'in range':<8}"
     print(indent + head + " cut by")
-    inside: dict[str, bool | None] = {}
+    inside = {v.name: None for v in verdicts} if truth is None else truth_in_ranges(verdicts, truth)
     for v in verdicts:
         u = units.get(v.name, v.unit or "-")
         value = chosen.get(v.name)
         span = "-" if v.feasible is None else f"[{v.feasible[0]:.4g}, {v.feasible[1]:.4g}]"
         text = f"{value:.4g} in {span}" if v.identified and value is not None else span
         line = f"{v.name:<{w}} {v.meaning:<{wm}} {u:<7} {v.verdict:<14} {text:<30}"
-        ok = None
         if truth is not None:
-            tv = truth.get(v.name, np.nan)
-            if v.feasible is not None:
-                ok = bool(v.feasible[0] <= tv <= v.feasible[1])
+            ok = inside[v.name]
             mark = "-" if ok is None else ("yes" if ok else "NO")
-            line += f" {tv:8.4g} {mark:<8}"
-        inside[v.name] = ok
+            line += f" {truth.get(v.name, np.nan):8.4g} {mark:<8}"
         print(indent + line + " " + (", ".join(v.constrained_by) or "-"))
     return inside
 
@@ -79,7 +87,7 @@ def _allowance_of(note: str) -> str:
     return ""
 
 
-def print_stage_limits(st: Stage, indent: str = "  ") -> None:
+def print_stage_limits(st: IdentificationStage, indent: str = "  ") -> None:
     """Print a stage's noise-grounded criteria constraints with their units and allowances,
     how many trials meet them, and the relaxation the sampling needed (if any)."""
     r = st.result
@@ -125,12 +133,13 @@ def print_stage_limits(st: Stage, indent: str = "  ") -> None:
 
 
 @dataclass
-class Stage:
-    """One stage: the step result and the limits it was judged under.
+class IdentificationStage:
+    """One identification stage: its run, read as a step result, and the limits it was
+    judged under.
 
     Attributes
     ----------
-    result : vectorid.identify.twostep.StepResult
+    result : vectorid.workflows.twostep.StepResult
         Store, analysis under the limits in force, verdicts, chosen vector.
     noise_limits : dict
         Criterion name -> stated limit Φ** (the criterion's unit).
@@ -142,7 +151,7 @@ class Stage:
         Members of D at the stated limits.
     proposals : list
         The double-tuning proposals applied (narrowed boxes).
-    sequential : vectorid.run.sequential.SequentialSummary or None
+    sequential : vectorid.samplers.sequential.SequentialSummary or None
         The sequential sampler's summary (evaluations, generations, ESS, converged).
     """
 
@@ -190,21 +199,21 @@ def run_stage(
     sampler: str | None = None,
     budget: int | None = None,
     population: int | None = None,
-) -> Stage:
+) -> IdentificationStage:
     """Run one stage of an identification into a fresh store.
 
     With the sequential sampler (``sampler="sequential"``, or the study's own), generation 0
     is ``trials`` Sobol points and later generations move into D at the stated limits until
     it holds ``population`` members with an effective sample size as large, or ``budget``
-    evaluations are spent (:func:`vectorid.run.sequential.run_sequential`). With a plain
+    evaluations are spent (:func:`vectorid.run.run_store`). With a plain
     sampler, ``coarse`` trials in the study box, the box narrowed where the coarse run
-    identifies a variable (double tuning, :func:`vectorid.identify.twostep.noise_refine`),
+    identifies a variable (double tuning, :func:`vectorid.workflows.twostep.noise_refine`),
     then ``trials`` more.
 
     The stated limits (e.g. noise floors plus allowance) stay in force wherever D under them
     can be read. Only where it cannot (a plain table too sparse, or a sequential run that did
     not converge within its budget) are they relaxed by the smallest common factor that fills
-    D (:func:`vectorid.run.extra.relax_study`), saved and printed as the named last
+    D (:func:`vectorid.workflows.extra.relax_study`), saved and printed as the named last
     resort. Verdicts: :func:`vectorid.analysis.identifiability`; where the sequential sampler did
     not converge, no variable is called identified (its sample of D is not faithful).
 
@@ -235,16 +244,8 @@ def run_stage(
 
     Returns
     -------
-    Stage
+    IdentificationStage
     """
-    import dataclasses
-
-    from ..analysis.choice import suggest_choice
-    from ..analysis.identifiability import identifiability
-    from ..run.extra import apply_refine
-    from ..study import Study
-    from .twostep import StepResult, noise_refine
-
     sampler = sampler or spec.sampler
     if sampler == "sequential":
         spec = dataclasses.replace(
@@ -287,39 +288,18 @@ def run_stage(
             rel = relax_study(study, noise, notes0)
         a = study.analysis()
         spec_now = study.spec
-        limits = {c.name: c.limit for c in spec_now.criteria if c.limit is not None}
-        sources = {
-            c.name: (c.source, c.limit_note) for c in spec_now.criteria if c.limit is not None
-        }
         stages = study.store.stages()
         final = noise_refine(a, stages, reference).new if a.n_feasible else spec_now.space
         if not a.n_feasible:
             notes.append(a.diagnose_empty().describe().replace("\n", " "))
-        cid = suggest_choice(a)
-        chosen, crit = {}, {}
-        if cid is not None:
-            i = int(np.flatnonzero(a.trials.id == cid)[0])
-            chosen = {n: float(v) for n, v in zip(a.spec.space.names, a.trials.X[i])}
-            crit = {n: float(v) for n, v in zip(a.crit_names, a.trials.F[i])}
         verdicts = identifiability(a, meanings=meanings, hints=hints, stages=stages,
                                    reference=reference)  # fmt: skip
         if summary is not None and not summary.converged:
             _unconverged(verdicts, summary)
-    result = StepResult(
-        name=name,
-        store=Path(store),
-        spec=spec_now,
-        analysis=a,
-        limits=limits,
-        proposal=proposals[0] if proposals else None,
-        final_box=final,
-        chosen_id=cid,
-        chosen=chosen,
-        criteria=crit,
-        trials=a.n,
-        elapsed=time.perf_counter() - t0,
-        sources=sources,
-        verdicts=verdicts,
-        notes=notes,
+    result = step_result(
+        name, store, spec_now, a, proposal=proposals[0] if proposals else None,
+        final_box=final, verdicts=verdicts, notes=notes, started=t0,
+    )  # fmt: skip
+    return IdentificationStage(
+        result, noise, notes0, rel.factor, rel.n_at_limits, proposals, summary
     )
-    return Stage(result, noise, notes0, rel.factor, rel.n_at_limits, proposals, summary)

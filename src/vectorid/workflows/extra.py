@@ -1,5 +1,7 @@
 """Extra runs: the trials a study adds beside its Sobol sample, in one place that evaluates
-and stores.
+and stores. Each goes into its own *stage* of the store (the store's word for a box and a kind
+of trials: ``"sample"``, ``"section"``, ``"robustness"``), never into an identification stage
+(:mod:`vectorid.workflows.stages`).
 
 * :func:`run_section` — a section ("criterion vs parameter, type II", seed 000 Fig. 10)
   through a stored trial, stored as an auxiliary stage of kind ``"section"``;
@@ -38,8 +40,8 @@ from ..analysis.results import Analysis
 from ..analysis.robustness import Robustness, build_robustness, neighbourhood
 from ..analysis.sections import Section, check_range, section_points
 from ..problem import EvalResult, Problem
+from ..run.loop import evaluate_into
 from ..store import Stage, Store
-from .loop import evaluate_into
 
 __all__ = ["apply_refine", "evaluate_and_store", "relax_study", "run_robustness", "run_section"]
 

@@ -1,4 +1,4 @@
-"""The numbers behind the identification views (vectorid.identify.views_data), on the
+"""The numbers behind the identification views (vectorid.views.trial_runs), on the
 reduced two-step demo: picks are the stored optima, recomputed criteria equal the stored
 ones (the whole chain store -> spec -> data -> simulation -> arrays the figures draw), the
 drop-out envelope is the one the drop-out functional measures, and the spectra are the
@@ -17,10 +17,10 @@ from vectorid.analysis.choice import suggest_choice
 from vectorid.analysis.signals import power_spectrum
 from vectorid.cli import main
 from vectorid.identify import Identification, eigenfrequencies, get_criterion, trial_trajectories
-from vectorid.identify import views_data as vd
 from vectorid.identify.spectral import resample_uniform
 from vectorid.spec import load_study
 from vectorid.store import Store
+from vectorid.views import trial_runs as vd
 
 STEP2 = "g12-step2-controlled.db"
 

@@ -5,9 +5,10 @@ from __future__ import annotations
 import numpy as np
 
 from vectorid import models
-from vectorid.identify import Identification, control_contribution, run_two_step
+from vectorid.identify import Identification
 from vectorid.models import InitialState, WindProfile, riser_commands
 from vectorid.spec import StudySpec
+from vectorid.workflows import control_contribution, run_two_step
 
 TRUE = {"x6": 0.55, "x15": 1.4}
 ORIGIN = 1000.0
@@ -116,7 +117,7 @@ def test_control_contribution_is_the_control_part_of_the_motion(tmp_path):
 
 
 def test_control_step_recovers_x15_on_the_control_contribution(tmp_path):
-    from vectorid.identify.twostep import run_control_step
+    from vectorid.workflows.twostep import run_control_step
 
     _write_drop(tmp_path / "controlled.csv", True, 2)
     s2 = _spec(tmp_path, "controlled", [("x6", 0.2, 1.0), ("x15", 0.5, 2.0)])
@@ -158,7 +159,7 @@ def test_quantile_stand_in_spares_pseudo_criteria_and_names_itself(tmp_path):
     import tomllib
 
     from vectorid.demo import study_toml
-    from vectorid.identify.twostep import auto_limits, run_step
+    from vectorid.workflows.twostep import auto_limits, run_step
 
     data = tomllib.loads(study_toml("binh-korn", trials=128))
     data["criteria"][1]["role"] = "pseudo"

@@ -1,4 +1,4 @@
-"""Extra runs (sections, robustness checks, refined stages) are written by vectorid.run.extra
+"""Extra runs (sections, robustness checks, refined stages) are written by vectorid.workflows.extra
 alone: analysis/ only reads."""
 
 import ast
@@ -11,7 +11,7 @@ from tests.analysis_helpers import make_store
 from vectorid import Study
 from vectorid.analysis.refine import propose_refine
 from vectorid.errors import StoreError
-from vectorid.run.extra import apply_refine, evaluate_and_store, run_section
+from vectorid.workflows.extra import apply_refine, evaluate_and_store, run_section
 
 ANALYSIS = Path(__file__).resolve().parents[2] / "src" / "vectorid" / "analysis"
 

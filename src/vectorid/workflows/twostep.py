@@ -1,5 +1,10 @@
 """Two-step identification (seed 001 §VI) and the control-contribution analysis.
 
+Words: a *step* is one identification run with double tuning (:func:`run_step`); the
+two-step identification chains two (and the control step between them). An identification
+*stage* (:mod:`vectorid.workflows.stages`) is one sampler run of a chained identification, and
+the store's *stages* are its boxes and kinds of trials (a refined box is a new sample stage).
+
 Step 1 identifies the model on the *uncontrolled* drop; step 2 identifies it on the
 *controlled* drop, starting from step 1's refined box (the step-1 variables keep that box;
 "nominal" stays the model's value everywhere, step 1's chosen vector is a result) and adding
@@ -29,6 +34,7 @@ control inputs. Its refined x15 box (from the Pareto set) initialises the full-s
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -37,15 +43,19 @@ from typing import Any, TextIO
 import numpy as np
 from numpy.typing import NDArray
 
+from vectorid._toml import toml_tables
 from vectorid.analysis.choice import suggest_choice
 from vectorid.analysis.identifiability import ParameterVerdict, identifiability
-from vectorid.analysis.refine import RefineProposal, propose_refine
+from vectorid.analysis.refine import RefineProposal, _current_box, propose_refine
 from vectorid.analysis.results import Analysis
+from vectorid.builders import variable_meanings
 from vectorid.errors import StudyDefinitionError
-from vectorid.run.extra import apply_refine
+from vectorid.identify.identification import Identification
+from vectorid.identify.noise import NOISE_KEYS
 from vectorid.space import Continuous, Space
-from vectorid.spec import StudySpec
+from vectorid.spec import StudySpec, load_study
 from vectorid.study import Study
+from vectorid.workflows.extra import apply_refine
 
 __all__ = [
     "ControlContribution",
@@ -58,6 +68,7 @@ __all__ = [
     "run_control_step",
     "run_step",
     "run_two_step",
+    "step_result",
 ]
 
 
@@ -73,6 +84,19 @@ def _simulate_uncontrolled(ident, P: np.ndarray, d, wind) -> Any:
         initial=d.initial,
         atmosphere=ident.atmosphere,
     )
+
+
+def _fly_uncontrolled(ident, P: np.ndarray, d, wind, what: str, fix: str) -> tuple[Any, NDArray]:
+    """:func:`_simulate_uncontrolled` and its NED position relative to the data's origin, (T, 3)
+    m; a failed simulation is an error naming ``what`` was flown and how to ``fix`` it."""
+    res = _simulate_uncontrolled(ident, P, d, wind)
+    if res.status[0] != 0:
+        raise StudyDefinitionError(
+            "params", f"the uncontrolled {what}simulation failed: {res.messages[0]}", fix
+        )
+    pos = np.array(res.position[0])
+    pos[:, 2] += d.origin_altitude
+    return res, pos
 
 
 def auto_limits(
@@ -205,8 +229,6 @@ def noise_refine(
     edges lie further out); every other variable keeps its current box, so a weakly
     identified range is never cut by the sampling. ``kwargs`` go to
     :func:`~vectorid.analysis.refine.propose_refine` (explicit ``bounds`` win)."""
-    from vectorid.analysis.refine import _current_box
-
     current, _, _ = _current_box(stages, a.spec.space)
     bounds: dict[str, tuple[float, float]] = {}
     for v, var in zip(identifiability(a, stages=stages, reference=reference), current):
@@ -271,8 +293,6 @@ def run_step(
     skipped (the main run stays in the initial box), ``chosen`` is empty, the verdicts say
     "not identified" and ``notes`` say which constraint empties D.
     """
-    import time
-
     coarse = max(1, trials // 4) if coarse is None else int(coarse)
     t0 = time.perf_counter()
     proposal = None
@@ -320,76 +340,67 @@ def run_step(
             note = f"quantile stand-in: q={auto_quantile:g} of {a.n} trials (not the expert's)"
             study.store.set_limits(auto, sources={k: ("quantile", note) for k in auto})
         spec_now = study.spec
-        limits = {c.name: c.limit for c in spec_now.criteria if c.limit is not None}
-        limits.update(auto)
-        sources = {
-            c.name: (c.source, c.limit_note) for c in spec_now.criteria if c.limit is not None
-        }
         if a.n_feasible:
             final = propose(a).new
         else:
             final = spec_now.space
             notes.append(a.diagnose_empty().describe().replace("\n", " "))
-        cid = suggest_choice(a)
-        chosen, crit = {}, {}
-        if cid is not None:
-            i = int(np.flatnonzero(a.trials.id == cid)[0])
-            chosen = {n: float(v) for n, v in zip(a.spec.space.names, a.trials.X[i])}
-            crit = {n: float(v) for n, v in zip(a.crit_names, a.trials.F[i])}
         verdicts = identifiability(
             a,
-            meanings=meanings if meanings is not None else parameter_meanings(spec_now),
+            meanings=meanings if meanings is not None else variable_meanings(spec_now),
             hints=hints,
             stages=study.store.stages(),
             reference=reference,
         )
-        out = StepResult(
-            name=name,
-            store=Path(store),
-            spec=spec_now,
-            analysis=a,
-            limits=limits,
-            proposal=proposal,
-            final_box=final,
-            chosen_id=cid,
-            chosen=chosen,
-            criteria=crit,
-            trials=a.n,
-            elapsed=time.perf_counter() - t0,
-            sources=sources,
-            verdicts=verdicts,
-            notes=notes,
-        )
-    return out
+        return step_result(
+            name, store, spec_now, a, proposal=proposal, final_box=final, verdicts=verdicts,
+            notes=notes, started=t0, extra_limits=auto,
+        )  # fmt: skip
 
 
-def parameter_meanings(spec: StudySpec) -> dict[str, str]:
-    """What each design variable of an identification study is: the model parameter's
-    meaning (e.g. ``x6`` -> "C_D base value (eq. 11)"); window variables are described too."""
-    from vectorid import models
-    from vectorid.identify.identification import window_variable
-
-    table = spec.extra.get("identification", {})
-    name = table.get("model", spec.model) if isinstance(table, Mapping) else spec.model
-    out: dict[str, str] = {}
-    try:
-        if isinstance(name, str) and ":" in name:  # a model of your own beside the study
-            from vectorid.identify.system import resolve_model
-
-            model = resolve_model(table, spec.model, spec.base_dir)
-        else:
-            model = models.get(name) if isinstance(name, str) else None
-    except Exception:  # not a registered model: no meanings
-        model = None
-    params = {p.name: p for p in getattr(model, "parameters", ())}
-    for v in spec.space:
-        if v.name in params and params[v.name].meaning:
-            out[v.name] = params[v.name].meaning
-        elif window_variable(v.name) is not None:
-            out[v.name] = "offset of the comparison window's " + (
-                "start, s" if v.name.startswith("window_start") else "end, s"
-            )
-    return out
+def step_result(
+    name: str,
+    store: str | Path,
+    spec: StudySpec,
+    a: Analysis,
+    *,
+    proposal: RefineProposal | None,
+    final_box: Space,
+    verdicts: list[ParameterVerdict],
+    notes: list[str],
+    started: float,
+    extra_limits: Mapping[str, float] | None = None,
+) -> StepResult:
+    """A run read as a :class:`StepResult`: the limits in force (``spec``'s, plus
+    ``extra_limits`` given to the analysis) with their sources, the chosen vector (the Pareto
+    trial nearest the ideal point, :func:`~vectorid.analysis.choice.suggest_choice`) with its
+    criteria, and the time since ``started`` (:func:`time.perf_counter`)."""
+    limits = {c.name: c.limit for c in spec.criteria if c.limit is not None}
+    limits.update(dict(extra_limits or {}))
+    sources = {c.name: (c.source, c.limit_note) for c in spec.criteria if c.limit is not None}
+    cid = suggest_choice(a)
+    chosen, crit = {}, {}
+    if cid is not None:
+        i = int(np.flatnonzero(a.trials.id == cid)[0])
+        chosen = {n: float(v) for n, v in zip(a.spec.space.names, a.trials.X[i])}
+        crit = {n: float(v) for n, v in zip(a.crit_names, a.trials.F[i])}
+    return StepResult(
+        name=name,
+        store=Path(store),
+        spec=spec,
+        analysis=a,
+        limits=limits,
+        proposal=proposal,
+        final_box=final_box,
+        chosen_id=cid,
+        chosen=chosen,
+        criteria=crit,
+        trials=a.n,
+        elapsed=time.perf_counter() - started,
+        sources=sources,
+        verdicts=verdicts,
+        notes=notes,
+    )
 
 
 def step2_spec(step2: StudySpec, step1: StepResult, control: StepResult | None = None) -> StudySpec:
@@ -477,19 +488,15 @@ def run_two_step(
             f"step 2 does not vary {missing}: they keep step 1's chosen values only if step 2 "
             "fixes them under [identification.parameters]"
         )
+    # what every step of the two shares (the control step takes its own refine rule)
+    common: dict[str, Any] = dict(
+        coarse=coarse, executor=executor, auto_quantile=auto_quantile,
+        min_feasible=min_feasible, progress=progress, hints=hints,
+    )  # fmt: skip
     r1 = run_step(
-        step1,
-        out / f"{step1.name}.db",
-        trials=trials,
-        coarse=coarse,
-        executor=executor,
-        auto_quantile=auto_quantile,
-        min_feasible=min_feasible,
-        refine=refine,
-        progress=progress,
-        name="step 1 (uncontrolled drop)",
-        hints=hints,
-    )
+        step1, out / f"{step1.name}.db", trials=trials, refine=refine,
+        name="step 1 (uncontrolled drop)", **common,
+    )  # fmt: skip
     if not r1.chosen:
         why = " ".join(r1.notes[-1:])
         raise StudyDefinitionError(
@@ -500,18 +507,9 @@ def run_two_step(
     rc = None
     if control_step:
         rc = run_control_step(
-            r1,
-            step2,
-            out,
-            variables=control_variables,
-            trials=trials if control_trials is None else int(control_trials),
-            coarse=coarse,
-            executor=executor,
-            auto_quantile=auto_quantile,
-            min_feasible=min_feasible,
-            progress=progress,
-            hints=hints,
-        )
+            r1, step2, out, variables=control_variables,
+            trials=trials if control_trials is None else int(control_trials), **common,
+        )  # fmt: skip
         if not rc.step.chosen:
             raise StudyDefinitionError(
                 "control step",
@@ -520,18 +518,9 @@ def run_two_step(
             )
     s2 = step2_spec(step2, r1, rc.step if rc is not None and control_box else None)
     r2 = run_step(
-        s2,
-        out / f"{step2.name}.db",
-        trials=trials,
-        coarse=coarse,
-        executor=executor,
-        auto_quantile=auto_quantile,
-        min_feasible=min_feasible,
-        refine=refine,
-        progress=progress,
-        name="step 2 (controlled drop)",
-        hints=hints,
-    )
+        s2, out / f"{step2.name}.db", trials=trials, refine=refine,
+        name="step 2 (controlled drop)", **common,
+    )  # fmt: skip
     return TwoStepResult(r1, r2, s2, notes, rc)
 
 
@@ -582,15 +571,7 @@ def control_contribution(
                 "params", f"unknown model parameter {k!r}", f"expected one of {pnames}"
             )
         P[pnames.index(k)] = float(v)
-    res = _simulate_uncontrolled(ident, P, d, d.wind)
-    if res.status[0] != 0:
-        raise StudyDefinitionError(
-            "params",
-            f"the uncontrolled simulation failed: {res.messages[0]}",
-            "check the parameter values",
-        )
-    sim = np.array(res.position[0])
-    sim[:, 2] += d.origin_altitude
+    _, sim = _fly_uncontrolled(ident, P, d, d.wind, "", "check the parameter values")
     meas = d.measured("position")
     alt = -meas[:, 2] if "altitude" not in d.flight.channels else d.measured("altitude")[:, 0]
     if not math.isfinite(float(sim[-1, 0])):
@@ -642,44 +623,6 @@ class ControlStepResult:
         return {v.name: (v.low, v.high) for v in self.step.final_box}
 
 
-def _toml(v: Any) -> str:
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, int | float):
-        return repr(v)
-    if isinstance(v, str):
-        import json
-
-        return json.dumps(v)
-    if isinstance(v, list | tuple):
-        return "[" + ", ".join(_toml(x) for x in v) + "]"
-    if isinstance(v, Mapping):
-        return "{ " + ", ".join(f"{_key(k)} = {_toml(x)}" for k, x in v.items()) + " }"
-    raise TypeError(f"cannot write {v!r} as TOML")
-
-
-def _key(k: str) -> str:
-    import json
-
-    return k if k.replace("_", "").replace("-", "").isalnum() else json.dumps(k)
-
-
-def _write_toml(path: Path, data: Mapping[str, Any], header: str) -> None:
-    lines = [f"# {ln}" for ln in header.splitlines()]
-    lines.append("[study]")
-    lines += [f"{_key(k)} = {_toml(v)}" for k, v in data["study"].items()]
-    for key in ("variables", "criteria"):
-        for item in data[key]:
-            lines += ["", f"[[{key}]]"] + [f"{_key(k)} = {_toml(v)}" for k, v in item.items()]
-    ident = data["identification"]
-    lines += ["", "[identification]"]
-    lines += [f"{_key(k)} = {_toml(v)}" for k, v in ident.items() if k != "drops"]
-    for drop in ident["drops"]:
-        lines += ["", "[[identification.drops]]"]
-        lines += [f"{_key(k)} = {_toml(v)}" for k, v in drop.items()]
-    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
-
-
 def control_step_spec(
     step2: StudySpec,
     params: Mapping[str, float],
@@ -714,8 +657,6 @@ def control_step_spec(
     -------
     spec, contribution, still_air, study_file
     """
-    from vectorid.identify.identification import Identification
-
     ident = Identification.from_spec(step2)
     d = ident.drops[0] if drop is None else ident.drop(drop)
     for v in variables:
@@ -738,15 +679,9 @@ def control_step_spec(
     P = ident.base.copy()
     for k, v in fixed.items():
         P[pnames.index(k)] = float(v)
-    calm = _simulate_uncontrolled(ident, P, d, None)
-    if calm.status[0] != 0:
-        raise StudyDefinitionError(
-            "params",
-            f"the uncontrolled still-air simulation failed: {calm.messages[0]}",
-            "check step 1's chosen vector",
-        )
-    calm_pos = np.array(calm.position[0])
-    calm_pos[:, 2] += d.origin_altitude
+    calm, calm_pos = _fly_uncontrolled(
+        ident, P, d, None, "still-air ", "check step 1's chosen vector"
+    )
     still = cc.contribution + calm_pos
     t = cc.t
     cols = {"time_s": t, "north_m": still[:, 0], "east_m": still[:, 1], "down_m": still[:, 2]}
@@ -836,8 +771,6 @@ def control_step_spec(
     # The measured position keeps its noise (the subtracted simulations are noiseless);
     # channel allowances carry over, criterion-named ones only for these criteria.
     if isinstance(src.get("discrepancy"), Mapping):
-        from vectorid.identify.noise import NOISE_KEYS
-
         disc = {k: v for k, v in src["discrepancy"].items() if k in NOISE_KEYS or k in criteria}
         if disc:
             ident_t["discrepancy"] = disc
@@ -860,26 +793,24 @@ def control_step_spec(
         "seed": int(step2.seed),
         "executor": "serial",
     }
-    data = {
-        "study": study_t,
-        "variables": var_t,
-        "criteria": [{"name": c, "role": "pure"} for c in criteria],
-        "identification": ident_t,
-    }
+    tables = [
+        ("study", study_t),
+        ("variables", var_t),
+        ("criteria", [{"name": c, "role": "pure"} for c in criteria]),
+        ("identification", {k: v for k, v in ident_t.items() if k != "drops"}),
+        ("identification.drops", ident_t["drops"]),
+    ]
     study_file = out / f"{name}.toml"
     fixed_txt = ", ".join(f"{k} = {v:.4g}" for k, v in fixed.items())
-    _write_toml(
-        study_file,
-        data,
+    header = (
         "vectorid control step (seed 001 §VI.C): identification of "
         f"{', '.join(variables)} on the control contribution of drop {d.name!r} of "
         f"{step2.name!r}.\nData: measured position - uncontrolled model in the drop's wind + "
         "the same model in still air (the controlled drop in still air).\n"
         f"Uncontrolled model (step 1's chosen vector): {fixed_txt}.\n"
-        "The model is flown with no wind and the recorded control inputs.",
+        "The model is flown with no wind and the recorded control inputs."
     )
-    from vectorid.spec import load_study
-
+    study_file.write_text(toml_tables(tables, header), encoding="utf-8")
     return load_study(study_file), cc, still, study_file
 
 
