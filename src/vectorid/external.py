@@ -88,7 +88,7 @@ from typing import Any
 import numpy as np
 
 from .errors import StudyDefinitionError, VectoridError, suggest
-from .problem import BatchModel, as_batch
+from .problem import BatchModel, Problem, as_batch
 
 __all__ = [
     "REDUCTIONS",
@@ -107,7 +107,6 @@ class ExternalModelError(RuntimeError):
 def build_external_problem(spec: Any) -> Any:
     """The Problem of a ``cmd:`` or ``fmu:`` study (the builder of those kinds in
     :mod:`vectorid.builders`)."""
-    from .problem import Problem
 
     return Problem(external_model(spec), spec.criteria, spec.constraints)
 

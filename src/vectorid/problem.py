@@ -26,6 +26,7 @@ from typing import Any
 
 import numpy as np
 
+from . import analytic
 from .errors import StudyDefinitionError, is_number, shown, suggest
 
 __all__ = [
@@ -302,8 +303,6 @@ def load_model(spec: str | BatchModel, base_dir: str | Path | None = None) -> Ba
             'write model = "binh-korn" or model = "mypkg.mymodel:evaluate"',
         )
     if ":" not in spec:
-        from . import analytic
-
         try:
             return analytic.get(spec).evaluate
         except ValueError as exc:
@@ -384,8 +383,6 @@ def build_python_problem(spec: Any) -> Problem:
     """
     func = load_model(spec.model, spec.base_dir)
     if isinstance(spec.model, str) and ":" not in spec.model:
-        from . import analytic
-
         ap = analytic.get(spec.model)
         have = (len(spec.space), len(spec.criteria), len(spec.constraints))
         want = (ap.n_var, ap.n_obj, ap.n_con)

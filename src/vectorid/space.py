@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from .errors import StudyDefinitionError, is_number, shown
+from .errors import StudyDefinitionError, is_number, shown, suggest
 
 __all__ = ["Choice", "Continuous", "Integer", "Space", "Variable"]
 
@@ -499,7 +499,6 @@ class Space:
         StudyDefinitionError
             Unknown name (the message suggests the nearest).
         """
-        from .errors import suggest
 
         try:
             return self.names.index(name)
@@ -558,8 +557,6 @@ class Space:
         """
         unknown = set(bounds) - set(self.names)
         if unknown:
-            from .errors import suggest
-
             name = sorted(unknown)[0]
             raise StudyDefinitionError(
                 "bounds", f"unknown variable {name!r}", suggest(name, self.names)

@@ -40,6 +40,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
+from .builders import build_problem, check_spec, table_kinds
 from .errors import StudyDefinitionError, shown, suggest
 from .problem import Criterion, FunctionalConstraint, Problem
 from .sampler_kinds import SAMPLER_OPTIONS, sampler_kind, sampler_names
@@ -391,7 +392,6 @@ class StudySpec:
         Python function or built-in problem, a ``cmd:`` or ``fmu:`` model, or a registered
         table such as ``[identification]`` (model + flight data + adequacy criteria).
         """
-        from .builders import build_problem
 
         return build_problem(self)
 
@@ -501,7 +501,6 @@ class StudySpec:
         if not isinstance(data, Mapping):
             raise StudyDefinitionError("(top)", f"expected a table, got {type(data).__name__}")
         extra = {k: v for k, v in data.items() if k not in _TOP_KEYS}
-        from .builders import table_kinds
 
         for key in extra:
             if not key.startswith("x-") and key not in table_kinds():
@@ -736,7 +735,6 @@ def load_study(path: str | Path) -> StudySpec:
             str(path), f"not valid TOML: {exc}", "fix the syntax at the position given"
         ) from None
     spec = StudySpec.from_dict(data, base_dir=path.resolve().parent)
-    from .builders import check_spec
 
     check_spec(spec)  # what the study's builder cannot run (dt/output_dt, ...)
     return spec

@@ -15,10 +15,13 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from .analysis.results import Analysis, Bound
+from .builders import analysis_only, prepare_spec
 from .errors import StoreError, VectoridNote
 from .run.loop import RunSummary, run_store
 from .spec import StudySpec, load_study
 from .store import Store, Trials
+from .store.agreement import compare, data_file_hashes, new_store_name
+from .store.inputs import record_history, record_inputs
 
 __all__ = ["Study", "default_store_path"]
 
@@ -87,9 +90,6 @@ class Study:
         """
         if not isinstance(spec, StudySpec):
             spec = load_study(spec)
-        from .builders import prepare_spec
-        from .store.agreement import data_file_hashes
-        from .store.inputs import record_inputs
 
         spec = prepare_spec(spec)
         st = Store.create(store, spec, data_files=data_file_hashes(spec))
@@ -167,7 +167,6 @@ class Study:
         path = Path(store)
         if not path.exists() and not path.is_symlink():
             return cls.create(spec, path)
-        from .store.agreement import compare
 
         st = Store.open(path, write=True)
         try:
@@ -181,7 +180,6 @@ class Study:
             if agreement and (not agreement.refused or taking) and _derived(st.spec, spec):
                 # the file leaves derived parts (noise-floor limits) to be computed: take the
                 # stored ones when nothing they derive from changed, else compute them anew
-                from .builders import prepare_spec
 
                 spec = prepare_spec(spec) if taking else _with_derived(st.spec, spec, agreement)
                 agreement = compare(st.spec, spec, st.data_files())
@@ -352,7 +350,6 @@ def _with_derived(held: StudySpec, given: StudySpec, agreement: Any) -> StudySpe
     the builder's ``prepare`` hook (which also drops them when the file no longer asks)."""
     from dataclasses import replace as _replace
 
-    from .builders import analysis_only, prepare_spec
 
     if any(analysis_only(given, d.field) for d in agreement.differences):
         return prepare_spec(given)
@@ -375,8 +372,6 @@ def _with_derived(held: StudySpec, given: StudySpec, agreement: Any) -> StudySpe
 
 
 def _refusal(path: Path, study_file: str | Path | None, agreement: Any, n: int) -> str:
-    from .store.agreement import new_store_name
-
     src = str(study_file) if study_file else "STUDY.toml"
     refused = agreement.refused
     lines = [
@@ -406,7 +401,6 @@ def _record_accepted(
     """Record data-file content changes taken with ``accept_changes`` in the history."""
     import time
 
-    from .store.inputs import record_history
 
     now = time.time()
     entries = [

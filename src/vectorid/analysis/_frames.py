@@ -16,6 +16,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from .._hints import install_hint
+
 if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
 
@@ -42,8 +44,6 @@ def import_pandas() -> Any:
     try:
         import pandas
     except ImportError:
-        from .._hints import install_hint
-
         raise ImportError(
             "DataFrames need pandas, which is not installed; install it with "
             f"{install_hint('pandas')} (the numpy arrays a.trials.X, a.trials.F, "

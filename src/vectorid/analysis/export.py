@@ -20,6 +20,7 @@ from typing import Any, TextIO
 
 import numpy as np
 
+from .._hints import install_hint
 from ..errors import StudyDefinitionError, suggest
 from ..store import Store
 from .results import Analysis
@@ -114,8 +115,6 @@ def _write(
             import pyarrow as pa
             import pyarrow.parquet as pq
         except ImportError:
-            from .._hints import install_hint
-
             raise StudyDefinitionError(
                 "--format",
                 "parquet export needs pyarrow, which is not installed",

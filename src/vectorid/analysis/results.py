@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..builders import variable_meanings
 from ..errors import StudyDefinitionError, suggest
 from ..limits import Bound, Limits, parse_limit, parse_limits
 from ..problem import OK
@@ -23,6 +24,7 @@ from ..samplers import Weighting, sampler_for
 from ..spec import StudySpec
 from ..store import Store, Trials
 from ._frames import constraint_rows, trial_columns, trials_frame, verdict_rows, verdicts_frame
+from .identifiability import identifiability
 from .pareto import pareto_mask
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -633,8 +635,6 @@ class Analysis:
         list of ParameterVerdict
             In the order of the study's variables; ranges in each variable's unit.
         """
-        from ..builders import variable_meanings
-        from .identifiability import identifiability
 
         # what each variable means, from the study's builder (an identification: its model's
         # parameter meanings), through the registry: the analysis imports no builder

@@ -42,6 +42,7 @@ from vectorid.models._parafoil_core import (
     mechanical_energy,
     parafoil_observe,
     parafoil_rhs,
+    reference_matrices,
     rhs_reference,
     trim_glide,
 )
@@ -451,7 +452,6 @@ class ParafoilModelBase(Model):
         k = self.constants(X)
         n = 6 if self.rigid else 8
         out = np.empty((k.shape[0], n, n))
-        from vectorid.models._parafoil_core import reference_matrices
 
         x = np.zeros(NX6 if self.rigid else NX8)
         if not self.rigid:

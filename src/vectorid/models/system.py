@@ -43,6 +43,7 @@ from typing import Any, ClassVar
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from vectorid.errors import suggest
 from vectorid.models.base import Channel, ChannelResult, Parameter, _validate_time
 from vectorid.models.integrate import (
     STATUS_BAD_PARAMETER,
@@ -350,8 +351,6 @@ class SystemModel(abc.ABC):  # noqa: B024 - either hook (rhs or _simulate) is th
         x0 = np.array([c.default for c in self.states], dtype=float)
         for key, value in dict(initial or {}).items():
             if key not in self.state_names:
-                from vectorid.errors import suggest
-
                 raise ValueError(
                     f"{self.name}: {key!r} is not a state (states: "
                     f"{', '.join(self.state_names)}); {suggest(key, self.state_names)}"
