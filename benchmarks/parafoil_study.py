@@ -44,7 +44,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 def write_study(folder: Path, trials: int) -> Path:
     from vectorid import models
-    from vectorid.demo_parafoil import DEMO_DATA, MODEL_OPTIONS, stage_toml
+    from vectorid.demos.parafoil import DEMO_DATA, MODEL_OPTIONS, stage_toml
 
     data = folder / "data"
     data.mkdir(parents=True, exist_ok=True)

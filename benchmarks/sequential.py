@@ -160,7 +160,7 @@ def parachute_problem(folder: Path, free: int, seed: int = 0) -> Problem:
 def parafoil_problem(folder: Path) -> Problem:
     """The parafoil demo's drop with all 33 gains free and the demo's stated limits."""
     from vectorid import models
-    from vectorid.demo_parafoil import DEMO_DATA, MODEL_OPTIONS, stage_toml
+    from vectorid.demos.parafoil import DEMO_DATA, MODEL_OPTIONS, stage_toml
     from vectorid.identify.noise.resolve import resolve_noise_limits
     from vectorid.spec import load_study
 

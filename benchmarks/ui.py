@@ -508,7 +508,7 @@ def jobs_throughput(folder: Path, trials: int) -> None:
     import subprocess
 
     from vectorid import Study
-    from vectorid.demo import study_toml
+    from vectorid.demos.g12 import study_toml
     from vectorid.spec import load_study
     from vectorid.views.ui import callbacks as cb
     from vectorid.views.ui.data import StoreCache

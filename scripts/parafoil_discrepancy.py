@@ -8,7 +8,7 @@ The identified model (``parafoil8dof`` with the demo's options) does not fly wha
 generator's truth flies: Dryden gusts, a flap actuator lag, the payload joint's pitch
 stiffness, a dropsonde wind with errors. Even at the true gains its criteria therefore exceed
 their noise floors (the values a perfect model reaches under the stated sensor noise alone).
-The allowance that the demo grants (``vectorid.demo_parafoil.DEMO_DISCREPANCY``) is read here
+The allowance that the demo grants (``vectorid.demos.parafoil.DEMO_DISCREPANCY``) is read here
 from twins: the same truth, flight program and sensors as the embedded drop, flown with other
 seeds (other gusts, sonde errors and sensor noise; ``scripts/make_parafoil_demo_data.py``'s
 ``generate(seed)``), never from the embedded drop itself (whose seed is excluded).
@@ -64,7 +64,7 @@ def _generator():
 def twin_needs(seed: int, folder: Path, draws: int) -> dict[str, float]:
     """The allowance each criterion needs on one twin (0 where the truth is inside)."""
     from vectorid import models
-    from vectorid.demo_parafoil import MODEL_OPTIONS, stage_toml
+    from vectorid.demos.parafoil import MODEL_OPTIONS, stage_toml
     from vectorid.identify import Identification
     from vectorid.identify.noise import parse_noise
     from vectorid.identify.noise.floor import noise_floor

@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from vectorid import Study
-from vectorid.demo import study_toml
+from vectorid.demos.g12 import study_toml
 from vectorid.spec import load_study
 
 

@@ -7,7 +7,7 @@ import pytest
 
 from vectorid import Study, StudyDefinitionError, StudySpec
 from vectorid.analysis import Analysis, parse_limit
-from vectorid.demo import study_toml
+from vectorid.demos.g12 import study_toml
 from vectorid.spec import load_study
 from vectorid.store import Trials
 

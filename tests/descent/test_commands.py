@@ -12,8 +12,8 @@ from pathlib import Path
 
 import pytest
 
-from vectorid.cli import _parser
-from vectorid.cli_descent import plan_from_args
+from vectorid.cli.descent import plan_from_args
+from vectorid.cli.main import _parser
 from vectorid.descent import DescentPlan
 
 ROOT = Path(__file__).resolve().parents[2]

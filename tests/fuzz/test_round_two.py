@@ -539,7 +539,7 @@ STEP_CASES = [
 
 @pytest.fixture(scope="module")
 def ident_study(tmp_path_factory) -> Path:
-    from vectorid.demo import _copy_data, identification_toml
+    from vectorid.demos.g12 import _copy_data, identification_toml
 
     out = tmp_path_factory.mktemp("ident")
     truth = _copy_data(out)

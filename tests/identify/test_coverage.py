@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from vectorid import models
-from vectorid.demo import DEMO_DISCREPANCY
+from vectorid.demos.g12 import DEMO_DISCREPANCY
 from vectorid.identify import Identification
 from vectorid.identify.noise.resolve import resolve_noise_limits
 from vectorid.identify.twins import twin_drop, write_twin, write_wind_csv

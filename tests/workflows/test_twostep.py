@@ -158,7 +158,7 @@ def test_two_step_with_control_step_initialises_step2_from_its_box(tmp_path):
 def test_quantile_stand_in_spares_pseudo_criteria_and_names_itself(tmp_path):
     import tomllib
 
-    from vectorid.demo import study_toml
+    from vectorid.demos.g12 import study_toml
     from vectorid.workflows.twostep import auto_limits, run_step
 
     data = tomllib.loads(study_toml("binh-korn", trials=128))

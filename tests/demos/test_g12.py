@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 
 from vectorid.cli import main
-from vectorid.demo import DEMO_DATA, identification_toml
+from vectorid.demos.g12 import DEMO_DATA, identification_toml
 from vectorid.spec import StudySpec
 
 

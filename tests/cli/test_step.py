@@ -9,7 +9,7 @@ import shutil
 import pytest
 
 from vectorid.cli import main
-from vectorid.demo import DEMO_DATA, identification_toml
+from vectorid.demos.g12 import DEMO_DATA, identification_toml
 
 
 @pytest.fixture(scope="module")

@@ -37,9 +37,9 @@ from typing import Any
 
 import numpy as np
 
-from ._version import __version__
-from .errors import StoreError, StoreLockedError, VectoridError
-from .sampler_kinds import sampler_names
+from .._version import __version__
+from ..errors import StoreError, StoreLockedError, VectoridError
+from ..sampler_kinds import sampler_names
 
 __all__ = ["main"]
 
@@ -299,10 +299,10 @@ def _group_verbs(p: argparse.ArgumentParser, sub: Any) -> None:
 #: Modules adding verbs: each has ``add_parsers(subparsers)`` and ``COMMANDS`` (verb -> function
 #: taking the parsed arguments and returning an exit code).
 _EXTENSION_MODULES = (
-    "vectorid.cli_analysis",
-    "vectorid.cli_ui",
-    "vectorid.cli_descent",
-    "vectorid.cli_step",
+    "vectorid.cli.analysis",
+    "vectorid.cli.ui",
+    "vectorid.cli.descent",
+    "vectorid.cli.step",
 )
 
 
@@ -321,7 +321,7 @@ def _extensions() -> list[Any]:
 
 def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
     """Warnings as one line: ``warning: ...`` (``note: ...`` for notes)."""
-    from .errors import VectoridNote, VectoridWarning
+    from ..errors import VectoridNote, VectoridWarning
 
     if issubclass(category, VectoridNote):
         text = f"note: {message}"
@@ -364,7 +364,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 pass
 
     with warnings.catch_warnings():
-        from .errors import VectoridWarning
+        from ..errors import VectoridWarning
 
         warnings.simplefilter("always", VectoridWarning)
         warnings.showwarning = _show_warning
@@ -433,7 +433,7 @@ def _is_store(path: Path) -> bool:
 
 
 def _open_study(path: str, write: bool = False):
-    from .study import Study
+    from ..study import Study
 
     p = Path(path)
     if not p.exists():
@@ -445,13 +445,13 @@ def _open_study(path: str, write: bool = False):
 
 def parse_limits_for(spec: Any, texts: Sequence[str]) -> list[Any]:
     """Parse ``--limit`` options (:func:`vectorid.limits.parse_user_limits`)."""
-    from .limits import parse_user_limits
+    from ..limits import parse_user_limits
 
     return parse_user_limits(spec, texts)
 
 
 def _analysis(args: argparse.Namespace):
-    from .errors import StudyDefinitionError
+    from ..errors import StudyDefinitionError
 
     roles = {}
     for text in args.role:
@@ -471,7 +471,7 @@ def _analysis(args: argparse.Namespace):
 def _sampler_note(args: argparse.Namespace, a: Any) -> str | None:
     """The sampler's line for table/pareto (a sequential store: D's members and ESS), and that
     the counts above are trials (weights change densities, not which trials are in D)."""
-    from .samplers import sampler_for
+    from ..samplers import sampler_for
 
     study = _open_study(args.store)
     try:
@@ -524,10 +524,10 @@ def _print_json(obj: Any) -> None:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
-    from .run.executors import executor_options
-    from .run.loop import RunInterrupted
-    from .spec import load_study
-    from .study import Study, default_store_path
+    from ..run.executors import executor_options
+    from ..run.loop import RunInterrupted
+    from ..spec import load_study
+    from ..study import Study, default_store_path
 
     src = Path(args.study)
     if _is_store(src) or (src.suffix.lower() in (".db", ".sqlite", ".sqlite3") and src.is_file()):
@@ -577,8 +577,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 def _with_sampler(spec: Any, sampler: str) -> Any:
     """The study file's spec with ``--sampler`` (validated as the file's key would be)."""
-    from .sampler_kinds import SAMPLER_OPTIONS, sampler_kind
-    from .spec import StudySpec
+    from ..sampler_kinds import SAMPLER_OPTIONS, sampler_kind
+    from ..spec import StudySpec
 
     data = spec.to_dict()
     data["study"]["sampler"] = sampler
@@ -592,8 +592,8 @@ def _warn_damage(store: Any) -> None:
     """Say before a run which stored batches are damaged (the run leaves them alone)."""
     import warnings
 
-    from .errors import VectoridWarning
-    from .store.records import damage_warning
+    from ..errors import VectoridWarning
+    from ..store.records import damage_warning
 
     damaged = store.check_batches()
     if damaged:
@@ -601,10 +601,10 @@ def _warn_damage(store: Any) -> None:
 
 
 def _cmd_info(args: argparse.Namespace) -> int:
-    from .analysis import Analysis
-    from .run.loop import group_failures
-    from .samplers import sampler_for
-    from .store.inputs import history as input_history
+    from ..analysis import Analysis
+    from ..run.loop import group_failures
+    from ..samplers import sampler_for
+    from ..store.inputs import history as input_history
 
     study = _open_study(args.store)
     with study:
@@ -747,9 +747,9 @@ def stage_kind(stages: Sequence[Any], stage: int) -> str:
 
 
 def _cmd_verify(args: argparse.Namespace) -> int:
-    from .errors import StoreDamagedError
-    from .run.repair import verify_store
-    from .store import Store, VerifyReport
+    from ..errors import StoreDamagedError
+    from ..run.repair import verify_store
+    from ..store import Store, VerifyReport
 
     path = Path(args.store)
     try:
@@ -792,7 +792,7 @@ def _cmd_verify(args: argparse.Namespace) -> int:
 
 
 def _cmd_repair(args: argparse.Namespace) -> int:
-    from .run.repair import repair_store
+    from ..run.repair import repair_store
 
     report = repair_store(
         Path(args.store),
@@ -895,10 +895,10 @@ def _cmd_pareto(args: argparse.Namespace) -> int:
 
 
 def _cmd_export(args: argparse.Namespace) -> int:
-    from .analysis.export import write_analysis
+    from ..analysis.export import write_analysis
 
     if args.format == "parquet" and not args.out:
-        from .errors import StudyDefinitionError
+        from ..errors import StudyDefinitionError
 
         raise StudyDefinitionError("--out", "parquet needs a file", "add --out trials.parquet")
     a = _analysis(args)  # the flags follow --limit/--role, as in table and pareto
@@ -910,13 +910,13 @@ def _cmd_export(args: argparse.Namespace) -> int:
 
 
 def _cmd_init(args: argparse.Namespace) -> int:
-    from . import analytic
-    from .demo import study_toml
-    from .errors import StudyDefinitionError
+    from .. import analytic
+    from ..demos.g12 import study_toml
+    from ..errors import StudyDefinitionError
 
     if args.problem == "own-model":
-        from ._hints import command_name
-        from .own_model import write_own_model
+        from .._hints import command_name
+        from ..own_model import write_own_model
 
         folder = Path(args.out or "own-model")
         files = write_own_model(folder)
@@ -945,17 +945,17 @@ def _cmd_init(args: argparse.Namespace) -> int:
             "--out", f"{out} exists already", "choose another --out or remove it"
         )
     out.write_text(study_toml(args.problem, trials=args.trials or 2048), encoding="utf-8")
-    from ._hints import command_name
+    from .._hints import command_name
 
     print(f"wrote {out}; run it with: {command_name()} run {out}")
     return 0
 
 
 def _cmd_demo(args: argparse.Namespace) -> int:
-    from .demo import run_demo
+    from ..demos.g12 import run_demo
 
     if args.which == "parafoil":
-        from .demo_parafoil import run_parafoil_demo
+        from ..demos.parafoil import run_parafoil_demo
 
         return run_parafoil_demo(
             Path(args.out), trials=args.trials or 4096, progress=not args.quiet,

@@ -27,10 +27,10 @@ from typing import Any
 
 import numpy as np
 
-from ._hints import install_hint
-from .builders import variable_meanings
-from .cli import add_limit_options, parse_limits_for, positive_int
-from .errors import StudyDefinitionError
+from .._hints import install_hint
+from ..builders import variable_meanings
+from ..errors import StudyDefinitionError
+from .main import add_limit_options, parse_limits_for, positive_int
 
 __all__ = ["COMMANDS", "add_parsers"]
 
@@ -38,7 +38,7 @@ __all__ = ["COMMANDS", "add_parsers"]
 
 def _sampler_note(study: Any, a: Any) -> str | None:
     """The study's sampler's line on the sample analysed (None: nothing to say)."""
-    from .samplers import sampler_for
+    from ..samplers import sampler_for
 
     return sampler_for(study.spec).describe(study.store, a.limits, a.trials)
 
@@ -155,7 +155,7 @@ def _roles(args: argparse.Namespace) -> dict[str, str]:
 
 
 def _open(path: str, write: bool = False):
-    from .cli import _open_study
+    from .main import _open_study
 
     return _open_study(path, write=write)
 
@@ -165,7 +165,7 @@ def _analysis(study: Any, args: argparse.Namespace):
 
 
 def _json(obj: Any) -> None:
-    from .cli import _print_json
+    from .main import _print_json
 
     _print_json(obj)
 
@@ -177,7 +177,7 @@ def _fmt(v: float) -> str:
 
 def _figures():
     try:
-        from .views import figures
+        from ..views import figures
     except ImportError as exc:
         raise StudyDefinitionError(
             "--out", f"figures need plotly ({exc})", install_hint("plot")
@@ -193,7 +193,7 @@ def _write_fig(fig: Any, out: str) -> None:
 
 
 def _weighted_words() -> str:
-    from .analysis.weights import WEIGHTED_NOTE
+    from ..analysis.weights import WEIGHTED_NOTE
 
     return WEIGHTED_NOTE
 
@@ -202,7 +202,7 @@ def _weighted_words() -> str:
 
 
 def _cmd_section(args: argparse.Namespace) -> int:
-    from .workflows.extra import run_section
+    from ..workflows.extra import run_section
 
     study = _open(args.store, write=True)
     with study:
@@ -245,8 +245,8 @@ def _parse_bounds(texts: list[str]) -> dict[str, tuple[float, float]]:
 
 
 def _cmd_refine(args: argparse.Namespace) -> int:
-    from .analysis.refine import propose_refine
-    from .workflows.extra import apply_refine
+    from ..analysis.refine import propose_refine
+    from ..workflows.extra import apply_refine
 
     study = _open(args.store, write=args.apply)
     with study:
@@ -295,8 +295,8 @@ def _cmd_refine(args: argparse.Namespace) -> int:
 
 
 def _cmd_robustness(args: argparse.Namespace) -> int:
-    from .analysis.robustness import chosen_table
-    from .workflows.extra import run_robustness
+    from ..analysis.robustness import chosen_table
+    from ..workflows.extra import run_robustness
 
     study = _open(args.store, write=True)
     with study:
@@ -350,7 +350,7 @@ def _cmd_robustness(args: argparse.Namespace) -> int:
 def _cmd_report(args: argparse.Namespace) -> int:
 
     try:
-        from .views.report import write_report
+        from ..views.report import write_report
     except ImportError as exc:
         raise StudyDefinitionError(
             "report", f"the report needs plotly ({exc})", install_hint("plot")
@@ -369,7 +369,7 @@ def _cmd_report(args: argparse.Namespace) -> int:
         a = _analysis(study, args)
         note = _sampler_note(study, a)
     if note:
-        from .analysis.weights import how_weighted
+        from ..analysis.weights import how_weighted
 
         print(f"{note}; the report's densities of D are {how_weighted(a)}")
     print(
@@ -382,7 +382,7 @@ def _cmd_report(args: argparse.Namespace) -> int:
 
 
 def _cmd_correlation(args: argparse.Namespace) -> int:
-    from .analysis.correlation import correlation_of
+    from ..analysis.correlation import correlation_of
 
     study = _open(args.store)
     with study:
@@ -416,7 +416,7 @@ def _cmd_correlation(args: argparse.Namespace) -> int:
 
 
 def _cmd_sensitivity(args: argparse.Namespace) -> int:
-    from .analysis.sensitivity import sensitivity
+    from ..analysis.sensitivity import sensitivity
 
     study = _open(args.store)
     with study:
@@ -452,7 +452,7 @@ def _cmd_sensitivity(args: argparse.Namespace) -> int:
 
 
 def _cmd_hist(args: argparse.Namespace) -> int:
-    from .analysis.histograms import histograms, stage_histograms
+    from ..analysis.histograms import histograms, stage_histograms
 
     study = _open(args.store)
     with study:
@@ -524,8 +524,8 @@ def _cmd_plot(args: argparse.Namespace) -> int:
     elif args.vs_params:
         fig = fg.criterion_vs_parameter_figure(a, args.vs_params, max_points=args.max_points)
     elif args.spread:
-        from .analysis.correlation import parameter_spread
-        from .analysis.robustness import chosen_table
+        from ..analysis.correlation import parameter_spread
+        from ..analysis.robustness import chosen_table
 
         tab = chosen_table(a, args.spread)
         sp = a.spec.space
@@ -545,7 +545,7 @@ def _span(p: tuple[float, float] | None, unit: str = "") -> str:
 
 
 def _cmd_identifiability(args: argparse.Namespace) -> int:
-    from .analysis.identifiability import identifiability, verdicts_json
+    from ..analysis.identifiability import identifiability, verdicts_json
 
     if not (0 < args.identified <= args.weak <= 1):
         raise StudyDefinitionError(

@@ -27,7 +27,7 @@ import math
 import sys
 from typing import Any
 
-from .cli import positive_int
+from .main import positive_int
 
 __all__ = ["COMMANDS", "add_parsers"]
 
@@ -215,7 +215,7 @@ def add_parsers(sub: Any) -> None:
 
 
 def _canopy(args: argparse.Namespace, c: str):
-    from .descent import Canopy, parse_length
+    from ..descent import Canopy, parse_length
 
     cds = getattr(args, f"{c}_cds")
     diam = getattr(args, f"{c}_diameter")
@@ -225,7 +225,7 @@ def _canopy(args: argparse.Namespace, c: str):
         return None
     d = None if diam is None else parse_length(diam, f"--{c}-diameter")
     if cd is not None and d is None:
-        from .errors import StudyDefinitionError
+        from ..errors import StudyDefinitionError
 
         raise StudyDefinitionError(
             f"--{c}-cd", "a drag coefficient needs the canopy's diameter", f"add --{c}-diameter"
@@ -234,7 +234,7 @@ def _canopy(args: argparse.Namespace, c: str):
 
 
 def _columns(args: argparse.Namespace) -> dict[str, str] | None:
-    from .errors import StudyDefinitionError
+    from ..errors import StudyDefinitionError
 
     if args.columns is None:
         return None
@@ -258,7 +258,7 @@ def _columns(args: argparse.Namespace) -> dict[str, str] | None:
 
 
 def _noise(text: str) -> float | str:
-    from .errors import StudyDefinitionError
+    from ..errors import StudyDefinitionError
 
     if text.strip() == "estimate":
         return "estimate"
@@ -275,7 +275,7 @@ def _noise(text: str) -> float | str:
 
 def plan_from_args(args: argparse.Namespace):
     """The :class:`~vectorid.descent.DescentPlan` of a parsed ``vectorid descent`` command."""
-    from .descent import DescentPlan
+    from ..descent import DescentPlan
 
     windows = {}
     for c in ("drogue", "main"):
@@ -325,9 +325,9 @@ def plan_from_args(args: argparse.Namespace):
 
 
 def _cmd_descent(args: argparse.Namespace) -> int:
-    from .cli import _print_json
-    from .descent import identify_descent
-    from .errors import StudyDefinitionError, VectoridError
+    from ..descent import identify_descent
+    from ..errors import StudyDefinitionError, VectoridError
+    from .main import _print_json
 
     plan = plan_from_args(args)
     try:

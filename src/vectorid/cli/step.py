@@ -20,7 +20,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from .cli import positive_int
+from .main import positive_int
 
 __all__ = ["COMMANDS", "add_parsers"]
 
@@ -43,10 +43,10 @@ def _cmd_step(args: argparse.Namespace) -> int:
     import numpy as np
     from scipy.stats import qmc
 
-    from .errors import StudyDefinitionError
-    from .identify.identification import Identification
-    from .models.steps import DEFAULT_CANDIDATES, choose_step
-    from .spec import load_study
+    from ..errors import StudyDefinitionError
+    from ..identify.identification import Identification
+    from ..models.steps import DEFAULT_CANDIDATES, choose_step
+    from ..spec import load_study
 
     if not (args.tolerance > 0):
         raise StudyDefinitionError(

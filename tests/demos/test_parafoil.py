@@ -13,11 +13,11 @@ import pytest
 
 from vectorid.analysis.identifiability import ParameterVerdict
 from vectorid.cli import main
-from vectorid.demo_parafoil import DEMO_DATA, DEMO_DISCREPANCY, stage_toml
+from vectorid.demos.parafoil import DEMO_DATA, DEMO_DISCREPANCY, stage_toml
 from vectorid.spec import load_study
 from vectorid.workflows.stages import print_verdicts
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def _generator():

@@ -21,8 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
-from . import analytic
-from ._toml import toml_value
+from .. import analytic
+from .._toml import toml_value
 
 __all__ = ["DEMO_PROBLEM", "run_analytic_demo", "run_demo", "study_toml"]
 
@@ -86,9 +86,9 @@ def run_analytic_demo(out: Path, *, trials: int = 2048, progress: bool = True) -
 
     Returns an exit code. This was the demo before the identification demo; it stays
     reachable as ``vectorid demo --analytic``."""
-    from .analysis import Analysis
-    from .spec import load_study
-    from .study import Study
+    from ..analysis import Analysis
+    from ..spec import load_study
+    from ..study import Study
 
     out.mkdir(parents=True, exist_ok=True)
     study_file = out / f"{DEMO_PROBLEM}.toml"
@@ -142,7 +142,7 @@ def run_analytic_demo(out: Path, *, trials: int = 2048, progress: bool = True) -
         )
         print(f"  parameter-space residual: mean {resid.mean():.3f}, max {resid.max():.3f}")
     print()
-    from ._hints import command_name
+    from .._hints import command_name
 
     cmd = command_name()
     print(f"Next: {cmd} table {store} --limit 'f1<=40'   |   {cmd} pareto {store} --json")
@@ -189,7 +189,7 @@ def run_demo(
 
 # -- the identification demo ---------------------------------------------------------------------
 
-DEMO_DATA = Path(__file__).resolve().parent / "data" / "demo"
+DEMO_DATA = Path(__file__).resolve().parents[1] / "data" / "demo"
 #: The design variables of each step: name, low, high (seed 001 Table 3 domains, x6 widened
 #: as the seed's double tuning did; x15 enters in step 2).
 STEP1_VARIABLES = (("x6", 0.2, 1.0), ("x8", 0.75, 1.5), ("x11", 0.06, 0.13))
@@ -276,8 +276,8 @@ def identification_toml(step: int, *, trials: int, truth: dict, seed: int = 1) -
     Criteria constraints: the noise floor of each criterion (``limits = "noise"``) under the
     sensor noise the generator states (``truth["sensor_noise"]``) plus
     :data:`DEMO_DISCREPANCY`."""
-    from .identify.criteria import get_criterion
-    from .models import get as get_model
+    from ..identify.criteria import get_criterion
+    from ..models import get as get_model
 
     kind = "uncontrolled" if step == 1 else "controlled"
     variables = STEP1_VARIABLES if step == 1 else STEP2_VARIABLES
@@ -363,7 +363,7 @@ def _unit(u: str) -> str:
 
 def _print_limits(r, indent: str = "  ") -> None:
     """Criteria constraints with unit, meaning and source."""
-    from .identify.criteria import get_criterion
+    from ..identify.criteria import get_criterion
 
     print(f"{indent}criteria constraints Φ** (pure criteria enter the Pareto set):")
     for c in r.analysis.criteria:
@@ -379,7 +379,7 @@ def _print_limits(r, indent: str = "  ") -> None:
 
 def _truth_in_d(r, ident, true: dict) -> tuple[bool, str]:
     """Whether the generator's truth meets every criteria constraint, and in words."""
-    from .workflows.truth import check_truth
+    from ..workflows.truth import check_truth
 
     crit = [c.name for c in r.analysis.criteria]
     check = check_truth(ident.evaluate, true, r.spec.space.names, crit, r.limits)
@@ -394,7 +394,7 @@ def _truth_in_d(r, ident, true: dict) -> tuple[bool, str]:
 
 
 def _print_step(r, spec, true: dict, nominal: dict, report: bool) -> None:
-    from .identify import Identification
+    from ..identify import Identification
 
     a = r.analysis
     print()
@@ -448,8 +448,8 @@ def _print_step(r, spec, true: dict, nominal: dict, report: bool) -> None:
             print(f"    {label:<8} horizontal {h:7.2f}   vertical {vv:7.2f}")
     if report:
         try:
-            from .store import Store
-            from .views.report import write_report
+            from ..store import Store
+            from ..views.report import write_report
 
             with Store.open(r.store) as st:
                 rep = write_report(
@@ -520,9 +520,9 @@ def run_identification_demo(
     report: bool = True,
 ) -> int:
     """The two-step identification demo (see the module docstring). Returns an exit code."""
-    from .identify import Identification
-    from .spec import load_study
-    from .workflows.twostep import control_contribution, run_two_step
+    from ..identify import Identification
+    from ..spec import load_study
+    from ..workflows.twostep import control_contribution, run_two_step
 
     t_start = time.perf_counter()
     out = Path(out)
@@ -556,7 +556,7 @@ def run_identification_demo(
         + " for what the model does not fly"
     )
     sys.stdout.flush()
-    from .models import get as get_model
+    from ..models import get as get_model
 
     get_model("parachute6dof").compile()  # says so if it compiles: not inside a progress bar
     res = run_two_step(
@@ -601,7 +601,7 @@ def run_identification_demo(
     print(f"Done in {time.perf_counter() - t_start:.1f} s. Next:")
     print("  (the criteria constraints above are saved in each store with their sources;")
     print("   tighten or loosen them with --limit, and keep them with --save)")
-    from ._hints import command_name
+    from .._hints import command_name
 
     cmd = command_name()
     print(f"  {cmd} identifiability {res.step2.store}")

@@ -12,7 +12,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from .cli import positive_int
+from .main import positive_int
 
 __all__ = ["COMMANDS", "add_parsers"]
 
@@ -52,7 +52,7 @@ def add_parsers(sub: Any) -> None:
 
 
 def _cmd_ui(args: argparse.Namespace) -> int:
-    from .errors import StoreError
+    from ..errors import StoreError
 
     path = Path(args.store)
     if not path.is_file():
@@ -61,8 +61,8 @@ def _cmd_ui(args: argparse.Namespace) -> int:
         )
     import importlib.util
 
-    from ._hints import install_hint
-    from .errors import StudyDefinitionError
+    from .._hints import install_hint
+    from ..errors import StudyDefinitionError
 
     missing = [m for m in ("dash", "plotly") if importlib.util.find_spec(m) is None]
     if missing:
@@ -71,7 +71,7 @@ def _cmd_ui(args: argparse.Namespace) -> int:
             f"the browser UI needs {' and '.join(missing)}, which is not installed",
             install_hint("ui"),
         )
-    from .views.ui import serve
+    from ..views.ui import serve
 
     try:
         serve(

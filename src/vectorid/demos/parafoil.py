@@ -65,18 +65,18 @@ from typing import Any
 
 import numpy as np
 
-from ._toml import toml_value
-from .analysis.identifiability import VERDICTS
-from .analysis.relaxation import MIN_D
-from .analysis.sections import sections_through
-from .identify.spectral import rate_peaks
-from .workflows.reduction import propose_reduction
-from .workflows.stages import IdentificationStage, print_stage_limits, print_verdicts, run_stage
-from .workflows.truth import check_truth
+from .._toml import toml_value
+from ..analysis.identifiability import VERDICTS
+from ..analysis.relaxation import MIN_D
+from ..analysis.sections import sections_through
+from ..identify.spectral import rate_peaks
+from ..workflows.reduction import propose_reduction
+from ..workflows.stages import IdentificationStage, print_stage_limits, print_verdicts, run_stage
+from ..workflows.truth import check_truth
 
 __all__ = ["DEMO_DATA", "DEMO_DISCREPANCY", "run_parafoil_demo", "stage_toml"]
 
-DEMO_DATA = Path(__file__).resolve().parent / "data" / "demo_parafoil"
+DEMO_DATA = Path(__file__).resolve().parents[1] / "data" / "demo_parafoil"
 
 #: Stage 1 (the seed's sets 1-5): a few gains with the widest boxes of the seed, [0.2, 2].
 STAGE1 = ("delcon", "CLalpha", "CD0", "Rig", "CnDanom", "Cnr")
@@ -211,7 +211,7 @@ def stage_toml(
     ``limits_from`` (criterion -> (limit, note)) writes noise-floor limits computed for an
     earlier stage on the same data, noise, criteria and allowance, instead of computing them
     again (the file states them with their source and note)."""
-    from .models import get as get_model
+    from ..models import get as get_model
 
     params = {p.name: p for p in get_model(model).parameters}
     meanings = gain_meanings()
@@ -288,7 +288,7 @@ def stage_toml(
 def gain_unit(name: str) -> str:
     """The unit of a gain as a design variable: "-" for a multiplicative gain (the coefficient
     is its reference value times the gain), the coefficient's unit for an additive one."""
-    from .models.parafoil_aero import GAINS
+    from ..models.parafoil_aero import GAINS
 
     for g in GAINS:
         if g.name == name:
@@ -298,7 +298,7 @@ def gain_unit(name: str) -> str:
 
 def gain_meanings() -> dict[str, str]:
     """What each gain scales, for people (``delcon`` -> "control scale: ...")."""
-    from .models.parafoil_aero import GAINS
+    from ..models.parafoil_aero import GAINS
 
     out = {}
     for g in GAINS:
@@ -386,7 +386,7 @@ def _legend(model) -> None:
 
 def model_unit(name: str) -> str:
     """The unit of a gain's coefficient (Set 0 column of Fig. 12)."""
-    from .models.parafoil_aero import GAINS
+    from ..models.parafoil_aero import GAINS
 
     for g in GAINS:
         if g.name == name:
@@ -405,7 +405,7 @@ def _criteria_legend() -> None:
 
 
 def _noise_text(noise: Mapping[str, Any]) -> str:
-    from .identify.noise import NOISE_KEYS
+    from ..identify.noise import NOISE_KEYS
 
     parts = []
     for key, v in noise.items():
@@ -453,8 +453,8 @@ def _report(r, report: bool) -> None:
     if not report:
         return
     try:
-        from .store import Store
-        from .views.report import write_report
+        from ..store import Store
+        from ..views.report import write_report
 
         with Store.open(r.store) as st:
             rep = write_report(
@@ -635,9 +635,9 @@ def run_parafoil_demo(
     int
         Exit code.
     """
-    from . import models
-    from .identify import Identification
-    from .spec import load_study
+    from .. import models
+    from ..identify import Identification
+    from ..spec import load_study
 
     t_start = time.perf_counter()
     out = Path(out)

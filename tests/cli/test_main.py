@@ -255,7 +255,7 @@ def test_save_limits_persists_and_reruns_keep_working(ran, user_study, capsys):
 
 
 def test_help_lists_every_verb_once_grouped_by_workflow(capsys):
-    from vectorid.cli import VERB_GROUPS, _parser
+    from vectorid.cli.main import VERB_GROUPS, _parser
 
     with pytest.raises(SystemExit) as info:
         main(["--help"])
