@@ -70,7 +70,9 @@ def test_two_loggers_of_one_flight_give_one_verdict(tmp_path):
     b = _prometheus(half, tmp_path / "b")
     for name in ("drogue", "main"):
         pa, pb = a.phase(name), b.phase(name)
-        assert abs(pb.compared_cds / pa.compared_cds - 1) < 0.01, name
+        # one flight: the feasible ranges agree (their middles within 1 %), and so do the verdicts
+        mid_a, mid_b = sum(pa.cds_feasible) / 2, sum(pb.cds_feasible) / 2
+        assert abs(mid_b / mid_a - 1) < 0.01, name
         assert pa.stated_position == pb.stated_position, (name, pa.summary, pb.summary)
     # the drogue's stated 0.467 m² lies within the corrected range's edge band of both
     da, db = a.phase("drogue"), b.phase("drogue")

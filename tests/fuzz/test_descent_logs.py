@@ -271,27 +271,27 @@ def test_inputs_that_leave_nothing_or_cannot_be_flown(tmp_path, case, opts, matc
 
 
 def _big_log(path: Path, size: float = 200e6) -> int:
-    """Genesis' flight as a 1-kHz logger with an IMU would write it: half an hour on the pad,
-    then the flight, ten columns (the altitude resampled, with 0.3 m of noise), until the file
-    holds ``size`` bytes. Returns its rows."""
+    """Genesis' flight as a 1-kHz logger with an IMU would write it: on the pad (for most of
+    an hour), then the flight, ten columns (the altitude resampled, with 0.3 m of noise), about
+    ``size`` bytes. Returns its rows."""
     d = np.loadtxt(GENESIS, delimiter=",", skiprows=1)
     ts, h, a = d[:, 0], d[:, 1], d[:, 2]
     rng = np.random.default_rng(1)
-    pad = 1800.0
-    while True:
-        tt = np.arange(-pad, ts[-1], 1e-3)
-        if tt.size * 100 >= size:  # about 100 bytes a row
-            break
-        pad *= 1.2
+    fmt = ["%.3f", "%.3f", "%.4f", "%.2f"] + ["%.4f"] * 6
+
+    def block(t):
+        hh = np.interp(t, ts, h) + rng.normal(0, 0.3, t.size)
+        p = 101325 * (1 - 2.25577e-5 * (hh + 160)) ** 5.25588
+        return np.column_stack([t, hh, np.interp(t, ts, a), p, *rng.normal(0, 1, (6, t.size))])
+
+    probe = io.StringIO()  # the bytes of a row on the pad, where most of them are
+    np.savetxt(probe, block(np.arange(-1000.0, -999.0, 1e-3)), delimiter=",", fmt=fmt)
+    per_row = len(probe.getvalue()) / 1000
+    tt = np.arange(ts[-1] - size / per_row * 1e-3, ts[-1], 1e-3)
     with path.open("w") as fh:
         fh.write("time (s),altitude (m),acc (m/s2),pressure (Pa),ax,ay,az,gx,gy,gz\n")
         for i in range(0, tt.size, 200_000):
-            t = tt[i : i + 200_000]
-            hh = np.interp(t, ts, h) + rng.normal(0, 0.3, t.size)
-            p = 101325 * (1 - 2.25577e-5 * (hh + 160)) ** 5.25588
-            cols = [t, hh, np.interp(t, ts, a), p, *rng.normal(0, 1, (6, t.size))]
-            np.savetxt(fh, np.column_stack(cols), delimiter=",",
-                       fmt=["%.3f", "%.3f", "%.4f", "%.2f"] + ["%.4f"] * 6)  # fmt: skip
+            np.savetxt(fh, block(tt[i : i + 200_000]), delimiter=",", fmt=fmt)
     return int(tt.size)
 
 
