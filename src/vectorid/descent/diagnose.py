@@ -88,9 +88,14 @@ def _columns(path: Path, mapping: Mapping[str, Any]) -> tuple[list[str], np.ndar
         names = lay.names if lay is not None else _header(path)
         first = int(mapping.get("first_line") or 0)
         last = int(mapping.get("last_line") or 0) or None
+        # every k-th row of a big file: k from its size over the first rows' length
+        with path.open("rb") as fh:
+            head = fh.read(65536)
+        per_row = max(len(head) / max(head.count(b"\n"), 1), 1.0)
+        k = max(1, int(path.stat().st_size / per_row / _MAX_ROWS))
         rows: list[list[float]] = []
-        for lineno, row in _data_rows(path, lay):
-            if lineno < first or (last is not None and lineno > last):
+        for n, (lineno, row) in enumerate(_data_rows(path, lay)):
+            if n % k or lineno < first or (last is not None and lineno > last):
                 continue
             vals = []
             for c in row[: len(names)]:
@@ -105,7 +110,7 @@ def _columns(path: Path, mapping: Mapping[str, Any]) -> tuple[list[str], np.ndar
     if not rows:
         return None
     arr = np.asarray(rows, dtype=float)
-    return names, arr[:: max(1, arr.shape[0] // _MAX_ROWS)]
+    return names, arr[:: max(1, arr.shape[0] // _MAX_ROWS)]  # (where the estimate was short)
 
 
 def _descends_like(t, y, mass: float, origin: float) -> tuple[float, float, float, float] | None:
@@ -146,14 +151,15 @@ def altitude_candidates(
     mass: float,
     origin: float,
     totals: list[float],
+    table: tuple[list[str], np.ndarray] | None = None,
 ) -> list[Candidate]:
     """The log's other columns that come down like the stated rocket's altitude, closest
-    first (see the module docstring)."""
+    first (see the module docstring). ``table``: the file's columns as read already."""
     from vectorid.descent.formats import column_unit
 
     if read.time is None or read.time_unit not in _TIME_FACTORS or not totals:
         return []
-    got = _columns(Path(path), mapping)
+    got = _columns(Path(path), mapping) if table is None else table
     if got is None:
         return []
     names, arr = got
@@ -217,8 +223,13 @@ def suggest_altitude(
     that comes down as it would, and the option that reads it ('' if none)."""
     if mapping is None:
         return ""
+    if read.time is None or read.time_unit not in _TIME_FACTORS or not totals:
+        return ""
     try:
-        cands = altitude_candidates(path, mapping, read, mass=mass, origin=origin, totals=totals)
+        got = _columns(Path(path), mapping)
+        cands = altitude_candidates(
+            path, mapping, read, mass=mass, origin=origin, totals=totals, table=got
+        )
     except (ValueError, OSError):  # a diagnosis never hides the error it explains
         return ""
     if not cands:
@@ -229,7 +240,6 @@ def suggest_altitude(
         f"{c.unit}: from {c.apogee_m:.0f} m at {c.apogee_s:.1f} s at {c.rate:.1f} m/s, a drag "
         f"area of {c.cds:.3g} m²)"
     )
-    got = _columns(Path(path), mapping)
     if got is not None and read.time in got[0]:
         names, arr = got
         t = arr[:, names.index(read.time)] * _TIME_FACTORS[str(read.time_unit)]
