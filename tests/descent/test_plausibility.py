@@ -285,3 +285,27 @@ def test_a_file_that_is_not_utf8_text_names_its_encoding(tmp_path, capsys, encod
     log.write_bytes(encode(_need(BELLA).read_text()))
     line = _error(*_run([log, *BELLA_STATED], capsys, tmp_path / "o")[::2])
     assert re.search(says, line), line
+
+
+# -- a big log is read once ----------------------------------------------------------------------
+
+
+def test_a_big_log_is_read_once_with_the_same_answer(tmp_path, capsys, monkeypatch):
+    """Above BIG_LOG samples, the phases' stores read the altitude as read (from a two-column
+    file beside them) instead of the whole log again: the same data, so the same answer."""
+    import vectorid.descent.study as study
+
+    log = _need(BELLA)
+    code, out, err = _run([log, *BELLA_STATED, "--json"], capsys, tmp_path / "a")
+    assert code == 0, err
+    whole = json.loads(out)
+    monkeypatch.setattr(study, "BIG_LOG", 100)  # Bella Lui's 768 samples count as big
+    code, out, err = _run([log, *BELLA_STATED, "--json"], capsys, tmp_path / "b")
+    assert code == 0, err
+    once = json.loads(out)
+    assert any("read once" in n for n in once["notes"])
+    assert (tmp_path / "b" / "bella_lui_flight_data_filtered-altitude.csv").exists()
+    a, b = whole["phases"][0], once["phases"][0]
+    for key in ("cds_feasible", "box", "noise_sigma_m", "window_s"):
+        assert b[key] == pytest.approx(a[key], rel=1e-12), key
+    assert b["best_fit"]["cds"] == pytest.approx(a["best_fit"]["cds"], rel=1e-12)

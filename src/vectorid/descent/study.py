@@ -52,7 +52,7 @@ from vectorid.descent.phases import _main_trigger, _pad_msl, _Phase, _resolve
 from vectorid.descent.plan import DescentPlan, _err
 from vectorid.descent.result import DescentResult, PhaseResult
 from vectorid.descent.sensors import _height_ratio_se
-from vectorid.descent.step import _run_phase
+from vectorid.descent.step import _run_phase, _safe
 from vectorid.descent.verdicts import verdict
 
 __all__ = ["BIG_LOG", "identify_descent"]
@@ -337,7 +337,7 @@ def _identify(plan: DescentPlan, out: str | Path, progress) -> DescentResult:
             if note:
                 notes.append(note)
 
-    _check_selection(plan, phases, skipped, t, start, tail, apogee, td is not None)
+    _check_selection(plan, phases, t, start, tail, apogee, td is not None)
     for ph in phases:
         lo, hi = float(t[0]), float(t[-1])
         if ph.t0 < lo or ph.t1 > hi:
@@ -417,7 +417,7 @@ def _compact_log(plan, name, t, h, phases, events, out: Path):
     times = [ph.t0 for ph in phases] + [ph.t1 for ph in phases] + list(events.values())
     lo, hi = min(times) - 30.0, max(times) + 30.0
     keep = (t >= lo) & (t <= hi)
-    file = (out / f"{_safe_name(name)}-altitude.csv").resolve()
+    file = (out / f"{_safe(name)}-altitude.csv").resolve()
     with file.open("w", encoding="utf-8") as fh:
         fh.write("time (s),altitude (m)\n")
         np.savetxt(fh, np.column_stack([t[keep], h[keep]]), fmt="%.17g", delimiter=",")
@@ -435,12 +435,6 @@ def _compact_log(plan, name, t, h, phases, events, out: Path):
     return replace(plan, format="csv", mapping=mapping), file, note
 
 
-def _safe_name(name: str) -> str:
-    import re
-
-    return re.sub(r"[^A-Za-z0-9_.-]+", "_", name) or "descent"
-
-
 def _rate_of(ph: _Phase, t, h, plan: DescentPlan, origin: float, name: str = ""):
     """``(name, t0, t1, mean descent rate m/s, drag area m² it implies)`` of a phase's window
     (for :func:`~vectorid.descent.checks.check_drag_magnitude`)."""
@@ -456,7 +450,7 @@ def _rate_of(ph: _Phase, t, h, plan: DescentPlan, origin: float, name: str = "")
     return said, ph.t0, ph.t1, rate, _cds_estimate(rate, mid, plan.mass, origin)
 
 
-def _check_selection(plan, phases, skipped, t, start, tail, apogee, landed) -> None:
+def _check_selection(plan, phases, t, start, tail, apogee, landed) -> None:
     """Stop on a selection that leaves nothing: a start at or after the end of the descent, a
     window given by hand that is empty or outside the data."""
     end = "1 s before the touchdown read from the data" if landed else "1 s before the log ends"
