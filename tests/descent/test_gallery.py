@@ -65,14 +65,27 @@ def test_every_phase_agrees_or_says_why_not(results, name):
         assert p.verdict and p.summary
         if p.status != "identified":
             assert p.cds is None  # no single value where the data give none
-        if p.identifiability is not None:  # the verdict is the shared identifiability's
+        if p.drag_along is not None and p.drag_along["varies"]:
+            # no single value: never "identified", in the JSON as in the text
+            assert p.status == "varies" and p.cds is None
+            assert p.to_dict()["status"] == "varies"
+        elif p.identifiability is not None:  # the verdict is the shared identifiability's
             assert p.identifiability["verdict"] == p.status
+        if p.identifiability is not None:
             assert {c["limit_source"] for c in p.limits.criteria} == {"noise"}
         if p.summary.startswith("agrees"):
             # "agrees" only when the stated value lies inside the printed range
             assert p.status == "identified" and _agrees_within_15(p) and _stated_inside(p)
+            assert p.stated_position == "inside"
             lo, hi = p.cds_feasible
             assert lo <= p.cds <= hi
+        elif "at the edge" in p.summary:
+            # within the edge's band, on either side: neither "agrees" nor "excluded"
+            assert p.stated_position == "edge"
+            k = p.height_ratio or 1.0
+            lo, hi = (v / k for v in p.cds_feasible)
+            band = max(p.edge_band) / k + 2 * (p.height_ratio_se or 0.0) * hi / k
+            assert lo - band <= p.stated_cds <= hi + band
         else:
             assert any(
                 key in p.verdict
@@ -85,6 +98,7 @@ def test_every_phase_agrees_or_says_why_not(results, name):
                     "bound the drag area only",
                     "do not exclude the stated",
                     "the data exclude the stated value",
+                    "at the edge of the feasible range",
                     "drag area changes along the descent",
                 )
             ), p.verdict

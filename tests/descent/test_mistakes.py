@@ -309,3 +309,28 @@ def test_columns_from_the_header_or_a_clear_error(tmp_path):
     lf = detect_format(log, columns={"time": "t(s)", "time_unit": "s", "altitude": "alt(m)"})
     assert lf.mapping["altitude"]["unit"] == "m" and lf.mapping["time_unit"] == "s"
     assert math.isfinite(len(lf.notes))
+
+
+def test_format_only_overrules_what_the_content_says(tmp_path, capsys):
+    """``--format altusmetrum`` on a file that is not one is an error, not a guess."""
+    log = _descent_csv(tmp_path / "d.csv")
+    code, err = _cli([log, "--mass", 20.8, "--drogue-cds", 0.44, "--pad-altitude", 200,
+                      "--format", "telemega", "--out", tmp_path / "o"], capsys)  # fmt: skip
+    line = _one_line_error(code, err)
+    assert "is not an AltusMetrum CSV" in line and "leave --format out" in line
+
+
+def test_the_settling_time_moves_the_window_start(tmp_path, capsys):
+    """The drogue phase starts --drogue-settle s after the start (default 5 s)."""
+    import json
+
+    log = _need(RP / "EPFL_Bella_Lui" / "bella_lui_flight_data_filtered.csv")
+    starts = []
+    for settle in ("5", "8"):
+        code = main(["descent", str(log), "--mass", "18.227", "--drogue-cds", "0.7854",
+                     "--pad-altitude", "407", "--drogue-settle", settle, "--trials", "16",
+                     "--json", "--out", str(tmp_path / settle)])  # fmt: skip
+        out = capsys.readouterr().out
+        assert code == 0
+        starts.append(json.loads(out)["phases"][0]["window_s"][0])
+    assert starts[1] - starts[0] == pytest.approx(3.0)

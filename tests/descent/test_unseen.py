@@ -105,10 +105,10 @@ def _plan(path: Path, opts: list[str]) -> DescentPlan:
 def test_an_unseen_log_is_read_as_the_clean_one(variants, name):
     t, h, _ = _bella()
     path, opts, rows = variants[name]
-    _, flight, _, _, notes = _load(_plan(path, opts))
+    _, flight, _, _, notes, _ = _load(_plan(path, opts))
     a = flight["altitude"]
     # the clean log's samples (the loader leaves out its corrupt pad sample alike)
-    _, clean, _, _, _ = _load(_plan(BELLA, []))
+    _, clean, _, _, _, _ = _load(_plan(BELLA, []))
     c = clean["altitude"]
     sel = np.isin(np.round(c.t, 2), np.round(t[rows], 2))
     ct, ch = c.t[sel], c.values[sel, 0]
@@ -169,7 +169,7 @@ def test_an_altitude_above_sea_level_is_not_taken_for_one_above_the_pad(tmp_path
     assert code == 2 and len(lines) == 1 and "--altitude-reference msl" in lines[0], err
     assert "Traceback" not in err
     # said so, it is the clean log's descent (the same drag areas)
-    _, flight, _, _, _ = _load(_plan(path, []))
-    _, clean, _, _, _ = _load(_plan(BELLA, []))
+    _, flight, _, _, _, _ = _load(_plan(path, []))
+    _, clean, _, _, _, _ = _load(_plan(BELLA, []))
     np.testing.assert_allclose(flight["altitude"].values[:, 0] - 407.0,
                                clean["altitude"].values[:, 0], atol=1e-6)  # fmt: skip

@@ -27,6 +27,8 @@ from vectorid.cli import main
 
 #: kind -> Counter(outcome)
 TALLY: dict[str, collections.Counter] = collections.defaultdict(collections.Counter)
+#: Lines printed under the table (measurements of a case: time, memory).
+NOTES: list[str] = []
 
 
 @dataclass

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from ._harness import TALLY
+from ._harness import NOTES, TALLY
 
 
 def pytest_terminal_summary(terminalreporter) -> None:  # pragma: no cover - reporting
@@ -23,6 +23,8 @@ def pytest_terminal_summary(terminalreporter) -> None:  # pragma: no cover - rep
         f"{'all':<16}{total['cases']:>7}{total['clear']:>8}{total['traceback']:>12}"
         f"{total['silent']:>8}"
     )
+    for line in NOTES:
+        tr.write_line(line)
 
 
 import os  # noqa: E402

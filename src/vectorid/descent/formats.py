@@ -370,8 +370,18 @@ def detect_format(
             )  # fmt: skip
         return LogFormat(fmt, None, [])
     notes: list[str] = []
+    if fmt == "csv":
+        from vectorid.identify.loaders.common import text_encoding_problem
+
+        why = text_encoding_problem(p)
+        if why is not None:
+            raise _err("file", why)
     lay = _layout(p) if fmt == "csv" else None
     names = _header(p) if fmt == "csv" else []
+    if fmt == "csv":
+        for key, col in (columns or {}).items():
+            if key in ("time", "altitude", "event") and col not in names:
+                raise _err("--columns", *_no_such_column(p.name, key, col, names))
     if lay is not None:
         if lay.line > lay.first:
             extra.setdefault("header_line", lay.line)
@@ -495,6 +505,28 @@ def detect_format(
     return LogFormat(fmt, mapping, notes, named.name if documented else None)
 
 
+def _no_such_column(file: str, key: str, col: str, names: list[str]) -> tuple[str, str]:
+    """(problem, fix) for a column given with --columns that the header does not have."""
+    import difflib
+
+    near = difflib.get_close_matches(col, names, n=3, cutoff=0.3)
+    lower = {n.lower(): n for n in names}
+    if col.lower() in lower and lower[col.lower()] not in near:
+        near.insert(0, lower[col.lower()])
+    pat = {"time": _TIME_NAME, "altitude": _ALT_NAME}.get(key)
+    like = [n for n in names if pat is not None and pat.search(_split_name(n)[0])]
+    if near:
+        said = f"the nearest: {', '.join(map(repr, near))}; "
+    elif like:
+        said = f"the {key}-like ones: {', '.join(map(repr, like))}; "
+    else:
+        said = ""
+    return (
+        f"{file} has no column {col!r} (given as {key}={col})",
+        f"{said}its columns: {', '.join(map(repr, names))}",
+    )
+
+
 def _iso_times(path: Path, col: str) -> bool:
     """Whether the column ``col`` holds ISO 8601 dates (its first five values parse as such)."""
     import numpy as np
@@ -578,6 +610,7 @@ def _flight_part(
     import numpy as np
 
     t = np.asarray(times)
+    _check_step(path.name, time_col, time_unit, t)
     out: dict[str, Any] = {}
     lo, hi = 0, t.size - 1
     back = np.flatnonzero(np.diff(t) < 0)
@@ -620,6 +653,47 @@ def _flight_part(
                 "the limit)"
             )
     return out
+
+
+#: Median sample steps no flight log has, s: slower than one sample a minute, faster than
+#: 100 kHz (the loaders refuse these too, in the words of a mapping).
+_STEP_RANGE = (1e-5, 50.0)
+
+
+def _check_step(file: str, col: str, unit: str, t) -> None:
+    """Stop on a time column whose median sample step, read in ``unit``, no flight log has,
+    naming the column, where its unit came from, and the unit that gives a logger's step."""
+    import numpy as np
+
+    d = np.diff(t)
+    d = d[d > 0]
+    if d.size < 2:
+        return
+    step = float(np.median(d))
+    if _STEP_RANGE[0] <= step <= _STEP_RANGE[1]:
+        return
+    factors = {"ns": 1e-9, "us": 1e-6, "ms": 1e-3, "s": 1.0, "min": 60.0}
+    f0 = factors[unit]
+    fits = [u for u, f in factors.items() if 1e-4 <= step * f / f0 <= 2.0]
+    stated = column_unit(col, "time") is not None
+    how = "from its name" if stated else "as --time-unit says"
+    span = float(t[-1] - t[0])
+    said = (
+        f"the time column {col!r} of {file}, read in {unit} ({how}), has a sample every "
+        f"{step:.3g} s and spans {span:.4g} s: no flight log is sampled so "
+        f"{'slowly' if step > _STEP_RANGE[1] else 'fast'}"
+    )
+    if fits:
+        u = fits[-1] if step > _STEP_RANGE[1] else fits[0]  # the nearest to the unit read
+        fix = f"the times look like {u} (a sample every {step * factors[u] / f0:.3g} s): " + (
+            f"correct the unit in the column's name ({col!r} says {unit}), or choose another "
+            "time column with --columns"
+            if stated
+            else f"give --time-unit {u}"
+        )
+    else:
+        fix = "check the time column and its unit (--columns, --time-unit)"
+    raise _err("time unit", said, fix)
 
 
 def _same_altitude(path: Path, cand: list[str]) -> str | None:

@@ -61,7 +61,8 @@ def _cds_estimate(rate: float, h_mid: float, mass: float, origin: float) -> floa
     from vectorid.models.atmosphere import ISA
 
     isa = ISA()
-    rho = float(isa.density(origin + h_mid))
+    # clipped to ISA's range: a log read in a wrong unit can put the rocket in space
+    rho = float(isa.density(min(max(origin + h_mid, -4999.0), 70999.0)))
     return 2 * mass * G0 / (rho * max(rate, 0.5) ** 2)
 
 

@@ -48,6 +48,9 @@ class PhaseResult:
     effective_cds: tuple[float, float] | None = None
     rate_change: dict[str, float] | None = None
     height_ratio: float | None = None
+    height_ratio_se: float | None = None
+    edge_band: tuple[float, float] | None = None
+    stated_position: str | None = None
     sensor_disagreement_m: float | None = None
     rate_bound: dict[str, float] | None = None
     fast_error: dict[str, float] | None = None
@@ -108,6 +111,9 @@ class PhaseResult:
             if self.compared_cds is None or self.stated_cds is None
             else self.compared_cds / self.stated_cds,
             "height_ratio": self.height_ratio,
+            "height_ratio_se": self.height_ratio_se,
+            "edge_uncertainty": _pair(self.edge_band),
+            "stated_position": self.stated_position,
             "sensor_disagreement_m": self.sensor_disagreement_m,
             "cds_corrected": self.cds_corrected,
             "cd_corrected": self._cd(self.cds_corrected),
@@ -230,7 +236,13 @@ def _fmt_range(v, digits: int = 4) -> str:
 def _phase_lines(p: PhaseResult) -> list[str]:
     head = f"{p.name}: {p.status}"
     v = p.identifiability
-    if v and v.get("reason"):
+    if p.status == "varies":
+        head += " (the drag area changes along the descent: no single value"
+        if v and v.get("verdict"):
+            head += f"; one constant drag area would be {v['verdict']}"
+            head += f": {v['reason']}" if v.get("reason") else ""
+        head += ")"
+    elif v and v.get("reason"):
         head += f" ({v['reason']})"
     out = [head]
     if p.window is not None:

@@ -14,6 +14,14 @@ __all__: list[str] = []
 def _height_ratio(flight, t0: float, t1: float) -> float | None:
     """GPS over barometric height gain over [t0, t1] (least squares), when the log has GPS
     heights (``gps_altitude``, a TeleMega log) with at least 20 fixes there; else None."""
+    got = _height_ratio_se(flight, t0, t1)
+    return None if got is None else got[0]
+
+
+def _height_ratio_se(flight, t0: float, t1: float) -> tuple[float, float] | None:
+    """:func:`_height_ratio` and its standard error: the least-squares slope's, with the
+    residuals' variance inflated by their lag-1 autocorrelation ρ (fixes a second apart are not
+    independent: n_eff = n (1 - ρ) / (1 + ρ))."""
     if "gps_altitude" not in flight.channels:
         return None
     g = flight["gps_altitude"]
@@ -26,7 +34,17 @@ def _height_ratio(flight, t0: float, t1: float) -> float | None:
     A = np.stack([baro, np.ones_like(baro)], axis=1)
     coef, *_ = np.linalg.lstsq(A, gps, rcond=None)
     k = float(coef[0])
-    return k if 0.8 < k < 1.25 else None
+    if not 0.8 < k < 1.25:
+        return None
+    r = gps - A @ coef
+    n = r.size
+    rho = float(np.corrcoef(r[:-1], r[1:])[0, 1]) if n > 3 and np.std(r) > 0 else 0.0
+    rho = min(max(rho, 0.0), 0.95)
+    n_eff = max(3.0, n * (1 - rho) / (1 + rho))
+    s2 = float(np.sum(r**2)) / max(n - 2, 1)
+    sxx = float(np.sum((baro - baro.mean()) ** 2))
+    se = float(np.sqrt(s2 / sxx * n / n_eff)) if sxx > 0 else 0.0
+    return k, se
 
 
 def _sensor_disagreement(channels, t0: float, t1: float) -> float | None:

@@ -242,6 +242,8 @@ def _run_phase(
         res.best_vz_mean_abs_ms = float(F[okv, 1].min()) / T if okv.any() else None
     x_chosen = None
     if a.n_feasible:
+        rel_se = _noise_rel_se(noise, ts) if plan.noise == "estimate" else 0.0
+        res.edge_band = _edge_band(a, j, res.limits, T, rel_se)
         res.cds_feasible = verdict.feasible
         res.cds_pareto = verdict.pareto
         i = int(np.flatnonzero(a.trials.id == step.chosen_id)[0])
@@ -272,10 +274,62 @@ def _run_phase(
     if res.status != "identified":  # a range, not a value
         res.best_cds = res.cds if res.best_cds is None else res.best_cds
         res.cds = None
+    if along is not None and along.varies:
+        res.status = "varies"  # no single value: never "identified"
     if "gps_altitude" in flight_channels:
         res.sensor_disagreement_m = _sensor_disagreement(flight_channels, ph.t0, ph.t1)
         res.fast_error = _fast_error(flight_channels, ph.t0, ph.t1)
     return res
+
+
+def _noise_rel_se(noise, t) -> float:
+    """Relative standard error of a noise σ estimated from the window's samples ``t`` (0 for
+    a stated noise): 1 / sqrt(2 n_eff), n_eff the effectively independent samples, the window
+    over max(sample step, the noise's correlation time τ) — the sample variance of a
+    Gauss–Markov series over T has a relative variance of about 2 τ / T."""
+    if not (isinstance(noise, Mapping) and "altitude" in noise) or t.size < 3:
+        return 0.0
+    alt = noise["altitude"]
+    tau = float(alt.get("correlation_time", 0.0)) if isinstance(alt, Mapping) else 0.0
+    step = float(np.median(np.diff(t)))
+    n_eff = max(2.0, (t[-1] - t[0]) / max(step, tau))
+    return 1.0 / math.sqrt(2.0 * n_eff)
+
+
+def _edge_band(a, j: int, lim: PhaseLimits, T: float, rel_se: float) -> tuple[float, float]:
+    """How well each edge of the feasible range of variable ``j`` is known, m² (low, high).
+
+    The edge lies between the outermost feasible trial and the nearest infeasible trial beyond
+    it (their gap), and moves with the limits: each limit's noise floor rests on a noise σ
+    estimated with the relative standard error ``rel_se``, and a change δL of the limit moves
+    the edge by δL / |dΦ/dx| (the criterion's slope there, from the trials nearest the edge,
+    for the criterion that cuts that edge). The band is the gap plus twice that movement."""
+    X = a.trials.X[:, j]
+    F = a.trials.F[:, :2]
+    ok = a.ok & np.all(np.isfinite(F), axis=1)
+    feas = a.feasible & ok
+    # each criterion's limit in its own unit, and its standard error
+    lims = np.array([T * lim.alt_rms**2, T * lim.vz_mean_abs])
+    d_lims = np.array(
+        [T * 2.0 * lim.alt_rms * lim.floor_alt_rms * rel_se, T * lim.floor_vz_mean_abs * rel_se]
+    )
+    out = []
+    for edge, side in ((float(X[feas].min()), -1.0), (float(X[feas].max()), 1.0)):
+        beyond = ok & ~feas & (side * (X - edge) > 0)
+        if not beyond.any():  # D reaches the box: the verdict says so; no edge to judge
+            out.append(0.0)
+            continue
+        k = np.flatnonzero(beyond)[np.argmin(np.abs(X[beyond] - edge))]
+        gap = abs(float(X[k]) - edge)
+        c = int(np.argmax(F[k] / np.where(lims > 0, lims, np.inf)))  # the cutting criterion
+        near = np.flatnonzero(ok)[np.argsort(np.abs(X[ok] - edge))[:10]]
+        move = 0.0
+        if near.size >= 3 and np.ptp(X[near]) > 0:
+            slope = float(np.polyfit(X[near], F[near, c], 1)[0])
+            if slope != 0.0:
+                move = float(d_lims[c]) / abs(slope)
+        out.append(gap + 2.0 * move)
+    return out[0], out[1]
 
 
 def _phase_limits(spec, T: float, allow: tuple[float, float]) -> PhaseLimits:

@@ -40,21 +40,32 @@ from typing import Any, TextIO
 
 import numpy as np
 
-from vectorid.descent.checks import check_descent
+from vectorid.descent.checks import (
+    ReadAs,
+    check_descent,
+    check_drag_magnitude,
+    check_time_scale,
+    stated_totals,
+)
 from vectorid.descent.events import detect_apogee, detect_touchdown
 from vectorid.descent.phases import _main_trigger, _pad_msl, _Phase, _resolve
 from vectorid.descent.plan import DescentPlan, _err
 from vectorid.descent.result import DescentResult, PhaseResult
-from vectorid.descent.sensors import _height_ratio
-from vectorid.descent.step import _run_phase
+from vectorid.descent.sensors import _height_ratio_se
+from vectorid.descent.step import _run_phase, _safe
 from vectorid.descent.verdicts import verdict
 
-__all__ = ["identify_descent"]
+__all__ = ["BIG_LOG", "identify_descent"]
+
+#: A log whose altitude holds more samples than this is read once: the phases' stores read
+#: the part of its altitude they use from a two-column file written beside them.
+BIG_LOG = 200_000
 
 
 def _load(plan: DescentPlan):
     """The log, read as its content says: ``(path, flight, plan with the resolved format and
-    mapping, the altitude's unit as read (None: stated by the format), notes)``."""
+    mapping, the altitude's unit as read (None: stated by the format), notes, how the time
+    and altitude were read (:class:`~vectorid.descent.checks.ReadAs`))``."""
     from vectorid.descent.formats import column_unit, detect_format
     from vectorid.identify.loaders import load_flight
 
@@ -129,7 +140,40 @@ def _load(plan: DescentPlan):
         unit = str(alt.get("unit", "m")) if isinstance(alt, Mapping) else "m"
     notes.extend(f"the log: {n}" for n in flight.notes)
     resolved = replace(plan, format=fmt, mapping=mapping)
-    return path, flight, resolved, unit, notes
+    return path, flight, resolved, unit, notes, _read_as(plan, mapping, documented)
+
+
+def _read_as(plan: DescentPlan, mapping: Mapping[str, Any] | None, documented: bool) -> ReadAs:
+    """How the time and altitude columns were read (names, units, where each unit came from)."""
+    from vectorid.descent.formats import column_unit
+
+    if not mapping or "time" not in mapping:  # a format that names its own columns
+        return ReadAs("time", "s", "format", "altitude", "m", "format")
+    alt = mapping.get("altitude")
+    acol = str(alt.get("column")) if isinstance(alt, Mapping) else str(alt)
+    aunit = str(alt.get("unit", "m")) if isinstance(alt, Mapping) else "m"
+    tcol, tunit = str(mapping["time"]), str(mapping.get("time_unit", "s"))
+
+    def source(col: str, kind: str, given: str | None) -> str:
+        if plan.mapping is not None:
+            return "mapping"
+        if documented:
+            return "format"
+        try:
+            if column_unit(col, kind) is not None:
+                return "header"
+        except ValueError:
+            pass
+        return "option" if given is not None else "content"
+
+    return ReadAs(
+        tcol,
+        tunit,
+        source(tcol, "time", plan.time_unit),
+        acol,
+        aunit,
+        source(acol, "length", plan.altitude_unit),
+    )
 
 
 def _origin_altitude(plan: DescentPlan, flight) -> float:
@@ -178,7 +222,7 @@ def identify_descent(
 
 
 def _identify(plan: DescentPlan, out: str | Path, progress) -> DescentResult:
-    path, flight, plan, altitude_unit, notes = _load(plan)
+    path, flight, plan, altitude_unit, notes, read = _load(plan)
     name = plan.name or path.stem
     origin = _origin_altitude(plan, flight)
     alt = flight["altitude"]
@@ -186,8 +230,23 @@ def _identify(plan: DescentPlan, out: str | Path, progress) -> DescentResult:
     if plan.end is not None:
         keep = t <= float(plan.end)
         if keep.sum() < 10:
-            raise _err("end", f"keeps {int(keep.sum())} samples of the log", "a later end")
+            raise _err(
+                "end",
+                f"{plan.end:g} s keeps {int(keep.sum())} samples of the log (its altitude data "
+                f"cover {t[0]:.2f}-{t[-1]:.2f} s)",
+                "a later end, or none",
+            )
         t, h = t[keep], h[keep]
+    check_time_scale(t, h, read, plan, origin)
+
+    def diagnose() -> str:  # what the other columns say, only when a check fails
+        from vectorid.descent.diagnose import suggest_altitude
+
+        return suggest_altitude(
+            path, plan.mapping, read, t, h, mass=plan.mass, origin=origin,
+            totals=stated_totals(plan), api=read.time_from == "mapping",
+        )  # fmt: skip
+
     events = {k: float(v) for k, v in flight.events.items()}
     if "apogee" in events:
         apogee = (events["apogee"], float(np.interp(events["apogee"], t, h)))
@@ -196,7 +255,7 @@ def _identify(plan: DescentPlan, out: str | Path, progress) -> DescentResult:
         events["apogee"] = apogee[0]
     h_agl = h if plan.altitude_reference == "pad" else h - _pad_msl(plan, h)
     check_descent(plan, t, h_agl, (apogee[0], float(np.interp(apogee[0], t, h_agl))), origin,
-                  altitude_unit)  # fmt: skip
+                  altitude_unit, diagnose)  # fmt: skip
     td = detect_touchdown(t, h, after=apogee[0])
     touchdown = None
     if td is not None:
@@ -278,6 +337,7 @@ def _identify(plan: DescentPlan, out: str | Path, progress) -> DescentResult:
             if note:
                 notes.append(note)
 
+    _check_selection(plan, phases, t, start, tail, apogee, td is not None)
     for ph in phases:
         lo, hi = float(t[0]), float(t[-1])
         if ph.t0 < lo or ph.t1 > hi:
@@ -287,22 +347,39 @@ def _identify(plan: DescentPlan, out: str | Path, progress) -> DescentResult:
                 f"the {ph.name} window {was[0]:.2f}-{was[1]:.2f} s is clipped to "
                 f"{ph.t0:.2f}-{ph.t1:.2f} s: the altitude data cover {lo:.2f}-{hi:.2f} s"
             )
+    if not any(ph.t1 - ph.t0 >= 5.0 for ph in phases):
+        # the whole descent first: a unit or a mass orders of magnitude off says so better
+        canopy = plan.drogue if plan.drogue is not None else plan.main
+        after = np.flatnonzero(t >= apogee[0])
+        low = float(t[after[np.argmin(h[after])]]) if after.size else tail
+        whole = _Phase("descent", "", canopy, apogee[0], max(low, apogee[0] + 1.0), 0.0)
+        said = "descent from the apogee to the lowest point"
+        check_drag_magnitude(plan, [_rate_of(whole, t, h, plan, origin, said)], read, diagnose)
+        _nothing_to_identify(phases, skipped, diagnose)
+    check_drag_magnitude(plan, [_rate_of(ph, t, h, plan, origin) for ph in phases
+                                if ph.t1 - ph.t0 >= 5.0], read, diagnose)  # fmt: skip
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
+    step_plan, step_path = plan, path
+    if t.size > BIG_LOG:
+        step_plan, step_path, note = _compact_log(plan, name, t, h, phases, events, out)
+        notes.append(note)
     results: list[PhaseResult] = []
     drogue_res: PhaseResult | None = None
     for ph in phases:
         r = _run_phase(
-            plan, path, name, ph, t, h, origin, events, out, drogue_res, progress, flight.channels
-        )
+            step_plan, step_path, name, ph, t, h, origin, events, out, drogue_res, progress,
+            flight.channels,
+        )  # fmt: skip
         results.append(r)
         if ph.name == "drogue":
             drogue_res = r
     results.extend(skipped)
-    ratio = _height_ratio(flight, start, tail) if plan.altitude_reference == "pad" else None
-    if ratio is not None:
+    got = _height_ratio_se(flight, start, tail) if plan.altitude_reference == "pad" else None
+    ratio = None if got is None else got[0]
+    if got is not None:
         for r in results:
-            r.height_ratio = ratio
+            r.height_ratio, r.height_ratio_se = got
         notes.append(
             f"the log's GPS heights gain {ratio:.4f} m per metre of barometric height over the "
             "descent: the air was warmer than ISA by about that ratio (T/T_ISA), and drag areas "
@@ -330,6 +407,108 @@ def _identify(plan: DescentPlan, out: str | Path, progress) -> DescentResult:
         events=events,
         phases=results,
         notes=notes,
+    )
+
+
+def _compact_log(plan, name, t, h, phases, events, out: Path):
+    """The altitude as read (s, m; spikes already left out), over the phases and the events
+    with 30 s either side, written to ``OUT/NAME-altitude.csv`` for the phases' stores, which
+    would otherwise each read the whole log again; the plan that reads it, and a note."""
+    times = [ph.t0 for ph in phases] + [ph.t1 for ph in phases] + list(events.values())
+    lo, hi = min(times) - 30.0, max(times) + 30.0
+    keep = (t >= lo) & (t <= hi)
+    file = (out / f"{_safe(name)}-altitude.csv").resolve()
+    with file.open("w", encoding="utf-8") as fh:
+        fh.write("time (s),altitude (m)\n")
+        np.savetxt(fh, np.column_stack([t[keep], h[keep]]), fmt="%.17g", delimiter=",")
+    mapping = {
+        "time": "time (s)",
+        "time_unit": "s",
+        "altitude": {"column": "altitude (m)", "unit": "m"},
+        "spikes": "keep",  # left out (and named) when the log was read
+    }
+    note = (
+        f"the log's altitude holds {t.size:,} samples: it was read once, and the phases' stores "
+        f"read its {int(keep.sum()):,} samples from {t[keep][0]:.2f} to {t[keep][-1]:.2f} s "
+        f"(in s and m, spikes left out) from {file}"
+    )
+    return replace(plan, format="csv", mapping=mapping), file, note
+
+
+def _rate_of(ph: _Phase, t, h, plan: DescentPlan, origin: float, name: str = ""):
+    """``(name, t0, t1, mean descent rate m/s, drag area m² it implies)`` of a phase's window
+    (for :func:`~vectorid.descent.checks.check_drag_magnitude`)."""
+    from vectorid.descent.phases import _cds_estimate
+
+    sel = (t >= ph.t0) & (t <= ph.t1)
+    if sel.sum() < 3:
+        rate = 0.0
+    else:
+        rate = -float(np.polyfit(t[sel], h[sel], 1)[0])
+    mid = 0.5 * (float(np.interp(ph.t0, t, h)) + float(np.interp(ph.t1, t, h)))
+    said = name or f"{ph.name} phase"
+    return said, ph.t0, ph.t1, rate, _cds_estimate(rate, mid, plan.mass, origin)
+
+
+def _check_selection(plan, phases, t, start, tail, apogee, landed) -> None:
+    """Stop on a selection that leaves nothing: a start at or after the end of the descent, a
+    window given by hand that is empty or outside the data."""
+    end = "1 s before the touchdown read from the data" if landed else "1 s before the log ends"
+    if isinstance(plan.start, int | float):
+        said = f"{start:g} s"
+    else:
+        said = f"{plan.start!r} ({start:.2f} s)"
+    if plan.start is not None and start >= tail:
+        raise _err(
+            "start",
+            f"{said} is at or after the end of the descent the phases can "
+            f"use ({tail:.2f} s, {end}; the altitude data cover {t[0]:.2f}-{t[-1]:.2f} s)",
+            f"give a start between the apogee ({apogee[0]:.2f} s) and {tail:.2f} s, or leave it "
+            "out (the log's drogue event, else the apogee)",
+        )
+    if plan.start is not None and start < apogee[0] - 2.0:
+        raise _err(
+            "start",
+            f"{said} is before the apogee read from the data "
+            f"({apogee[0]:.2f} s): a phase from there would hold the climb, which no canopy "
+            "flies",
+            f"give a start after the apogee (up to {tail:.2f} s), or leave it out",
+        )
+    lo, hi = float(t[0]), float(t[-1])
+    for ph in phases:
+        if ph.name not in plan.windows:
+            continue
+        w = plan.windows[ph.name]
+        if ph.t1 <= ph.t0:
+            raise _err(
+                f"windows.{ph.name}",
+                f"{list(w)!r} is {ph.t0:.6g}-{ph.t1:.6g} s: it ends before it starts",
+                "give [start, end] with the start first",
+            )
+        if ph.t1 <= lo or ph.t0 >= hi:
+            raise _err(
+                f"windows.{ph.name}",
+                f"{list(w)!r} is {ph.t0:.6g}-{ph.t1:.6g} s, outside the altitude data "
+                f"({lo:.2f}-{hi:.2f} s)",
+                "give a window inside the log",
+            )
+
+
+def _nothing_to_identify(phases, skipped, diagnose) -> None:
+    """Stop: no phase has a window of at least 5 s, and a result without a single phase to
+    identify is not an answer."""
+    why = [
+        f"the {ph.name} phase's window {ph.t0:.2f}-{ph.t1:.2f} s is "
+        + ("empty" if ph.t1 <= ph.t0 else f"only {ph.t1 - ph.t0:.2f} s long")
+        for ph in phases
+    ] + [f"the {r.name} phase has no data ({r.verdict})" for r in skipped]
+    extra = diagnose()
+    raise _err(
+        "phases",
+        "nothing to identify: " + "; ".join(why) + " (each phase needs at least 5 s of descent)",
+        extra
+        or "check --start, --end, the windows and the triggers against the log's events "
+        "and the altitude column",
     )
 
 

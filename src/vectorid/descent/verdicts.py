@@ -15,10 +15,49 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 
+import numpy as np
+
 from vectorid.descent.plan import AGREEMENT, RMS_GOAL, DescentPlan
 from vectorid.descent.result import PhaseResult
 
-__all__ = ["verdict"]
+__all__ = ["stated_position", "verdict"]
+
+
+def stated_position(r: PhaseResult) -> tuple[str, float, float] | None:
+    """Where the stated drag area lies against the printed feasible range, with each edge's
+    band (:attr:`PhaseResult.edge_band`, widened by twice the hot-day ratio's standard error
+    where the range is corrected): ``("inside" | "edge" | "outside", lo, hi)`` of the range
+    as compared (m²), None without a stated value or a range.
+
+    ``"edge"``: within an edge's band on either side — the trials' spacing and the noise
+    estimate's error cannot tell on which side of the edge it lies. Where the drag area varies
+    along the phase, the range printed covers the sub-windows' drag areas too
+    (:attr:`PhaseResult.cds_range`): an edge set by a sub-window is known to twice its σ."""
+    if r.stated_cds is None or (r.cds_feasible is None and r.cds_range is None):
+        return None
+    k = r.height_ratio or 1.0
+    band = list(r.edge_band or (0.0, 0.0))
+    rng = r.cds_feasible
+    if r.cds_range is not None:
+        rng = r.cds_range
+        da = r.drag_along or {}
+        cds, sig = da.get("cds") or [], da.get("sigma") or []
+        for i, edge in enumerate(rng):
+            if cds and (r.cds_feasible is None or edge != r.cds_feasible[i]):
+                j = int(np.argmin(np.abs(np.asarray(cds) - edge)))
+                band[i] = 2.0 * float(sig[j])
+    assert rng is not None
+    lo, hi = rng[0] / k, rng[1] / k
+    u_lo, u_hi = ((b / k) for b in band)
+    if r.height_ratio and r.height_ratio_se:
+        rel = 2.0 * r.height_ratio_se / k
+        u_lo, u_hi = u_lo + rel * lo, u_hi + rel * hi
+    x = r.stated_cds
+    if lo + u_lo <= x <= hi - u_hi:
+        return "inside", lo, hi
+    if lo - u_lo <= x <= hi + u_hi:
+        return "edge", lo, hi
+    return "outside", lo, hi
 
 
 def verdict(
@@ -50,10 +89,11 @@ def verdict(
             f"no drag area keeps the model within the criteria constraints ({crit} empties "
             f"D): the best fit leaves {what}"
         )
-    if not empty and r.status in ("weak", "not identified") and r.cds_feasible is not None:
+    shared = (r.identifiability or {}).get("verdict", r.status)
+    if not empty and shared in ("weak", "not identified") and r.cds_feasible is not None:
         lo, hi = r.cds_feasible
         parts.append("the data bound the drag area only to the feasible range above")
-        short.append(f"{r.status}: {lo:.3g}-{hi:.3g} m²")
+        short.append(f"{shared}: {lo:.3g}-{hi:.3g} m²")
     value = r.compared_cds
     stated = r.stated_cds
     label = "identified" if r.cds is not None else "the best fit"
@@ -72,7 +112,17 @@ def verdict(
         # a drag area the data do not identify: the stated value is judged by D's range
         k = r.height_ratio or 1.0
         rng = r.cds_feasible if (r.cds is None and not empty) else None
-        inside = rng is not None and rng[0] / k <= stated <= rng[1] / k
+        sp = stated_position(r)
+        pos = None if sp is None else sp[0]
+        r.stated_position = pos
+        inside = rng is not None and pos == "inside"
+        at_edge = pos == "edge"
+        edge_words = (
+            "at the edge of the feasible range{}: closer to an edge than the edge is known "
+            "(the trials' spacing there and the error of the noise estimate"
+            + (" and of the hot-day ratio" if r.height_ratio else "")
+            + "), so the data neither confirm nor exclude it"
+        )
 
         def the_range(v) -> str:  # the feasible range: printed above, unless corrected
             return f" {v[0] / k:.4g}-{v[1] / k:.4g} m²{corrected}" if corrected else " (above)"
@@ -88,14 +138,25 @@ def verdict(
                 f"range{the_range(rng)}"
             )
             short.append("stated value inside the feasible range")
+        elif rng is not None and at_edge and abs(ratio - 1) > AGREEMENT:
+            parts.append("the stated value lies " + edge_words.format(the_range(rng)))
+            short.append("stated value at the edge of the feasible range")
         elif abs(ratio - 1) <= AGREEMENT:
             feas = r.cds_feasible
-            in_range = feas is not None and feas[0] / k <= stated <= feas[1] / k
+            in_range = pos == "inside"
             if r.cds is None:  # no value: D empty, or the drag area is not identified
-                parts.append(
-                    f"{label}{shown} is within the ±15 % tolerance of the stated value ({pct})"
-                )
+                text = f"{label}{shown} is within the ±15 % tolerance of the stated value ({pct})"
+                if rng is not None and at_edge:
+                    text += "; the stated value lies " + edge_words.format(the_range(rng))
+                parts.append(text)
                 short.append(f"{label.removeprefix('the ')} within ±15 % ({pct})")
+            elif at_edge:
+                parts.insert(
+                    0,
+                    f"within the ±15 % tolerance of the stated value ({pct}){corrected}, and "
+                    "the stated value lies " + edge_words.format(the_range(feas)),
+                )
+                short.insert(0, f"within ±15 % ({pct}), at the edge of the feasible range")
             elif in_range:
                 parts.insert(0, f"agrees with the stated value ({pct}){corrected}: it lies "
                              "inside the feasible range")  # fmt: skip
@@ -141,7 +202,9 @@ def verdict(
                 f"the descent rate does not fit the stated drag area: {what}; the measured "
                 f"mean descent rate (above) would be about {v_stated:.1f} m/s with it"
             )
-            if rng is not None:
+            if rng is not None and at_edge:
+                text += "; the stated value lies " + edge_words.format(the_range(rng))
+            elif rng is not None:
                 text += f"; the stated value lies outside the feasible range{the_range(rng)}"
             if over:
                 text += "; the stated value's altitude RMS (above) is over the limit"

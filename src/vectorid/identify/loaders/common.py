@@ -416,3 +416,85 @@ def _valid_samples(
             "around it, or raise max_gap for this channel if interpolating over it is acceptable"
         )
     return tv, v[idx]
+
+
+# --------------------------------------------------------------------------- encodings
+
+#: Signatures of files that are not plain text, and what to do with each.
+_SIGNATURES = (
+    (b"\x1f\x8b", "gzip-compressed (it begins with the gzip signature 1f 8b)",
+     "decompress it first (gunzip -k FILE) and give the .csv"),
+    (b"BZh", "bzip2-compressed", "decompress it first (bunzip2 -k FILE)"),
+    (b"\xfd7zXZ\x00", "xz-compressed", "decompress it first (unxz -k FILE)"),
+    (b"\x28\xb5\x2f\xfd", "zstd-compressed", "decompress it first (unzstd FILE)"),
+    (b"PK\x03\x04", "a ZIP archive (a spreadsheet workbook such as .xlsx is one)",
+     "extract the CSV, or save the sheet as CSV (UTF-8)"),
+    (b"PAR1", "a Parquet file", "give it the extension .parquet (or --format parquet)"),
+    (b"\xff\xfe\x00\x00", "UTF-32 text (little-endian byte-order mark ff fe 00 00)",
+     "save it as UTF-8, e.g. iconv -f UTF-32 -t UTF-8 FILE > FILE-utf8.csv"),
+    (b"\x00\x00\xfe\xff", "UTF-32 text (big-endian byte-order mark 00 00 fe ff)",
+     "save it as UTF-8, e.g. iconv -f UTF-32 -t UTF-8 FILE > FILE-utf8.csv"),
+    (b"\xff\xfe", "UTF-16 text (little-endian byte-order mark ff fe)",
+     "save it as UTF-8, e.g. iconv -f UTF-16 -t UTF-8 FILE > FILE-utf8.csv"),
+    (b"\xfe\xff", "UTF-16 text (big-endian byte-order mark fe ff)",
+     "save it as UTF-8, e.g. iconv -f UTF-16 -t UTF-8 FILE > FILE-utf8.csv"),
+)  # fmt: skip
+
+
+def text_encoding_problem(path: Any) -> str | None:
+    """Why a file is not UTF-8 text, in one sentence with the fix; None if it is.
+
+    Names what the file is instead: compressed (gzip, bzip2, xz, zstd), an archive or a
+    spreadsheet (ZIP), Parquet, UTF-16/UTF-32 text (with a byte-order mark, or UTF-16 without
+    one: every other byte 0), another 8-bit encoding (the first byte that is not UTF-8, with
+    its line and the text as Windows-1252 would read it), or binary data. Reads the first
+    64 kB (and decodes the whole file only when those are valid UTF-8, to find a later bad
+    byte).
+    """
+    from pathlib import Path
+
+    p = Path(path)
+    name = p.name
+    utf8 = f"{p.stem}-utf8{p.suffix or '.csv'}"
+    try:
+        with p.open("rb") as fh:
+            head = fh.read(65536)
+    except OSError:
+        return None
+    for sig, what, fix in _SIGNATURES:
+        if head.startswith(sig):
+            fix = fix.replace("FILE > FILE-utf8.csv", f"{name} > {utf8}").replace("FILE", name)
+            return f"{name} is {what}, not UTF-8 text — {fix}"
+    if head.startswith(b"\xef\xbb\xbf"):
+        head = head[3:]
+    sample = head[:4096]
+    if len(sample) >= 8 and sample.count(0) >= len(sample) // 4:
+        even, odd = sample[0::2], sample[1::2]
+        for zeros, other, order in ((odd, even, "little"), (even, odd, "big")):
+            printable = sum(32 <= b < 127 or b in (9, 10, 13) for b in other)
+            if zeros.count(0) >= 0.9 * len(zeros) and printable >= 0.9 * len(other):
+                enc = "UTF-16LE" if order == "little" else "UTF-16BE"
+                return (
+                    f"{name} is UTF-16 text ({order}-endian, without a byte-order mark: every "
+                    f"other byte is 0), not UTF-8 — save it as UTF-8, e.g. iconv -f {enc} -t "
+                    f"UTF-8 {name} > {utf8}"
+                )
+        return f"{name} holds binary data (NUL bytes), not UTF-8 text: is it a CSV?"
+    try:
+        data = p.read_bytes()
+        data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raw = data
+        pos = exc.start
+        line = raw.count(b"\n", 0, pos) + 1
+        start = raw.rfind(b"\n", 0, pos) + 1
+        end = raw.find(b"\n", pos)
+        text = raw[start : end if end >= 0 else len(raw)].decode("cp1252", errors="replace")
+        return (
+            f"{name} is not UTF-8 text: byte 0x{raw[pos]:02x} at line {line} is not UTF-8 "
+            f"(read as Windows-1252 / Latin-1 the line is {text.strip()[:80]!r}) — save it as "
+            f"UTF-8, e.g. iconv -f WINDOWS-1252 -t UTF-8 {name} > {utf8}"
+        )
+    except OSError:
+        return None
+    return None

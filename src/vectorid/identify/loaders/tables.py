@@ -6,6 +6,7 @@ from __future__ import annotations
 import csv
 import math
 import os
+import re
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -29,6 +30,7 @@ from vectorid.identify.loaders.common import (
     _valid_samples,
     check_units,
     geodetic_to_ned,
+    text_encoding_problem,
 )
 from vectorid.identify.outliers import drop_spikes
 
@@ -40,14 +42,21 @@ def _read_csv(
     skip: int = 0,
     decimal: str = ".",
     header_line: int | None = None,
+    keep: set[str] | None = None,
 ) -> _Table:
+    """The table of a CSV file; ``keep``: the only columns whose values are kept (the others
+    are checked for their count of fields only: a wide log is read without holding every
+    field of every row)."""
     source = str(path)
     try:
         text = path.read_text(encoding="utf-8-sig", errors="strict")
     except FileNotFoundError:
         raise FlightDataError(f"no such file: {source}") from None
     except UnicodeDecodeError as exc:
-        raise FlightDataError(f"{source}: not a UTF-8 text file ({exc}); is it a CSV?") from None
+        why = text_encoding_problem(path) or f"not a UTF-8 text file ({exc}); is it a CSV?"
+        raise FlightDataError(f"{source}: {why}") from None
+    if "\x00" in text[:4096]:  # UTF-16 ASCII text decodes as UTF-8 with NULs between
+        raise FlightDataError(f"{source}: {text_encoding_problem(path) or 'binary data'}")
     lines = text.splitlines()
     # header: first non-empty line (after `skip` lines); a leading '#' on it is stripped
     # (AltusMetrum style)
@@ -84,6 +93,7 @@ def _read_csv(
     rows: list[list[str]] = []
     linenos: list[int] = []
     empty: list[int] = []  # rows without any value: left out, said in a note
+    cols = None if keep is None else [i for i, n in enumerate(names) if n in keep]
     for j in range(k + 1, len(lines)):
         line = lines[j]
         if not line.strip() or (comment and line.lstrip().startswith(comment)):
@@ -93,7 +103,7 @@ def _read_csv(
             row = [c for c in row if c != ""]
         if decimal == ",":
             row = [c.replace(",", ".") for c in row]
-        if all(c.strip().lower() in _NO_VALUE for c in row):
+        if _DIGIT.search(line) is None and all(c.strip().lower() in _NO_VALUE for c in row):
             empty.append(j + 1)
             continue
         if len(row) != len(names):
@@ -107,14 +117,18 @@ def _read_csv(
                 f"{source}: line {j + 1} has {len(row)} fields but the header has "
                 f"{len(names)}; fix the line or the delimiter (got {delimiter!r}){cut}"
             )
-        rows.append(row)
+        rows.append(row if cols is None else [row[i] for i in cols])
         linenos.append(j + 1)
     if not rows:
         raise FlightDataError(f"{source}: no data rows after the header")
     arr = np.array(rows, dtype=object)
+    kept = range(len(names)) if cols is None else cols
+    where = {c: n for n, c in enumerate(kept)}
 
     def get(i: int) -> NDArray[Any]:
-        return arr[:, i]
+        if i not in where:
+            raise FlightDataError(f"{source}: column {names[i]!r} was not read (internal)")
+        return arr[:, where[i]]
 
     table = _Table(source, names, get, len(rows), lambda i: f"line {linenos[i]}")
     table.lines = np.asarray(linenos)  # file line number of each row (first_line/last_line)
@@ -124,6 +138,7 @@ def _read_csv(
 
 #: Field contents that hold no value (a row of only these is left out, with a note).
 _NO_VALUE = {"", "nan", "na", "null", "none", "-"}
+_DIGIT = re.compile(r"\d")
 
 
 def _cut_lines(table: _Table, mapping: Mapping[str, Any]) -> _Table:
@@ -461,7 +476,11 @@ def _time_axis(table: _Table, mapping: Mapping[str, Any]) -> Array:
         unit = "iso"  # a timestamp column (Parquet): the format fixes the unit
     else:
         unit = _required_unit(
-            "time", {"time_unit": mapping.get("time_unit")}, "time_unit", "time", [col],
+            "time",
+            {"time_unit": mapping.get("time_unit")},
+            "time_unit",
+            "time",
+            [col],
             f'time = "{col}" with time_unit = "s" (or ms, us, ns, min; "iso" for ISO 8601 text)',
         )
     if unit == "iso" or raw.dtype.kind == "M":
@@ -653,7 +672,10 @@ def _build(table: _Table, mapping: Mapping[str, Any], name: str | None) -> Fligh
                                                    else "")  # fmt: skip
         notes.append(f"{len(empty)} row(s) without any value (line(s) {where}): left out")
     fd = FlightData(
-        str(mapping.get("name") or name or Path(table.source).stem), channels, events, origin,
+        str(mapping.get("name") or name or Path(table.source).stem),
+        channels,
+        events,
+        origin,
         notes,
     )
     fd = drop_spikes(fd, table.source, str(mapping.get("spikes", "drop")))
@@ -705,8 +727,25 @@ def load_csv(path: str | os.PathLike[str], mapping: Mapping[str, Any]) -> Flight
     table = _read_csv(
         p, mapping.get("delimiter"), mapping.get("comment"),
         decimal=str(mapping.get("decimal", ".")), header_line=mapping.get("header_line"),
+        keep=_used_columns(mapping),
     )  # fmt: skip
     return _build(_cut_lines(table, mapping), mapping, p.stem)
+
+
+def _used_columns(mapping: Mapping[str, Any]) -> set[str] | None:
+    """The columns a mapping reads (None where it cannot be told: then every column is kept,
+    and :func:`_build` reports what is wrong with the mapping)."""
+    if not isinstance(mapping, Mapping):
+        return None
+    try:
+        specs = _specs(mapping, float(mapping.get("max_gap", DEFAULT_MAX_GAP)))
+    except (FlightDataError, TypeError, ValueError):
+        return None
+    used = {str(c) for sp in specs for c in sp.columns}
+    for key in ("time", "event_column"):
+        if mapping.get(key) is not None:
+            used.add(str(mapping[key]))
+    return used
 
 
 def load_parquet(path: str | os.PathLike[str], mapping: Mapping[str, Any]) -> FlightData:
