@@ -31,6 +31,7 @@ import numpy as np
 
 from ..analysis.identifiability import identifiability
 from ..analysis.relaxation import Relaxation, relaxation_text
+from ..sampler_kinds import sampler_kind
 from ..study import Study
 from .extra import apply_refine, relax_study
 from .truth import truth_in_ranges
@@ -247,9 +248,12 @@ def run_stage(
     IdentificationStage
     """
     sampler = sampler or spec.sampler
-    if sampler == "sequential":
+    # a sampler that aims at D's population itself (the sequential one) runs as it is; the
+    # plain table gets the coarse table, the double tuning and the fine table
+    aims_at_d = "population" in sampler_kind(sampler).options
+    if aims_at_d:
         spec = dataclasses.replace(
-            spec, sampler="sequential", trials=int(trials),
+            spec, sampler=sampler, trials=int(trials),
             budget=budget if budget is not None else spec.budget,
             population=population if population is not None else spec.population,
         )  # fmt: skip
@@ -264,7 +268,7 @@ def run_stage(
         # the study's own executor ("inline" for the examples' stateful models), else serial
         executor = study.spec.executor or "serial"
         summary = None
-        if sampler == "sequential":
+        if aims_at_d:
             summary = study.run(executor=executor, progress=progress)
             if summary.converged:  # D at the stated limits holds the population: no relaxation
                 study.store.set_limits(
@@ -283,7 +287,7 @@ def run_stage(
                 proposal = noise_refine(a, study.store.stages(), reference)
                 apply_refine(study.store, proposal)
                 proposals.append(proposal)
-        if sampler != "sequential":
+        if not aims_at_d:
             study.run(trials=coarse + trials, executor=executor, progress=progress)
             rel = relax_study(study, noise, notes0)
         a = study.analysis()
