@@ -354,9 +354,18 @@ class Limits:
                 floor.append(bound)
         return idx, np.array(floor, dtype=float)
 
-    def for_saving(self) -> tuple[dict[str, float | None], dict[str, tuple[float | None, ...]]]:
+    def for_saving(
+        self,
+        where: str = "--save",
+        fix: str = "drop that --limit, or use it for this analysis only (without --save)",
+    ) -> tuple[dict[str, float | None], dict[str, tuple[float | None, ...]]]:
         """The bounds as the study file keeps them: each criterion's limit (its worse side;
         None where there is none) and each functional constraint's ``(low, high)``.
+
+        Parameters
+        ----------
+        where, fix : str
+            What the error names, and how it says to fix a better-side bound.
 
         Raises
         ------
@@ -371,14 +380,14 @@ class Limits:
             if math.isfinite(other):
                 side = ">=" if self.senses[i] == "min" else "<="
                 raise StudyDefinitionError(
-                    "--save",
+                    where,
                     f"cannot save '{name}{side}{other:g}': a criteria constraint is the worst "
                     f"accepted value of a {self.senses[i]} criterion",
-                    "drop that --limit, or use it for this analysis only (without --save)",
+                    fix,
                 )
-            criteria[name] = worse if math.isfinite(worse) else None
+            criteria[name] = float(worse) if math.isfinite(worse) else None
         constraints = {
-            name: tuple(None if math.isinf(v) else v for v in self.bounds[name])
+            name: tuple(None if math.isinf(v) else float(v) for v in self.bounds[name])
             for name in self.con_names
         }
         return criteria, constraints

@@ -4,7 +4,6 @@ constraints to save with the study."""
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from typing import Any
 
@@ -22,7 +21,7 @@ __all__ = ["job_action", "job_message", "job_view", "limits_to_save", "start_job
 def limits_to_save(
     ctx: UIContext, limit_texts: Any, roles: Any = None, functional: Any = None
 ) -> dict[str, Any]:
-    """The constraints in force, as :meth:`~vectoridstore.Store.set_limits` saves
+    """The constraints in force, as :meth:`~vectorid.store.Store.set_limits` saves
     them (the rule of ``vectorid table --save``: a criterion's saved limit is its worse-side
     bound; functional constraints keep both bounds), with where each limit came from: a
     limit still equal to the saved one keeps its source and note (a noise floor stays a
@@ -48,22 +47,8 @@ def limits_to_save(
             f"{len(c.errors)} field(s) do not hold a number: " + "; ".join(c.errors.values()),
             "correct or clear the fields outlined in red, then save",
         )
-    criteria: dict[str, float | None] = {}
-    for i, name in enumerate(a.crit_names):
-        lo, hi = a.bounds[name]
-        worse, other = (hi, lo) if a.senses[i] == "min" else (lo, hi)
-        if math.isfinite(other):
-            side = ">=" if a.senses[i] == "min" else "<="
-            raise StudyDefinitionError(
-                "save constraints",
-                f"cannot save '{name}{side}{other:g}': a criteria constraint is the worst "
-                f"accepted value of a {a.senses[i]} criterion",
-                "remove that bound before saving",
-            )
-        criteria[name] = float(worse) if math.isfinite(worse) else None
-    constraints = {
-        name: [None if math.isinf(v) else float(v) for v in a.bounds[name]] for name in a.con_names
-    }
+    criteria, kept = a.limits.for_saving("save constraints", "remove that bound before saving")
+    constraints = {name: list(bounds) for name, bounds in kept.items()}
     text = ", ".join(str(b) for b in a.active_bounds()) or "no limits"
     sources = {k: list(v) for k, v in sources_to_save(ctx, a, c).items()}
     return {"criteria": criteria, "constraints": constraints, "sources": sources, "text": text}
