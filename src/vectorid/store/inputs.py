@@ -356,14 +356,7 @@ class Change:
 
 
 def _stored(store: Any, key: str) -> dict[str, Any] | None:
-    text = store.meta().get(key)
-    if text is None:
-        return None
-    try:
-        out = json.loads(text)
-    except ValueError:
-        return None
-    return out if isinstance(out, dict) else None
+    return store.meta_json(key)
 
 
 def _diff(kind: str, old: Mapping[str, Any], new: Mapping[str, Any]) -> list[Change]:

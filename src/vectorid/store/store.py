@@ -375,7 +375,11 @@ class Store:
 
     def data_files(self) -> dict[str, Any] | None:
         """Content hashes of the data files recorded at creation (None: not recorded)."""
-        text = self.meta().get("data_files")
+        return self.meta_json("data_files")
+
+    def meta_json(self, key: str) -> dict[str, Any] | None:
+        """The JSON object a meta key holds (None: no such key, or not a JSON object)."""
+        text = self.meta().get(key)
         if text is None:
             return None
         try:
