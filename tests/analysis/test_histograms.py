@@ -41,9 +41,9 @@ def test_counts_per_bin_match_a_direct_count():
 
 
 def test_integer_variable_gets_one_bin_per_value(tmp_path):
-    from vectorid.analysis.histograms import _edges
+    from vectorid.analysis.histograms import bin_edges
 
-    edges = _edges(Integer("n", 2, 5), 2, 5, 20)
+    edges = bin_edges(Integer("n", 2, 5), 2, 5, 20)
     assert np.allclose(edges, [1.5, 2.5, 3.5, 4.5, 5.5])
 
 

@@ -99,7 +99,7 @@ def default_bins(n: int) -> int:
     return int(min(50, max(10, math.ceil(math.sqrt(max(n, 1))))))
 
 
-def _edges(var: Variable, low: float, high: float, bins: int) -> np.ndarray:
+def bin_edges(var: Variable, low: float, high: float, bins: int) -> np.ndarray:
     if isinstance(var, Integer):
         lo, hi = math.floor(low), math.ceil(high)
         return np.arange(lo, hi + 2, dtype=float) - 0.5
@@ -189,7 +189,7 @@ def histograms(
     for name in names:
         j = a.spec.space.index(name)
         var = space.variables[j]
-        edges = _edges(var, var.low, var.high, nbins)
+        edges = bin_edges(var, var.low, var.high, nbins)
         h = histogram(
             a.trials.X[sel, j],
             a.feasible[sel],
@@ -228,7 +228,7 @@ def stage_histograms(
     lo = min(s.space.variables[j].low for s in stages)
     hi = max(s.space.variables[j].high for s in stages)
     var = a.spec.space.variables[j]
-    edges = _edges(var, lo, hi, bins or default_bins(a.n_feasible))
+    edges = bin_edges(var, lo, hi, bins or default_bins(a.n_feasible))
     out = []
     for s in stages:
         sel = a.trials.stage == s.stage

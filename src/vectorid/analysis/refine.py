@@ -135,7 +135,7 @@ class RefineProposal:
         }
 
 
-def _current_box(
+def current_box(
     stages: Sequence[Stage] | None, fallback: Space
 ) -> tuple[Space, np.ndarray, np.ndarray]:
     """The latest sample stage's box, and the hull (lows, highs) of the study box and every
@@ -220,7 +220,7 @@ def propose_refine(
             f"({', '.join(str(b) for b in a.active_bounds()) or 'none'})",
             "relax a criteria constraint (`vectorid pareto STORE` says which empties D)",
         )
-    old, hull_lo, hull_hi = _current_box(stages, spec_space)
+    old, hull_lo, hull_hi = current_box(stages, spec_space)
     X = a.trials.X
     B = X[mask]
     wb = trial_weights(a, mask)  # a sequential store's trials are not uniform in the box

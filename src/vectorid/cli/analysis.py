@@ -155,9 +155,9 @@ def _roles(args: argparse.Namespace) -> dict[str, str]:
 
 
 def _open(path: str, write: bool = False):
-    from .main import _open_study
+    from .main import open_study
 
-    return _open_study(path, write=write)
+    return open_study(path, write=write)
 
 
 def _analysis(study: Any, args: argparse.Namespace):
@@ -165,9 +165,9 @@ def _analysis(study: Any, args: argparse.Namespace):
 
 
 def _json(obj: Any) -> None:
-    from .main import _print_json
+    from .main import print_json
 
-    _print_json(obj)
+    print_json(obj)
 
 
 def _fmt(v: float) -> str:

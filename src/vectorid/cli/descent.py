@@ -327,7 +327,7 @@ def plan_from_args(args: argparse.Namespace):
 def _cmd_descent(args: argparse.Namespace) -> int:
     from ..descent import identify_descent
     from ..errors import StudyDefinitionError, VectoridError
-    from .main import _print_json
+    from .main import print_json
 
     plan = plan_from_args(args)
     try:
@@ -337,7 +337,7 @@ def _cmd_descent(args: argparse.Namespace) -> int:
     except ValueError as exc:  # a log too short or too odd for the detectors
         raise StudyDefinitionError("log", str(exc), "check the log and the columns") from None
     if args.json:
-        _print_json(result.to_dict())
+        print_json(result.to_dict())
     else:
         sys.stdout.write(result.format_text() + "\n")
     return 0

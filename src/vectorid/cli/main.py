@@ -432,7 +432,7 @@ def _is_store(path: Path) -> bool:
         return False
 
 
-def _open_study(path: str, write: bool = False):
+def open_study(path: str, write: bool = False):
     from ..study import Study
 
     p = Path(path)
@@ -461,7 +461,7 @@ def _analysis(args: argparse.Namespace):
                 "--role", f"cannot read {text!r}", "write NAME=pure or NAME=pseudo"
             )
         roles[name.strip()] = role.strip()
-    study = _open_study(args.store)
+    study = open_study(args.store)
     try:
         return study.analysis(parse_limits_for(study.spec, args.limit), roles)
     finally:
@@ -473,7 +473,7 @@ def _sampler_note(args: argparse.Namespace, a: Any) -> str | None:
     the counts above are trials (weights change densities, not which trials are in D)."""
     from ..samplers import sampler_for
 
-    study = _open_study(args.store)
+    study = open_study(args.store)
     try:
         note = sampler_for(study.spec).describe(study.store, a.limits, a.trials)
     finally:
@@ -486,7 +486,7 @@ def _sampler_note(args: argparse.Namespace, a: Any) -> str | None:
 def _save_limits(args: argparse.Namespace, a: Any) -> None:
     """Save the constraints in force (``--save``) into the study held by the store."""
     criteria, constraints = a.limits.for_saving()
-    study = _open_study(args.store, write=True)
+    study = open_study(args.store, write=True)
     with study:
         study.store.set_limits(criteria, constraints)
     print(
@@ -501,7 +501,7 @@ def _fmt(v: float) -> str:
     return f"{v:.6g}"
 
 
-def _print_json(obj: Any) -> None:
+def print_json(obj: Any) -> None:
     def default(o: Any) -> Any:
         if isinstance(o, np.generic):
             return o.item()
@@ -606,7 +606,7 @@ def _cmd_info(args: argparse.Namespace) -> int:
     from ..samplers import sampler_for
     from ..store.inputs import history as input_history
 
-    study = _open_study(args.store)
+    study = open_study(args.store)
     with study:
         st = study.store
         spec = study.spec
@@ -663,7 +663,7 @@ def _cmd_info(args: argparse.Namespace) -> int:
             "missing": missing,
         }
         if args.json:
-            _print_json(info)
+            print_json(info)
             return 0
         print(f"store      {st.path}")
         print(f"study      {spec.name}  (model {spec.to_dict()['study']['model']})")
@@ -760,7 +760,7 @@ def _cmd_verify(args: argparse.Namespace) -> int:
         with st:
             rep = verify_store(st)
     if args.json:
-        _print_json(
+        print_json(
             {
                 "store": str(rep.path),
                 "ok": rep.ok,
@@ -813,7 +813,7 @@ def _cmd_table(args: argparse.Namespace) -> int:
     if args.json:
         out = a.summary()
         out["tables"] = [t.to_dict(args.top) for t in tables]
-        _print_json(out)
+        print_json(out)
         return 0
     print(
         f"N = {a.n}   ND = {a.n_feasible}   NP = {a.n_pareto}   (failed {a.n_failed}, "
@@ -868,7 +868,7 @@ def _cmd_pareto(args: argparse.Namespace) -> int:
     if args.save:
         _save_limits(args, a)
     if args.json:
-        _print_json(a.pareto_json())
+        print_json(a.pareto_json())
         return 0
     print(f"N = {a.n}   ND = {a.n_feasible}   NP = {a.n_pareto}   (failed {a.n_failed})")
     note = _sampler_note(args, a)

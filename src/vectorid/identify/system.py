@@ -88,7 +88,7 @@ from vectorid import models
 from vectorid.errors import StudyDefinitionError, suggest
 from vectorid.identify.loaders.common import UNITS
 from vectorid.identify.noise.statements import parse_component
-from vectorid.models.base import _validate_time
+from vectorid.models.base import validate_time
 from vectorid.models.system import SystemModel, SystemResult
 from vectorid.problem import Criterion, Problem
 
@@ -494,7 +494,7 @@ class SystemIdentification:
         dt = _positive("dt", table.get("dt", 0.01))
         output_dt = _positive("output_dt", table.get("output_dt", 0.1))
         try:
-            _validate_time(output_dt, dt, output_dt)
+            validate_time(output_dt, dt, output_dt)
         except ValueError as exc:
             raise _err("output_dt", str(exc), "make output_dt a whole multiple of dt") from None
         for key in ("noise",):
@@ -635,7 +635,7 @@ def _build_record(
         )
     duration = n_out * output_dt
     try:
-        _validate_time(duration, dt, output_dt)
+        validate_time(duration, dt, output_dt)
     except ValueError as exc:
         raise _err("dt", str(exc), "make output_dt a whole multiple of dt") from None
     initial = t.get("initial", {})

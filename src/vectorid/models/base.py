@@ -396,7 +396,7 @@ class Model(abc.ABC):
         SimulationResult
         """
         X = self._validate_params(params)
-        dt, n_steps, stride = _validate_time(t_final, dt, output_dt)
+        dt, n_steps, stride = validate_time(t_final, dt, output_dt)
         controls = self._validate_inputs(inputs)
         initial = InitialState() if initial is None else initial
         if not isinstance(initial, InitialState):
@@ -578,7 +578,7 @@ class Model(abc.ABC):
         return inputs.reorder(names, defaults)
 
 
-def _validate_time(t_final: float, dt: float, output_dt: float | None) -> tuple[float, int, int]:
+def validate_time(t_final: float, dt: float, output_dt: float | None) -> tuple[float, int, int]:
     for name, v in (("t_final", t_final), ("dt", dt)):
         if not isinstance(v, int | float | np.floating | np.integer) or not np.isfinite(v):
             raise ValueError(f"{name} must be a finite number of seconds, got {v!r}")

@@ -44,7 +44,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vectorid.errors import suggest
-from vectorid.models.base import Channel, ChannelResult, Parameter, _validate_time
+from vectorid.models.base import Channel, ChannelResult, Parameter, validate_time
 from vectorid.models.integrate import (
     STATUS_BAD_PARAMETER,
     STATUS_NONFINITE,
@@ -305,7 +305,7 @@ class SystemModel(abc.ABC):  # noqa: B024 - either hook (rhs or _simulate) is th
         SystemResult
         """
         X = self._validate_params(params)
-        dt, n_steps, stride = _validate_time(t_final, dt, output_dt)
+        dt, n_steps, stride = validate_time(t_final, dt, output_dt)
         x0 = self.initial_state(initial)
         n = X.shape[0]
         status = np.zeros(n, dtype=np.int64)

@@ -46,7 +46,7 @@ from numpy.typing import NDArray
 from vectorid._toml import toml_tables
 from vectorid.analysis.choice import suggest_choice
 from vectorid.analysis.identifiability import ParameterVerdict, identifiability
-from vectorid.analysis.refine import RefineProposal, _current_box, propose_refine
+from vectorid.analysis.refine import RefineProposal, current_box, propose_refine
 from vectorid.analysis.results import Analysis
 from vectorid.builders import variable_meanings
 from vectorid.errors import StudyDefinitionError
@@ -229,7 +229,7 @@ def noise_refine(
     edges lie further out); every other variable keeps its current box, so a weakly
     identified range is never cut by the sampling. ``kwargs`` go to
     :func:`~vectorid.analysis.refine.propose_refine` (explicit ``bounds`` win)."""
-    current, _, _ = _current_box(stages, a.spec.space)
+    current, _, _ = current_box(stages, a.spec.space)
     bounds: dict[str, tuple[float, float]] = {}
     for v, var in zip(identifiability(a, stages=stages, reference=reference), current):
         lo, hi = float(var.low), float(var.high)

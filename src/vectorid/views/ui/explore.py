@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from ...analysis.histograms import Histogram, _edges, default_bins, histogram, histograms
+from ...analysis.histograms import Histogram, bin_edges, default_bins, histogram, histograms
 from ...analysis.results import Analysis
 from ...analysis.weights import how_weighted
 from ...errors import StudyDefinitionError, VectoridError
@@ -91,7 +91,7 @@ def fast_histograms(ctx: UIContext, a: Analysis, min_trials: int = 50_000) -> li
     rows_d, rows_p = np.flatnonzero(a.feasible), np.flatnonzero(a.pareto)
     out = []
     for j, var in enumerate(a.spec.space.variables):
-        edges = _edges(var, var.low, var.high, nbins)
+        edges = bin_edges(var, var.low, var.high, nbins)
         m = len(edges) - 1
         key = (var.name, edges.tobytes())
         hit = per.get(key)
