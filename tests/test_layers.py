@@ -19,10 +19,10 @@ SRC = ROOT / "src" / "vectorid"
 LINT = Path(sys.executable).with_name("lint-imports")
 
 #: Packages and modules that import vectorid modules at the top of their files only (the
-#: command line, the demos, the views and the descent studies load heavy parts where a verb
-#: or a page needs them, so ``vectorid --help`` and the UI start fast).
+#: command line, the demos and the views load heavy parts where a verb or a page needs them,
+#: so ``vectorid --help`` and the UI start fast).
 CORE = (
-    "store/", "samplers/", "run/", "analysis/", "identify/", "models/", "workflows/",
+    "store/", "samplers/", "run/", "analysis/", "identify/", "models/", "workflows/", "descent/",
     "limits.py", "spec.py", "space.py", "problem.py", "builders.py", "sampling.py",
     "summary.py", "sampler_kinds.py", "errors.py", "timesteps.py", "analytic.py",
     "external.py", "own_model.py", "study.py", "_toml.py", "_files.py",

@@ -23,7 +23,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from vectorid.descent.events import _running_median
 from vectorid.descent.plan import G0, DescentPlan, _err
+from vectorid.models.atmosphere import ISA
 
 __all__ = ["check_descent", "check_drag_magnitude", "check_time_scale", "steady_rate"]
 
@@ -126,7 +128,6 @@ def check_time_scale(
         Naming the columns and their units, the descent's duration against the free fall's,
         and the unit that would make it a descent.
     """
-    from vectorid.descent.events import _running_median
 
     if t.size < 5:
         return
@@ -303,7 +304,6 @@ _UNIT_RATIO = (2.3, 5.0)
 
 def steady_rate(mass: float, cds: float, altitude_msl: float) -> float:
     """Steady descent rate sqrt(2 m g / (ρ C_D S)) in ISA air at ``altitude_msl`` (m), m/s."""
-    from vectorid.models.atmosphere import ISA
 
     # clipped to ISA's range: a log read in a wrong unit can put the rocket in space
     rho = float(ISA().density(min(max(altitude_msl, -4999.0), 70999.0)))

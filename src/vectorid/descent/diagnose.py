@@ -23,6 +23,9 @@ from typing import Any
 import numpy as np
 
 from vectorid.descent.checks import _TIME_FACTORS, FT, ReadAs
+from vectorid.descent.events import _running_median
+from vectorid.descent.formats import _data_rows, _header, _layout, column_unit
+from vectorid.descent.phases import _cds_estimate
 from vectorid.descent.plan import G0
 
 __all__ = ["Candidate", "altitude_candidates", "suggest_altitude"]
@@ -81,7 +84,6 @@ def _columns(path: Path, mapping: Mapping[str, Any]) -> tuple[list[str], np.ndar
             except (TypeError, ValueError):
                 cols.append(np.full(tab.num_rows, np.nan))
         return names, np.stack(cols, axis=1)[:: max(1, tab.num_rows // _MAX_ROWS)]
-    from vectorid.descent.formats import _data_rows, _header, _layout
 
     try:
         lay = _layout(path)
@@ -117,8 +119,6 @@ def _descends_like(t, y, mass: float, origin: float) -> tuple[float, float, floa
     """(apogee time, apogee, mean rate, drag area) of a series read as an altitude in m, when
     it comes down at least 50 m from its top over at least 5 s and no faster than a free fall;
     else None."""
-    from vectorid.descent.events import _running_median
-    from vectorid.descent.phases import _cds_estimate
 
     if t.size < 20:
         return None
@@ -155,7 +155,6 @@ def altitude_candidates(
 ) -> list[Candidate]:
     """The log's other columns that come down like the stated rocket's altitude, closest
     first (see the module docstring). ``table``: the file's columns as read already."""
-    from vectorid.descent.formats import column_unit
 
     if read.time is None or read.time_unit not in _TIME_FACTORS or not totals:
         return []
@@ -253,7 +252,6 @@ def suggest_altitude(
                 f", and {read.altitude!r} is its rate of change (correlation {r:+.2f}): a "
                 "vertical speed; the two names look swapped"
             )
-    from vectorid.descent.formats import column_unit
 
     try:
         states = column_unit(c.column, "length") is not None

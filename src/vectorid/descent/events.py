@@ -13,6 +13,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from vectorid.identify.outliers import find_spikes
+from vectorid.models.atmosphere import ISA
+
 __all__ = [
     "RateChange",
     "Touchdown",
@@ -184,7 +187,6 @@ def detect_touchdown(
         None when the data end before the descent settles (a log that stops in the air, or
         one that stops less than about ``smooth + hold`` s after touchdown).
     """
-    from vectorid.identify.outliers import find_spikes
 
     t, h = _series(t, h)
     sp = find_spikes(t, h, floor=10.0)
@@ -321,7 +323,6 @@ def detect_rate_change(
         None when the drag areas of the two levels differ by less than ``min_ratio``, or the
         span is too short.
     """
-    from vectorid.models.atmosphere import ISA
 
     t, h = _series(t, h)
     sel = (t >= t0) & (t <= t1)

@@ -29,6 +29,8 @@ from pathlib import Path
 from typing import Any
 
 from vectorid.errors import StudyDefinitionError
+from vectorid.identify.loaders import DEFAULT_MAX_GAP, altusmetrum_header
+from vectorid.identify.loaders.common import text_encoding_problem
 
 __all__ = ["LENGTH_UNITS", "NAMED_CSV", "TIME_UNITS", "LogFormat", "column_unit", "detect_format"]
 
@@ -316,7 +318,6 @@ def detect_format(
         An option that does not apply to the format, a unit that is not one, a unit that
         contradicts the header, columns that cannot be chosen from the header.
     """
-    from vectorid.identify.loaders import altusmetrum_header
 
     p = Path(path)
     extra = dict(extra or {})
@@ -371,8 +372,6 @@ def detect_format(
         return LogFormat(fmt, None, [])
     notes: list[str] = []
     if fmt == "csv":
-        from vectorid.identify.loaders.common import text_encoding_problem
-
         why = text_encoding_problem(p)
         if why is not None:
             raise _err("file", why)
@@ -586,7 +585,6 @@ def _flight_part(
     Options the user gave (``first_line``, ``last_line``, ``max_gap``) are kept as given.
     """
 
-    from vectorid.identify.loaders import DEFAULT_MAX_GAP
 
     factor = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9, "min": 60.0}.get(time_unit)
     if factor is None:

@@ -10,8 +10,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from vectorid.descent.checks import check_trigger
 from vectorid.descent.events import crossing_time, detect_rate_change
 from vectorid.descent.plan import G0, Canopy, DescentPlan, _err, parse_length
+from vectorid.models.atmosphere import ISA
 
 __all__: list[str] = []
 
@@ -37,8 +39,6 @@ def _resolve(flight_events: Mapping[str, float], key: float | str, where: str) -
 
 
 def _effective_cds(t, h, t0, t1, mass, origin, span=10.0) -> tuple[float, float] | None:
-    from vectorid.models.atmosphere import ISA
-
     isa = ISA()
     vals = []
     a = t0
@@ -58,8 +58,6 @@ def _effective_cds(t, h, t0, t1, mass, origin, span=10.0) -> tuple[float, float]
 
 
 def _cds_estimate(rate: float, h_mid: float, mass: float, origin: float) -> float:
-    from vectorid.models.atmosphere import ISA
-
     isa = ISA()
     # clipped to ISA's range: a log read in a wrong unit can put the rocket in space
     rho = float(isa.density(min(max(origin + h_mid, -4999.0), 70999.0)))
@@ -96,7 +94,6 @@ def _main_trigger(
     ``550ft``), a time with its unit (``204s``; a number from Python is a time in s), or
     ``detect``; a bare number in text is refused (a height or a time?).
     """
-    from vectorid.descent.checks import check_trigger
 
     at = plan.main_at
     if at is None:

@@ -13,6 +13,7 @@ from typing import Any
 
 from vectorid.descent.model import DRAG_CONVENTIONS, INITIAL_SPEEDS
 from vectorid.errors import StudyDefinitionError
+from vectorid.identify.noise import parse_noise
 
 __all__ = ["Canopy", "DescentPlan", "PhaseLimits", "discrepancy", "parse_length"]
 
@@ -285,7 +286,6 @@ class DescentPlan:
 
 def _noise_table(noise: Any) -> dict[str, Any] | str:
     """The ``[identification] noise`` statement of a phase from the plan's ``noise``."""
-    from vectorid.identify.noise import parse_noise
 
     if isinstance(noise, str):
         value: dict[str, Any] | str = noise

@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 
+from vectorid.analysis.identifiability import identifiability
 from vectorid.descent.bounds import monotone_rate_bound
 from vectorid.descent.events import detect_rate_change
 from vectorid.descent.phases import _cds_estimate, _effective_cds, _Phase
@@ -18,6 +19,11 @@ from vectorid.descent.plan import PhaseLimits, _err, _noise_table, discrepancy
 from vectorid.descent.result import PhaseResult
 from vectorid.descent.sensors import _fast_error, _sensor_disagreement
 from vectorid.descent.varying import drag_along
+from vectorid.identify.identification import Identification
+from vectorid.identify.noise import ComponentNoise, estimate_correlated, estimate_sigma
+from vectorid.spec import StudySpec
+from vectorid.store import Store
+from vectorid.workflows.twostep import run_step
 
 __all__: list[str] = []
 
@@ -101,12 +107,6 @@ def _spec_dict(plan, path, name, ph: _Phase, origin, events, box, nominal, extra
 def _run_phase(
     plan, path, name, ph: _Phase, t, h, origin, events, out, drogue_res, progress, flight_channels
 ):
-    from vectorid.analysis.identifiability import identifiability
-    from vectorid.identify.identification import Identification
-    from vectorid.spec import StudySpec
-    from vectorid.store import Store
-    from vectorid.workflows.twostep import run_step
-
     res = PhaseResult(
         ph.name, ph.variable, stated_cds=ph.canopy.stated_cds, diameter=ph.canopy.diameter
     )
@@ -373,7 +373,6 @@ def _phase_noise(plan, t, h) -> tuple[dict[str, Any] | str, str, float | None]:
     (:func:`vectorid.identify.noise.estimate_correlated`), else its white noise
     (:func:`~vectorid.identify.noise.estimate_sigma`) where the window is too short for
     that; a stated noise is used as stated."""
-    from vectorid.identify.noise import ComponentNoise, estimate_correlated, estimate_sigma
 
     if not isinstance(plan.noise, str):
         table = _noise_table(plan.noise)

@@ -47,13 +47,16 @@ from vectorid.descent.checks import (
     check_time_scale,
     stated_totals,
 )
-from vectorid.descent.events import detect_apogee, detect_touchdown
-from vectorid.descent.phases import _main_trigger, _pad_msl, _Phase, _resolve
+from vectorid.descent.diagnose import suggest_altitude
+from vectorid.descent.events import detect_apogee, detect_rate_change, detect_touchdown
+from vectorid.descent.formats import column_unit, detect_format
+from vectorid.descent.phases import _cds_estimate, _main_trigger, _pad_msl, _Phase, _resolve
 from vectorid.descent.plan import DescentPlan, _err
 from vectorid.descent.result import DescentResult, PhaseResult
 from vectorid.descent.sensors import _height_ratio_se
 from vectorid.descent.step import _run_phase, _safe
 from vectorid.descent.verdicts import verdict
+from vectorid.identify.loaders import load_flight
 
 __all__ = ["BIG_LOG", "identify_descent"]
 
@@ -66,8 +69,6 @@ def _load(plan: DescentPlan):
     """The log, read as its content says: ``(path, flight, plan with the resolved format and
     mapping, the altitude's unit as read (None: stated by the format), notes, how the time
     and altitude were read (:class:`~vectorid.descent.checks.ReadAs`))``."""
-    from vectorid.descent.formats import column_unit, detect_format
-    from vectorid.identify.loaders import load_flight
 
     path = Path(plan.file)
     if not path.exists():
@@ -145,7 +146,6 @@ def _load(plan: DescentPlan):
 
 def _read_as(plan: DescentPlan, mapping: Mapping[str, Any] | None, documented: bool) -> ReadAs:
     """How the time and altitude columns were read (names, units, where each unit came from)."""
-    from vectorid.descent.formats import column_unit
 
     if not mapping or "time" not in mapping:  # a format that names its own columns
         return ReadAs("time", "s", "format", "altitude", "m", "format")
@@ -240,7 +240,6 @@ def _identify(plan: DescentPlan, out: str | Path, progress) -> DescentResult:
     check_time_scale(t, h, read, plan, origin)
 
     def diagnose() -> str:  # what the other columns say, only when a check fails
-        from vectorid.descent.diagnose import suggest_altitude
 
         return suggest_altitude(
             path, plan.mapping, read, t, h, mass=plan.mass, origin=origin,
@@ -438,7 +437,6 @@ def _compact_log(plan, name, t, h, phases, events, out: Path):
 def _rate_of(ph: _Phase, t, h, plan: DescentPlan, origin: float, name: str = ""):
     """``(name, t0, t1, mean descent rate m/s, drag area m² it implies)`` of a phase's window
     (for :func:`~vectorid.descent.checks.check_drag_magnitude`)."""
-    from vectorid.descent.phases import _cds_estimate
 
     sel = (t >= ph.t0) & (t <= ph.t1)
     if sel.sum() < 3:
@@ -516,7 +514,6 @@ def _trim_to_steady(ph: _Phase, t, h, origin: float, settle: float) -> str:
     """Move a phase window's edge past a change of drag area (×1.5 or more) in its first or
     last 35 %: a canopy still opening at its start, the next canopy (or its ejection) at its
     end. A change in the middle stays: the verdicts report it. Returns a note, '' if none."""
-    from vectorid.descent.events import detect_rate_change
 
     span = ph.t1 - ph.t0
     if span < 30.0:

@@ -19,6 +19,8 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from vectorid.models.atmosphere import ISA
+
 __all__ = ["MIN_SPREAD", "DragAlong", "drag_along"]
 
 #: Smallest relative spread (max / min - 1) of the sub-windows' drag areas called a change.
@@ -90,7 +92,6 @@ def drag_along(
         None when the window holds fewer than three sub-windows of ``span`` s, or a
         sub-window does not descend.
     """
-    from vectorid.models.atmosphere import ISA
 
     t = np.asarray(t, dtype=float)
     h = np.asarray(h, dtype=float)
