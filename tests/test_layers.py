@@ -25,7 +25,7 @@ CORE = (
     "store/", "samplers/", "run/", "analysis/", "identify/", "models/", "workflows/", "descent/",
     "limits.py", "spec.py", "space.py", "problem.py", "builders.py", "sampling.py",
     "summary.py", "sampler_kinds.py", "errors.py", "timesteps.py", "analytic.py",
-    "external.py", "own_model.py", "study.py", "_toml.py", "_files.py",
+    "external.py", "study.py", "_toml.py", "_files.py",
 )  # fmt: skip
 #: ... but for these, which load numba's compiled kernels only when first used.
 HEAVY = {("analysis/pareto.py", "._pareto_kernels")}

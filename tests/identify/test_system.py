@@ -14,7 +14,7 @@ import pytest
 
 from vectorid import Study, StudyDefinitionError, load_study
 from vectorid.builders import prepare_spec
-from vectorid.own_model import NOISE, TRUTH, write_own_model
+from vectorid.demos.own_model import NOISE, TRUTH, write_own_model
 
 
 @pytest.fixture

@@ -154,7 +154,7 @@ def test_units_newly_stated_are_taken_when_they_are_the_ones_the_trials_were_rea
     # stores made before mappings had to state units read them in s, m, m/s, deg (lat/lon)
     import copy
 
-    from vectorid.own_model import write_own_model
+    from vectorid.demos.own_model import write_own_model
     from vectorid.spec import StudySpec
     from vectorid.store.agreement import _MISSING, _flatten, _long_mappings, _stated_unit, compare
 

@@ -916,7 +916,7 @@ def _cmd_init(args: argparse.Namespace) -> int:
 
     if args.problem == "own-model":
         from .._hints import command_name
-        from ..own_model import write_own_model
+        from ..demos.own_model import write_own_model
 
         folder = Path(args.out or "own-model")
         files = write_own_model(folder)

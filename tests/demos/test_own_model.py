@@ -8,11 +8,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from tests.test_docs import ROOT, blocks
 from vectorid import load_study
 from vectorid.cli import main
-from vectorid.own_model import NOISE, TRUTH
-
-from .test_docs import ROOT, blocks
+from vectorid.demos.own_model import NOISE, TRUTH
 
 
 def test_init_writes_a_study_that_loads_and_a_record_with_its_truth(tmp_path, capsys):

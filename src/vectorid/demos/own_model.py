@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import StudyDefinitionError
+from ..errors import StudyDefinitionError
 
 __all__ = ["NOISE", "TRUTH", "write_own_model"]
 
