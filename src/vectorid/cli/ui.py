@@ -12,7 +12,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from .main import positive_int
+from .main import add_executor_options, add_store_argument, positive_int
 
 __all__ = ["COMMANDS", "add_parsers"]
 
@@ -30,19 +30,14 @@ def _port(text: str) -> int:
 def add_parsers(sub: Any) -> None:
     """Add ``ui`` to the ``vectorid`` sub-parsers."""
     u = sub.add_parser("ui", help="serve the interactive browser UI of a study store")
-    u.add_argument("store", help="the study store (.db)")
+    add_store_argument(u)
     u.add_argument(
         "--host",
         default="127.0.0.1",
         help="interface to bind (default 127.0.0.1; anything else is reachable by others)",
     )
     u.add_argument("--port", type=_port, default=8050, help="port (default 8050)")
-    u.add_argument(
-        "--executor",
-        choices=["serial", "processes"],
-        help="for new stages started from the UI (default: the study's, else processes)",
-    )
-    u.add_argument("--workers", type=positive_int, help="worker processes for new stages")
+    add_executor_options(u, scheduler=False, timeout=False)  # for the runs started from the UI
     u.add_argument(
         "--max-points",
         type=positive_int,

@@ -546,7 +546,7 @@ def parse_record_noise(value: Any, model: SystemModel, where: str) -> dict[str, 
                 f"(outputs: {', '.join(model.output_names)})",
                 suggest(ch, model.output_names),
             )
-        out[ch] = parse_component(f"{where}.{ch}", v, 1.0)
+        out[ch] = parse_component(f"{where}.{ch}", v, 1.0, model.unit_of(ch))
     return out
 
 

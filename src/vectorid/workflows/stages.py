@@ -31,6 +31,7 @@ import numpy as np
 
 from ..analysis.identifiability import identifiability
 from ..analysis.relaxation import Relaxation, relaxation_text
+from ..errors import plural
 from ..sampler_kinds import sampler_kind
 from ..study import Study
 from .extra import apply_refine, relax_study
@@ -115,7 +116,10 @@ def print_stage_limits(st: IdentificationStage, indent: str = "  ") -> None:
             weighted = "particles' chains; members of D weigh their holding times"
         else:
             weighted = "importance-weighted"
-        print(f"{indent}effective sample size {seq.ess:.0f} of {seq.members} members ({weighted})")
+        print(
+            f"{indent}effective sample size {seq.ess:.0f} of {plural(seq.members, 'member')} "
+            f"({weighted})"
+        )
     faithful = seq is None or seq.converged
     enough = "" if st.factor > 1 else " (enough to read ranges from)"
     if st.factor <= 1 and not faithful:
@@ -175,7 +179,7 @@ def _unconverged(verdicts: list, summary: Any) -> None:
     it may be too narrow (or miss part of D), so no variable is called identified or weak —
     each is "not identified", saying why; the range printed is the sampled set's."""
     why = (
-        f"the sequential sampler did not converge (D: {summary.members} members, ESS "
+        f"the sequential sampler did not converge (D: {plural(summary.members, 'member')}, ESS "
         f"{summary.ess:.0f} of {summary.population} wanted): the range is that of the trials "
         "sampled, not of D, and may be too narrow"
     )

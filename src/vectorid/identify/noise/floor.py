@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from vectorid.errors import StudyDefinitionError, suggest
+from vectorid.errors import StudyDefinitionError, plural, suggest
 from vectorid.identify.criteria import INDICES, OPERATORS, get_criterion, spectral_defs
 from vectorid.identify.drops import fit_initial_state
 from vectorid.identify.flight import FlightChannel, FlightData
@@ -152,7 +152,7 @@ class NoiseFloor:
         names = list(names)
         if quantile is None:
             q = self.quantile_level(names, coverage)
-            how = f"q={q:.4g}, joint {coverage:.0%} over {len(names)} criteria"
+            how = f"q={q:.4g}, joint {coverage:.0%} over {plural(len(names), 'criterion')}"
         else:
             q = float(quantile)
             how = f"q={q:.4g}"

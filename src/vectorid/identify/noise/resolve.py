@@ -179,7 +179,7 @@ def _drop_noise(spec, ident, study_noise) -> dict[str, NoiseModel | str]:
 
 
 def _drop_discrepancy(spec, value) -> dict:
-    return parse_discrepancy(value, spec.criterion_names)
+    return parse_discrepancy(value, {c.name: c.unit or "" for c in spec.criteria})
 
 
 def resolve_noise_limits(spec, *, ident=None, params: Mapping[str, float] | None = None):
