@@ -39,7 +39,7 @@ import numpy as np
 
 from .._version import __version__
 from ..errors import StoreError, StoreLockedError, VectoridError, plural
-from ..limits import parse_user_limits
+from ..limits import Limits, parse_user_limits
 from ..sampler_kinds import sampler_names
 
 __all__ = ["main"]
