@@ -2,7 +2,7 @@
 
 >>> from vectorid import models
 >>> models.available()
-('parachute6dof', 'parafoil6dof', 'parafoil8dof')
+('parachute6dof', 'parafoil6dof', 'parafoil8dof', 'rocket-descent', 'rocket-descent-cds')
 >>> m = models.get("parachute6dof")
 >>> res = m.simulate(m.nominal[None, :], t_final=10.0, dt=0.02, output_dt=1.0)  # doctest: +SKIP
 
@@ -99,8 +99,10 @@ def register(name: str, target: str) -> None:
 
 def _is_import_path(text: str) -> bool:
     module, sep, name = text.partition(":")
-    return bool(sep) and all(p.isidentifier() for p in module.split(".")) and all(
-        p.isidentifier() for p in name.split(".")
+    return (
+        bool(sep)
+        and all(p.isidentifier() for p in module.split("."))
+        and all(p.isidentifier() for p in name.split("."))
     )
 
 
@@ -138,6 +140,21 @@ def get(name: str, **options: Any) -> Model:
         Unknown name (the message lists the known ones).
     ImportError
         The model's module or class cannot be imported (not written yet, or broken).
+
+    Examples
+    --------
+    >>> from vectorid import models
+    >>> models.available()
+    ('parachute6dof', 'parafoil6dof', 'parafoil8dof', 'rocket-descent', 'rocket-descent-cds')
+    >>> m = models.get("parachute6dof")
+    >>> len(m.parameters), m.parameter_names[:3]
+    (15, ('x1', 'x2', 'x3'))
+    >>> p = m.parameters[0]
+    >>> p.name, p.nominal, (p.low, p.high), p.meaning
+    ('x1', 1.03, (0.0, 1.5), 'α11 = x1 m_a, apparent mass along x and y (eq. 9)')
+
+    ``m.simulate(m.nominal[None, :], t_final=60.0, dt=0.02)`` flies it (the first call
+    compiles its kernel, once per machine; the README's tour shows the result).
     """
     if name in _REGISTRY:
         target = _REGISTRY[name]
