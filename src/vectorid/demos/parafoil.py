@@ -706,7 +706,9 @@ def _run_parafoil_demo(
     print()
     _criteria_legend()
     sys.stdout.flush()
-    model.compile()  # says so if it compiles (first use): not inside a progress bar
+    # both models' kernels (the 6-DoF's for the last comparison) compile at once, one per
+    # core, on first use only; said before any progress bar
+    models.compile_models(["parafoil8dof", "parafoil6dof"])
 
     # ---- stage 1 -------------------------------------------------------------------------
     v1 = [(n, *_box(model, n)) for n in STAGE1]
