@@ -321,8 +321,12 @@ def main(argv: list[str] | None = None) -> int:
     folder = Path(args.data)
     if not (folder / "flight1_states.csv").exists():
         print(
-            f"error: {folder} holds no flight1_states.csv; pass the eth-parafoil folder of the "
-            "shared data",
+            f"error: {folder} holds no flight1_states.csv. The data are four flight tests of the "
+            "ETH Zürich student parafoil (github.com/yuliangzhong/6dof_parafoil_simulation, "
+            "branch feature/paper, experiments/const_ref/; no licence is stated, so vectorid "
+            "does not ship them). Fetch and convert them with `python scripts/fetch_data.py "
+            "eth-parafoil` (writes ../shared/data/eth-parafoil), or pass the folder that holds "
+            "them",
             file=sys.stderr,
         )
         return 2

@@ -130,3 +130,20 @@ def test_quiet_silences_waiting(monkeypatch):
         with _hints.waiting("anything", file=out):
             pass
     assert out.text == "" and not _hints.quiet()
+
+
+def test_an_inner_wait_speaks_alone(monkeypatch):
+    """A compile inside a noise floor: while the inner wait lasts, only it speaks."""
+    import time
+
+    monkeypatch.delenv(_hints.QUIET_ENV, raising=False)
+    monkeypatch.setattr(_hints, "LINES_AT", (0.15, 0.3, 0.45))
+    out = _Out(tty=False)
+    with _hints.waiting("outer", file=out):
+        with _hints.waiting("inner", file=out):
+            time.sleep(0.5)
+    lines = out.text.splitlines()
+    assert lines[0] == "outer ..." or lines[0] == "inner ...", lines
+    inner = [ln for ln in lines if "still inner" in ln]
+    assert inner and not [ln for ln in lines if "still outer" in ln], lines
+    assert lines[-2].startswith("inner: done after") and lines[-1].startswith("outer: done after")

@@ -118,6 +118,8 @@ def quiet_notices(on: bool = True) -> Iterator[None]:
             os.environ[QUIET_ENV] = old
 
 
+#: The waits under way in this process, innermost last (only the innermost speaks).
+_WAITS: list[object] = []
 #: A terminal's notice is rewritten every this many seconds; elsewhere (a log, a notebook) a
 #: new line comes at these elapsed times, s, then every 120 s.
 TICK = 1.0
@@ -154,12 +156,16 @@ def waiting(
         return
     out = sys.stderr if file is None else file
     tty = bool(getattr(out, "isatty", lambda: False)())
+    me = object()
+    _WAITS.append(me)  # an inner wait (a compile inside a noise floor) speaks alone meanwhile
     stop = threading.Event()
     shown = threading.Event()
     t0 = time.perf_counter()
     lock = threading.Lock()
 
-    def say(text: str, end: str = "\n") -> None:
+    def say(text: str, end: str = "\n", always: bool = False) -> None:
+        if not always and _WAITS and _WAITS[-1] is not me:
+            return
         with lock, contextlib.suppress(OSError, ValueError):
             out.write(text + end)
             out.flush()
@@ -192,10 +198,12 @@ def waiting(
     finally:
         stop.set()
         thread.join()
+        _WAITS.remove(me)
         if shown.is_set():
             took = time.perf_counter() - t0
             how = "done" if ok else "stopped"
             say(
                 f"{chr(13) if tty else ''}{what}: {how} after {took:.1f} s"
-                + (" " * 8 if tty else "")
+                + (" " * 8 if tty else ""),
+                always=True,
             )

@@ -112,3 +112,31 @@ def test_shipped_kernels_can_be_cached(name):
     for kernel in kernels:
         for compiled in kernel.overloads.values():
             assert not compiled.library.has_dynamic_globals
+
+
+def test_compile_models_compiles_several_kernels_in_parallel_processes_once(tmp_path):
+    """Two models' first compiles run in two child processes at once (one notice says which
+    and for how long); a second call finds both cached and does nothing (issue 37)."""
+    for i in (1, 2):
+        body = textwrap.dedent(TINY).replace("y[:] = 1.0", f"y[:] = {i}.0")
+        (tmp_path / f"tiny{i}.py").write_text(body.replace('"tiny"', f'"tiny{i}"'), "utf-8")
+    script = textwrap.dedent(
+        """
+        from vectorid import models
+        models.register("one", "tiny1:Tiny")
+        print("compiled", models.compile_models(["one", "tiny2:Tiny"], workers=2))
+        print("again", models.compile_models(["one", "tiny2:Tiny"], workers=2))
+        print("cached", models.get("one").kernel_cached(), models.get("tiny2:Tiny").kernel_cached())
+        """
+    )
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"), PYTHONPATH=str(tmp_path))
+    env.pop("VECTORID_QUIET", None)
+    r = subprocess.run([sys.executable, "-c", script], cwd=tmp_path, env=env,
+                       capture_output=True, text=True)  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    assert "compiled ['one', 'tiny2:Tiny']" in r.stdout and "again []" in r.stdout
+    assert "cached True True" in r.stdout
+    head = "compiling the kernels of one, tiny2:Tiny in 2 processes"
+    lines = r.stderr.splitlines()
+    assert lines[0] == f"{head} (numba, first use only, cached on disk afterwards) ...", r.stderr
+    assert re.fullmatch(re.escape(head) + r": done after \d+\.\d s", lines[-1]), r.stderr

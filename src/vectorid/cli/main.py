@@ -1032,11 +1032,13 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 
         return run_parafoil_demo(
             Path(args.out), trials=args.trials or 4096, progress=not args.quiet,
-            budget=args.budget, population=args.population,
+            budget=args.budget, population=args.population, executor=args.executor,
+            workers=args.workers,
         )  # fmt: skip
     return run_demo(
-        Path(args.out), trials=args.trials or 2048, progress=not args.quiet, analytic=args.analytic
-    )
+        Path(args.out), trials=args.trials or 2048, progress=not args.quiet,
+        analytic=args.analytic, executor=args.executor, workers=args.workers,
+    )  # fmt: skip
 
 
 _COMMANDS = {

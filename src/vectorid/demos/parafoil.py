@@ -70,9 +70,11 @@ from ..analysis.identifiability import VERDICTS
 from ..analysis.relaxation import MIN_D
 from ..analysis.sections import sections_through
 from ..identify.spectral import rate_peaks
+from ..run.executors import executor_options
 from ..workflows.reduction import propose_reduction
 from ..workflows.stages import IdentificationStage, print_stage_limits, print_verdicts, run_stage
 from ..workflows.truth import check_truth
+from .g12 import DEMO_EXECUTOR
 
 __all__ = ["DEMO_DATA", "DEMO_DISCREPANCY", "run_parafoil_demo", "stage_toml"]
 
@@ -222,7 +224,7 @@ def stage_toml(
         f'model = "{model}"',
         f"trials = {int(trials)}",
         "seed = 1",
-        'executor = "serial"',
+        f'executor = "{DEMO_EXECUTOR}"  # one model process: its kernel runs a batch on all cores',
         "",
     ]
     for vname, lo, hi in variables:
@@ -606,6 +608,8 @@ def run_parafoil_demo(
     budget: int = 40_000,
     population: int = 200,
     report: bool = True,
+    executor: str | None = None,
+    workers: int | None = None,
 ) -> int:
     """Run the parafoil demo into folder ``out`` and print its results (module docstring).
 
@@ -629,12 +633,35 @@ def run_parafoil_demo(
         what stage 3 used, or stage 2 where stage 3 is not run: nothing fixed or tied).
     population : int
         Members of D wanted per stage (with an effective sample size as large).
+    executor, workers : optional
+        Where every stage's trials run (default ``"serial"``, see
+        :data:`vectorid.demos.g12.DEMO_EXECUTOR`) and how many worker processes.
 
     Returns
     -------
     int
         Exit code.
     """
+    with executor_options(workers=workers):
+        return _run_parafoil_demo(
+            Path(out), trials=trials, stage1_trials=stage1_trials, stage3_trials=stage3_trials,
+            progress=progress, budget=budget, population=population, report=report,
+            executor=executor or DEMO_EXECUTOR,
+        )  # fmt: skip
+
+
+def _run_parafoil_demo(
+    out: Path,
+    *,
+    trials: int,
+    stage1_trials: int | None,
+    stage3_trials: int | None,
+    progress: bool,
+    budget: int,
+    population: int,
+    report: bool,
+    executor: str,
+) -> int:
     from .. import models
     from ..identify import Identification
     from ..spec import load_study
@@ -648,7 +675,7 @@ def run_parafoil_demo(
         stage1_trials = min(2048, max(64, trials // 8))
     stage3_trials = max(64, trials // 4) if stage3_trials is None else int(stage3_trials)
     budget1, budget3 = max(stage1_trials, budget // 10), max(stage3_trials, budget // 2)
-    seq = {"sampler": "sequential", "population": population}
+    seq = {"sampler": "sequential", "population": population, "executor": executor}
     model = models.get("parafoil8dof", **MODEL_OPTIONS)
     names = list(model.parameter_names)
     full_boxes = {n: _box(model, n) for n in names}
@@ -679,7 +706,9 @@ def run_parafoil_demo(
     print()
     _criteria_legend()
     sys.stdout.flush()
-    model.compile()  # says so if it compiles (first use): not inside a progress bar
+    # both models' kernels (the 6-DoF's for the last comparison) compile at once, one per
+    # core, on first use only; said before any progress bar
+    models.compile_models(["parafoil8dof", "parafoil6dof"])
 
     # ---- stage 1 -------------------------------------------------------------------------
     v1 = [(n, *_box(model, n)) for n in STAGE1]
@@ -732,8 +761,10 @@ def run_parafoil_demo(
     ins = s2["inside"]
     n_in = sum(bool(v) for v in ins.values())
     misses = [k for k, v in ins.items() if not v]
-    print(f"  truth inside the feasible range of {n_in} of {len(ins)} gains"
-          + (f" (misses: {', '.join(misses)})" if misses else ""))
+    print(
+        f"  truth inside the feasible range of {n_in} of {len(ins)} gains"
+        + (f" (misses: {', '.join(misses)})" if misses else "")
+    )
     sec = _sections(ident8, true, st2.noise_limits, full_boxes)
     _print_sections(sec, full_boxes)
     pure = a2.pure

@@ -362,9 +362,7 @@ def run_store(
     if accept_changes:
         summary.notes += check_inputs(store, accept_changes=True)
     executor_name = executor or spec.executor or "processes"
-    pool = make_executor(
-        executor_name, spec, workers if workers is not None else spec.workers, timeout=timeout
-    )
+    pool = make_executor(executor_name, spec, workers, timeout=timeout)
     if progress is None:
         progress = progress_wanted()
     out = progress if not isinstance(progress, bool) else sys.stderr

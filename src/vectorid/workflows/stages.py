@@ -204,6 +204,7 @@ def run_stage(
     sampler: str | None = None,
     budget: int | None = None,
     population: int | None = None,
+    executor: str | None = None,
 ) -> IdentificationStage:
     """Run one stage of an identification into a fresh store.
 
@@ -246,6 +247,9 @@ def run_stage(
         Sequential: most model evaluations (default: the study's).
     population : int, optional
         Sequential: members of D wanted (default: the study's, else 200).
+    executor : str, optional
+        Where the trials run (default: the study's, else ``"serial"``: one model process,
+        whose compiled kernel uses every core).
 
     Returns
     -------
@@ -270,7 +274,7 @@ def run_stage(
         noise = {c.name: float(c.limit) for c in held.criteria if c.limit is not None}
         notes0 = {c.name: c.limit_note for c in held.criteria if c.limit is not None}
         # the study's own executor ("inline" for the examples' stateful models), else serial
-        executor = study.spec.executor or "serial"
+        executor = executor or study.spec.executor or "serial"
         summary = None
         if aims_at_d:
             summary = study.run(executor=executor, progress=progress)

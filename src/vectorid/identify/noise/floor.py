@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from vectorid._hints import waiting
 from vectorid.errors import StudyDefinitionError, plural, suggest
 from vectorid.identify.criteria import INDICES, OPERATORS, get_criterion, spectral_defs
 from vectorid.identify.drops import fit_initial_state
@@ -233,6 +234,13 @@ def noise_floor(
         When a criterion reads a channel component without stated noise, or a channel
         allowance does not bound a criterion (say it under the criterion's name).
     """
+    # seconds on a quiet machine, minutes on a busy one: said when it lasts (signs of life)
+    with waiting(f"computing the noise floors ({draws} draws of the twin experiment)", after=5.0):
+        return _noise_floor(ident, noise, draws=draws, seed=seed, params=params,
+                            discrepancy=discrepancy, criteria=criteria, linear=linear)  # fmt: skip
+
+
+def _noise_floor(ident, noise, *, draws, seed, params, discrepancy, criteria, linear):
     names = [c.name for c in ident.criteria]
     want = set(names if criteria is None else criteria)
     for n in want:
