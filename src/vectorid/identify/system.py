@@ -90,9 +90,16 @@ from vectorid.identify.loaders.common import UNITS
 from vectorid.identify.noise.statements import parse_component
 from vectorid.models.base import _validate_time
 from vectorid.models.system import SystemModel, SystemResult
-from vectorid.problem import Criterion, Problem
+from vectorid.problem import Criterion, Problem, checked_output
 
-__all__ = ["KINDS", "Record", "SystemIdentification", "convert_unit", "read_record"]
+__all__ = [
+    "KINDS",
+    "Record",
+    "SystemIdentification",
+    "code_modules",
+    "convert_unit",
+    "read_record",
+]
 
 #: Table keys of ``[identification]`` for an own model (the flight keys do not apply).
 _TABLE_KEYS = {
@@ -306,6 +313,16 @@ class _Crit:
     data: tuple[str, ...] | None
     builtin: bool
 
+    def value(self, out: Any, n: int) -> NDArray[np.float64]:
+        """What the criterion's function returned for ``n`` trials, checked: (n,) real
+        numbers, one per trial (an (n, 1) column or a scalar is never broadcast)."""
+        return checked_output(
+            f"criterion {self.name} ({self.use})",
+            out,
+            (n,),
+            "one value per trial: f(sim (n, T, 1), meas (T, 1), t (T,)) -> (n,)",
+        )
+
 
 def _kind_fn(kind: str) -> Callable[[NDArray, NDArray, NDArray], NDArray]:
     def fn(sim: NDArray, meas: NDArray, t: NDArray) -> NDArray:
@@ -438,7 +455,8 @@ class SystemIdentification:
                 sim = res[c.channel][:, :, None]
                 v = np.full(n, np.nan)
                 if ok.any():
-                    v[ok] = np.asarray(c.fn(sim[ok], r.measured(c.channel), r.grid), dtype=float)
+                    m = int(ok.sum())
+                    v[ok] = c.value(c.fn(sim[ok], r.measured(c.channel), r.grid), m)
                 F[:, j] += r.weight * v
                 W[j] += r.weight
         return F / W, np.empty((n, 0))
@@ -750,6 +768,38 @@ def _library_criterion(use: Any, outputs: Sequence[str]):
 
 
 # -- resolving the model of a study ------------------------------------------------------------
+
+
+def _model_target(name: str) -> str | None:
+    """``"package.module:Class"`` a model name stands for, without importing it: an import
+    path as it is, a registered name or an entry point's target (None: unknown)."""
+    if models._is_import_path(name):
+        return name
+    return models._REGISTRY.get(name) or models._entry_points().get(name)
+
+
+def code_modules(spec: Any) -> dict[str, str]:
+    """The user's Python modules an ``[identification]`` study runs (the ``code_modules``
+    hook of its builder, see :mod:`vectorid.store.inputs`): the module of the model class
+    (``model = "msd.dynamics:MassSpringDamper"``, a registered name or an entry point) and
+    of each criterion function of your own (``use = "mycrit:f"``), module name -> role.
+    vectorid's own models are left out (vectorid's sources are hashed as one)."""
+    table = spec.extra.get("identification")
+    if not isinstance(table, Mapping):
+        return {}
+    out: dict[str, str] = {}
+    name = table.get("model", spec.model)
+    target = _model_target(name) if isinstance(name, str) else None
+    if target is not None:
+        module = target.partition(":")[0]
+        if module.split(".")[0] != "vectorid":
+            out[module] = "model module"
+    crits = table.get("criteria")
+    for c in crits.values() if isinstance(crits, Mapping) else ():
+        use = c.get("use") if isinstance(c, Mapping) else None
+        if isinstance(use, str) and ":" in use:
+            out.setdefault(use.partition(":")[0].strip(), "criterion module")
+    return out
 
 
 def resolve_model(table: Mapping[str, Any], default_model: Any, base_dir: str | Path | None):

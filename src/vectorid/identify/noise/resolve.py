@@ -7,6 +7,7 @@ hook: it runs once, when a store is created). See :mod:`vectorid.identify.noise`
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import replace
 from typing import Any
@@ -92,7 +93,7 @@ def noise_limits(
             spec, ident, targets, draws=s["draws"], seed=int(s["seed"])
         )
         said = "; ".join(dict.fromkeys(described))
-        out = floor.limits(targets, quantile=s["quantile"], coverage=float(s["coverage"]))
+        out = _finite(floor.limits(targets, quantile=s["quantile"], coverage=float(s["coverage"])))
         return {n: (v, f"{note} ({said})") for n, (v, note) in out.items()}
     if s["noise"] is None and not any(
         "noise" in dt
@@ -117,10 +118,26 @@ def noise_limits(
         discrepancy=disc,
         criteria=targets,
     )
-    out = floor.limits(targets, quantile=s["quantile"], coverage=float(s["coverage"]))
+    out = _finite(floor.limits(targets, quantile=s["quantile"], coverage=float(s["coverage"])))
     # The stated noise is in the study file; an estimated one is only here, so say it.
     est = "; ".join(f"{k}: {v}" for k, v in floor.noise.items() if v.startswith("estimated"))
     return {n: (v, f"{note} ({est})" if est else note) for n, (v, note) in out.items()}
+
+
+def _finite(limits: dict[str, tuple[float, str]]) -> dict[str, tuple[float, str]]:
+    """The noise-floor limits, each a finite number: a NaN floor is the model's or the
+    criterion's doing, said as such (never as a limit the user did not write)."""
+    for name, (v, _) in limits.items():
+        if not math.isfinite(v):
+            raise _err(
+                "noise",
+                f"the noise floor of criterion {name!r} is {v} (the model at the reference "
+                "vector, compared with itself plus the stated noise, gives no finite value): "
+                "the model's output or the criterion is NaN or inf there",
+                "run the model once at the reference vector (the variables' nominal values, "
+                "else the middle of their box) to see where, or give the criterion a number",
+            )
+    return limits
 
 
 def _check_settings(s: Mapping[str, Any]) -> None:
