@@ -41,6 +41,7 @@ __all__ = [
     "as_batch",
     "build_python_problem",
     "checked_output",
+    "describe_exception",
     "load_model",
 ]
 
@@ -771,6 +772,12 @@ def _numeric(value: Any, what: str) -> np.ndarray:
     else:
         example = f"{arr.ravel()[0]!r} (dtype {arr.dtype})" if arr.size else f"dtype {arr.dtype}"
     raise ValueError(f"model returned {what} that are not numbers: {example}; return floats")
+
+
+def describe_exception(exc: BaseException) -> str:
+    """One line naming an exception a model raised and where (``ValueError: ... (at
+    dynamics.py:40 in acceleration)``): how a failed trial's reason reads."""
+    return _describe(exc)
 
 
 def _describe(exc: BaseException) -> str:

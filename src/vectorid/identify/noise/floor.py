@@ -28,7 +28,12 @@ from vectorid.identify.noise.statements import (
     allowance_label,
     parse_discrepancy,
 )
-from vectorid.identify.system import Record, SystemIdentification, parse_record_noise
+from vectorid.identify.system import (
+    Record,
+    SystemIdentification,
+    at_reference,
+    parse_record_noise,
+)
 
 __all__ = [
     "NoiseFloor",
@@ -694,13 +699,15 @@ def record_noise_floor(
         if not needed:
             continue
         # the truth on the record's sample times and on the comparison grid
-        fine = ident.model.simulate(
-            ident.parameters(ref[None, :]),
-            t_final=rec.duration,
-            dt=ident.dt,
-            output_dt=ident.dt,
-            initial=rec.initial,
-        )
+        named = dict(zip(ident.variables, ref.tolist()))
+        with at_reference(f"the model {type(ident.model).__name__}", named):
+            fine = ident.model.simulate(
+                ident.parameters(ref[None, :]),
+                t_final=rec.duration,
+                dt=ident.dt,
+                output_dt=ident.dt,
+                initial=rec.initial,
+            )
         if not fine.ok[0]:
             raise _err(
                 "noise",
@@ -740,7 +747,8 @@ def record_noise_floor(
                 v = c.fn(meas[:, :, None], truth_g[:, None], rec.grid)
             else:
                 sim = truth_g[None, :, None]
-                v = np.array([c.value(c.fn(sim, m[:, None], rec.grid), 1)[0] for m in meas])
+                with at_reference(f"criterion {c.name} ({c.use})", named):
+                    v = np.array([c.value(c.fn(sim, m[:, None], rec.grid), 1)[0] for m in meas])
             S[:, j] += rec.weight * v
             W[j] += rec.weight
     S = S / np.where(W > 0, W, 1.0)

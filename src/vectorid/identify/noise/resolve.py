@@ -12,6 +12,8 @@ from collections.abc import Mapping
 from dataclasses import replace
 from typing import Any
 
+import numpy as np
+
 from vectorid.errors import StudyDefinitionError
 from vectorid.identify.criteria import get_criterion
 from vectorid.identify.identification import INTEGRAL_CRITERIA, Identification, window_variable
@@ -23,7 +25,7 @@ from vectorid.identify.noise.floor import (
     time_mean_unit,
 )
 from vectorid.identify.noise.statements import NoiseModel, parse_discrepancy, parse_noise
-from vectorid.identify.system import SystemIdentification, resolve_model
+from vectorid.identify.system import SystemIdentification, check_record_scales, resolve_model
 from vectorid.models.system import SystemModel
 
 __all__ = ["noise_limits", "resolve_noise_limits"]
@@ -208,6 +210,12 @@ def resolve_noise_limits(spec, *, ident=None, params: Mapping[str, float] | None
         return spec
     if ident is None and _own_model(spec):
         ident = Identification.from_spec(spec)
+    if isinstance(ident, SystemIdentification):  # records read in their stated units
+        ref = np.array([float(v.nominal) if v.nominal is not None else
+                        0.5 * (float(v.low) + float(v.high)) for v in spec.space])  # fmt: skip
+        if params:
+            ref = np.array([float(params.get(n, r)) for n, r in zip(spec.space.names, ref)])
+        check_record_scales(ident, ref, spec.extra["identification"])
     limits = noise_limits(spec, ident=ident, params=params)
     if isinstance(ident, SystemIdentification):
         units = ident.units()
