@@ -22,6 +22,9 @@ One input kind per group, each counted in the printed table:
 ``repair tx``    ``vectorid repair`` killed inside its transaction (shown: the store's write lock
                  is held when the kill lands): the old store, then a repair gives the reference
 ``seq on dask``  the sequential sampler on a local Dask cluster: the serial run's trials
+``store promises`` what docs/store.md promises on the paths no other case takes: a section, a
+                 robustness check, a refined stage and a repair after the model was edited; the
+                 inline executor and a timeout; a Dask worker with other model code
 """
 
 from __future__ import annotations
@@ -635,3 +638,103 @@ def test_the_sequential_sampler_on_dask_stores_the_serial_runs_trials(tmp_path):
     same = all(np.array_equal(x, y) for x, y in zip(got, want))
     expect(DASK, same, f"{len(got[0])} trials on Dask, {len(want[0])} serial")
     expect(DASK, cli("verify", db).code == 0, "not sound")
+
+
+# -- what docs/store.md promises, on the paths no other case takes ------------------------------
+
+PROMISES = "store promises"
+
+
+def _edited_user_study(tmp_path: Path, trials: int = 64) -> tuple[Path, Path]:
+    """A user study run once, then its model edited."""
+    study = write_user_study(tmp_path / "s", trials=trials)
+    db = tmp_path / "s.db"
+    with Study.create(load_study(study), db) as st:
+        st.run(executor="serial", batch_size=16)
+    model = study.parent / "usermodel.py"
+    model.write_text(model.read_text() + "\nEDITED = True\n")
+    return study, db
+
+
+@pytest.mark.parametrize(
+    "verb",
+    [
+        ("section", "--trial", 3, "--param", "x1", "--points", 5),
+        ("robustness", "--trial", 3, "--points", 8),
+    ],
+    ids=["section", "robustness"],
+)
+def test_extra_runs_are_checked_too(tmp_path, verb):
+    _, db = _edited_user_study(tmp_path)
+    held = _values(db)
+    with Store.open(db) as st:
+        blocks = st.count_all_blocks()
+    r = cli(verb[0], db, *verb[1:])
+    expect_error(PROMISES, r, r"model code usermodel\.py: content changed.*--accept-changes", 2,
+                 False)  # fmt: skip
+    with Store.open(db) as st:
+        same = st.count_all_blocks() == blocks
+    expect(PROMISES, same and all(np.array_equal(a, b) for a, b in zip(held, _values(db))),
+           "trials were added")  # fmt: skip
+
+
+def test_a_refined_box_adds_a_stage_whose_trials_are_checked(tmp_path):
+    _, db = _edited_user_study(tmp_path)
+    r = cli("refine", db, "--apply")  # a new stage, no trial yet
+    expect(PROMISES, r.code == 0 and _count(db) == 64, r.err, r)
+    r = _run(db, "--trials", 128)
+    expect_error(PROMISES, r, r"model code usermodel\.py: content changed", 2, False)
+    expect(PROMISES, _count(db) == 64, "trials were added to the refined stage")
+
+
+def test_a_repair_recomputes_only_from_the_same_model(tmp_path):
+    _, db = _edited_user_study(tmp_path, trials=160)
+    _damage_three(db)
+    r = cli("repair", db, "--quiet", "--executor", "serial")
+    expect_error(PROMISES, r, r"model code usermodel\.py: content changed", 2, False)
+    v = cli("verify", db)
+    expect(PROMISES, v.code == 1 and "3 damaged" in v.out, f"not left as it was: {v.out}", v)
+
+
+def test_the_inline_executor_refuses_a_timeout(tmp_path):
+    study = write_user_study(tmp_path / "s", trials=16)
+    r = cli("run", study, "--executor", "inline", "--timeout", 1, "--quiet")
+    expect_error(PROMISES, r, r"executor 'inline' runs the model in this process and cannot "
+                 r"stop a trial", 2)  # fmt: skip
+
+
+@pytest.mark.slow
+def test_a_dask_worker_with_other_model_code_is_refused(tmp_path):
+    """A worker whose import path finds another copy of the model (its own checkout) is
+    refused before any trial; run on Dask with this machine's code, it runs."""
+    pytest.importorskip("distributed")
+    study = write_user_study(tmp_path / "s", trials=32)
+    lib = tmp_path / "lib"  # the model lives on the import path, not beside the study
+    shutil.move(
+        study.parent / "usermodel.py", lib / "usermodel.py"
+    ) if lib.mkdir() is None else None
+    other = tmp_path / "other"
+    other.mkdir()
+    (other / "usermodel.py").write_text((lib / "usermodel.py").read_text() + "\n# other copy\n")
+    env = {**os.environ, "PYTHONPATH": str(lib)}
+    wenv = {**os.environ, "PYTHONPATH": str(other)}
+    port = 8786 + os.getpid() % 1000
+    sched = subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_scheduler", "--port",
+                              str(port), "--no-dashboard"], env=env, stdout=subprocess.DEVNULL,
+                             stderr=subprocess.DEVNULL)  # fmt: skip
+    worker = subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_worker",
+                               f"tcp://127.0.0.1:{port}", "--nworkers", "1", "--nthreads", "1",
+                               "--no-dashboard"], env=wenv, stdout=subprocess.DEVNULL,
+                              stderr=subprocess.DEVNULL)  # fmt: skip
+    try:
+        time.sleep(8)
+        address = f"tcp://127.0.0.1:{port}"
+        argv = [sys.executable, "-m", "vectorid.cli", "run", str(study), "--quiet",
+                "--store", str(tmp_path / "d.db"), "--scheduler", address]  # fmt: skip
+        r = subprocess.run(argv, env=env, capture_output=True, text=True, timeout=300)
+        ok = r.returncode == 2 and "has other model code than this machine" in r.stderr
+        expect(PROMISES, ok and "Traceback" not in r.stderr, r.stderr[-1500:])
+    finally:
+        for p in (worker, sched):
+            p.send_signal(signal.SIGTERM)
+            p.wait(timeout=30)
