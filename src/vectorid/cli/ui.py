@@ -50,6 +50,12 @@ def _cmd_ui(args: argparse.Namespace) -> int:
     from ..errors import StoreError
 
     path = Path(args.store)
+    if path.is_dir():
+        stores = sorted(p.name for p in path.glob("*.db"))[:5]
+        raise StoreError(
+            f"{path} is a folder, not a study store; point to the .db file"
+            + (f" (this folder holds {', '.join(stores)})" if stores else " (it holds none)")
+        )
     if not path.is_file():
         raise StoreError(
             f"no store at {path}; run a study first (`vectorid demo`, `vectorid run STUDY.toml`)"

@@ -159,6 +159,8 @@ def _hint(message: str, spec: Any) -> str:
             f"variables ({', '.join(spec.space.names)}) — check [[variables]] against what "
             "the model expects"
         )
+    if message.startswith("ModelOutputError"):
+        return "make the function the message names return the shape and numbers it expects"
     if message.startswith(("ImportError", "ModuleNotFoundError")):
         return "the model needs a module this environment cannot import: install it"
     if message.startswith("non-finite result"):

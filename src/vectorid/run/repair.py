@@ -33,10 +33,10 @@ import os
 import shutil
 import sqlite3
 import time
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TextIO
+from typing import Any, TextIO
 
 import numpy as np
 
@@ -391,12 +391,27 @@ def _repair_batches(
     hook = os.environ.get("VECTORID_TEST_REPAIR_PAUSE")
     if hook:  # tests: a moment to kill the repair between computing and committing
         time.sleep(float(hook))
-    report.recomputed += store.replace_batches(
-        [d.block for d in damaged],
-        [(stage, start, work[(stage, start)], res) for (stage, start), res in results.items()],
-        why,
-    )
+    batches: Any = [
+        (stage, start, work[(stage, start)], res) for (stage, start), res in results.items()
+    ]
+    inside = os.environ.get("VECTORID_TEST_REPAIR_TX_PAUSE")
+    if inside:  # tests: a moment to kill the repair inside its one transaction
+        batches = _pause_inside(batches, float(inside), os.environ.get("VECTORID_TEST_REPAIR_MARK"))
+    report.recomputed += store.replace_batches([d.block for d in damaged], batches, why)
     report.dropped = damaged
+
+
+def _pause_inside(batches: list, seconds: float, mark: str | None) -> Iterator[Any]:
+    """``batches``, pausing before the second is written: by then the transaction of
+    :meth:`Store.replace_batches` has dropped the damaged batches and written one new one,
+    and holds the store's write lock (tests kill the repair there; ``mark`` names a file
+    written at that moment, so the test knows the kill lands inside)."""
+    for i, item in enumerate(batches):
+        if i == 1:
+            if mark:
+                Path(mark).write_text(f"inside the transaction, pid {os.getpid()}\n")
+            time.sleep(seconds)
+        yield item
 
 
 def _plan_gaps(

@@ -14,6 +14,7 @@ from ...errors import StudyDefinitionError
 from ..history import history, history_figure
 from ..parallel import parallel_figure
 from .context import UIContext, analysis_of, fmt
+from .data import page_table
 from .explore import range_list
 
 __all__ = [
@@ -27,8 +28,10 @@ __all__ = [
 
 
 def _ranges(selection: Mapping[str, Any] | None) -> dict[str, list[tuple[float, float]]]:
+    selection = page_table(selection, "brushes")
     if selection and selection.get("kind") == "ranges":
-        return {k: range_list(v) for k, v in dict(selection.get("ranges") or {}).items()}
+        ranges = page_table(selection.get("ranges"), "brushes") or {}
+        return {str(k): range_list(v) for k, v in ranges.items()}
     return {}
 
 

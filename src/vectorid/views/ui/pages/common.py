@@ -5,7 +5,9 @@ from __future__ import annotations
 
 import logging
 import re
+import traceback
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 from ....errors import VectoridError
@@ -21,11 +23,18 @@ def safe(name: str) -> str:
 
 
 def err(exc: BaseException) -> str:
-    """The message shown for an exception raised by a callback."""
+    """The message shown for an exception raised by a callback: a
+    :class:`~vectorid.errors.VectoridError`'s own (what came and the fix), else one line that
+    is also logged as one line — the exception, its message and where it was raised — never
+    a traceback (the traceback goes to the ``vectorid.ui`` logger at DEBUG level only)."""
     if isinstance(exc, VectoridError):
         return str(exc)
-    log.exception("unexpected error in a UI callback")
-    return f"internal error ({type(exc).__name__}: {exc}); the server log has the details"
+    text = " ".join(str(exc).split())[:300]
+    tb = traceback.extract_tb(exc.__traceback__)
+    where = f" at {Path(tb[-1].filename).name}:{tb[-1].lineno} in {tb[-1].name}" if tb else ""
+    log.error("UI callback failed: %s: %s%s", type(exc).__name__, text, where)
+    log.debug("the traceback", exc_info=exc)
+    return f"internal error ({type(exc).__name__}: {text}); the server log has one line on it"
 
 
 def table(id_: str, **kw: Any) -> Any:
