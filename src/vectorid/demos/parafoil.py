@@ -431,11 +431,10 @@ def _allowance_text() -> str:
 def _rms(ident, x: np.ndarray) -> tuple[float, float]:
     """RMS horizontal and vertical position errors (m) of one design vector on the drop."""
     d = ident.drops[0]
-    res = ident.simulate(np.atleast_2d(x), d)
+    res = ident.simulate(np.atleast_2d(x), d)  # positions relative to the drop's origin
     if res.status[0] != 0:
         return np.nan, np.nan
     pos = np.array(res.position[0])
-    pos[:, 2] += d.origin_altitude
     e = pos - d.measured("position")
     return float(np.sqrt(np.mean(e[:, 0] ** 2 + e[:, 1] ** 2))), float(
         np.sqrt(np.mean(e[:, 2] ** 2))
@@ -732,8 +731,10 @@ def run_parafoil_demo(
     ins = s2["inside"]
     n_in = sum(bool(v) for v in ins.values())
     misses = [k for k, v in ins.items() if not v]
-    print(f"  truth inside the feasible range of {n_in} of {len(ins)} gains"
-          + (f" (misses: {', '.join(misses)})" if misses else ""))
+    print(
+        f"  truth inside the feasible range of {n_in} of {len(ins)} gains"
+        + (f" (misses: {', '.join(misses)})" if misses else "")
+    )
     sec = _sections(ident8, true, st2.noise_limits, full_boxes)
     _print_sections(sec, full_boxes)
     pure = a2.pure
