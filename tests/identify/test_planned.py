@@ -127,6 +127,8 @@ def test_per_drop_variables_need_a_rule_for_a_new_drop(tmp_path):
     d.parameters = {"wind_north": "drawn", "wind_east": "drawn"}
     P = pred.parameters(np.repeat(X[:1], 200, axis=0), d, np.random.default_rng(1))
     assert set(P[:, names.index("wind_north")]) == {1.0, 3.0}
+    pairs = set(zip(P[:, names.index("wind_north")], P[:, names.index("wind_east")]))
+    assert pairs == {(1.0, -1.0), (3.0, -3.0)}  # one flight's wind, whole
     d.name = "f2"
     d.parameters = {}
     P = pred.parameters(X, d)

@@ -720,7 +720,8 @@ def _planned_manoeuvre(out: Path, truth: Mapping[str, Any], st: IdentificationSt
     limits = None if stated else r.analysis.limits
     which = "D" if stated else f"the last resort's set (limits relaxed x{st.factor:g}), not D"
     try:
-        p = predict(r.store, f, members=PLANNED_MEMBERS, seed=1, limits=limits)
+        p = predict(r.store, f, members=PLANNED_MEMBERS, seed=1, limits=limits,
+                    relaxed_by=None if stated else st.factor)  # fmt: skip
     except EmptySetError as exc:
         print(f"  no prediction: {exc}")
         return

@@ -33,6 +33,10 @@ pitch, yaw, rad; ``rates`` p, q, r, rad/s). The ground is at the origin's altitu
 refused. ``inputs`` hold constant model inputs, ``controls`` a schedule (``time`` in s from
 the start, one list per model input, ``interpolation`` ``"linear"`` or ``"previous"``).
 
+A drop with data may say which of its channels are predicted and checked (``check =
+["position"]``; default: every one the model gives — a channel the study only fits the initial
+state to, such as a course read as a yaw, is better left out).
+
 ``parameters`` (either kind of drop) holds values of model parameters that are no design
 variable of the study (e.g. a heavier payload), and, for a study whose design variables
 include per-drop ones (``"wind_north.flight1"``: the several-flights identification), how a
@@ -103,10 +107,11 @@ PLANNED_KEYS: dict[str, str] = {
     "noise": "the noise of its sensors (noise keys, as in a study)",
     "parameters": "model parameters that are no design variable, or per-drop ones",
 }
-#: Keys of a drop copied from a study: the study's, plus ``parameters``.
+#: Keys of a drop copied from a study: the study's, plus ``parameters`` and ``check``.
 DATA_DROP_KEYS: dict[str, str] = {
     **_DROP_KEYS,
     "parameters": PLANNED_KEYS["parameters"],
+    "check": "the channels predicted and checked (default: every one the model gives)",
 }
 _INITIAL_KEYS = ("altitude", "north", "east", "velocity", "euler", "rates")
 _FILE_KEYS = {"identification"}
@@ -386,7 +391,7 @@ def _data_drop(
 ) -> DropToPredict:
     _check_keys(where, t, DATA_DROP_KEYS, "drop with data")
     params = _parameters(f"{where}.parameters", t.get("parameters"), model)
-    table = {k: v for k, v in t.items() if k != "parameters"}
+    table = {k: v for k, v in t.items() if k not in ("parameters", "check")}
     try:
         drop = build_drop(table, i, base, model, output_dt=output_dt, init_span=init_span)
     except StudyDefinitionError as exc:  # name the drop file, not a study
@@ -394,6 +399,16 @@ def _data_drop(
     except FlightDataError as exc:
         raise _err(where, str(exc), "fix the drop's window or its data") from None
     chans = {c: None for c in drop.flight.channels if c != "controls"}
+    check = t.get("check")
+    if check is not None:
+        if isinstance(check, str) or not isinstance(check, Sequence) or not check:
+            raise _err(f"{where}.check", f"expected a list of channels, got {check!r}",
+                       'e.g. check = ["position"]')  # fmt: skip
+        for c in check:
+            if c not in chans:
+                raise _err(f"{where}.check", f"the drop has no channel {c!r} to check",
+                           suggest(str(c), list(chans)))  # fmt: skip
+        chans = {c: None for c in chans if c in check}
     noise, text = _noise(where, t.get("noise"), study_noise, drop.flight, list(chans))
     wind_text = f"the profile {t['wind']}" if drop.wind is not None else "calm air (no wind file)"
     return DropToPredict(

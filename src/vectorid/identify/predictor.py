@@ -259,6 +259,22 @@ class Predictor:
                 "member's value on one of the study's drops, at random) or \"mean\"",
             )
 
+    def describe_parameters(self, drop: DropToPredict) -> str:
+        """How ``drop``'s own parameters are set, in words ("" when it sets none)."""
+        parts = []
+        for k, v in drop.parameters.items():
+            if v == "drawn":
+                parts.append(f"{k}: each member's own on one of {', '.join(self.study_drops)}, "
+                             "drawn at random")  # fmt: skip
+            elif v == "mean":
+                parts.append(f"{k}: each member's mean over {', '.join(self.study_drops)}")
+            else:
+                parts.append(f"{k} = {v:g}")
+        own = [p for p, cols in self.per_drop.items() if drop.name in cols]
+        if own and not any(p in drop.parameters for p in own):
+            parts.append(f"{', '.join(own)}: each member's own on {drop.name} (identified)")
+        return "; ".join(parts)
+
     # -- parameters ---------------------------------------------------------------------
 
     def parameters(
@@ -267,8 +283,9 @@ class Predictor:
         """Full model parameter vectors (n, p_model) of design vectors ``X`` (n, p) on ``drop``.
 
         Per-drop variables take the drop's own column when the study identified this drop,
-        else the drop's ``parameters`` (a value, ``"drawn"``: one of the study's drops per
-        member from ``rng``, or ``"mean"``)."""
+        else the drop's ``parameters`` (a value; ``"drawn"``: one of the study's drops per
+        member from ``rng``, the same drop for every drawn parameter of that member, so a
+        flight's wind stays whole; or ``"mean"``)."""
         X = np.atleast_2d(np.asarray(X, dtype=float))
         P = np.tile(self.base, (X.shape[0], 1))
         pnames = list(self.model.parameter_names)
@@ -277,6 +294,7 @@ class Predictor:
                 P[:, pnames.index(k)] = float(v)
         for j, i in self.shared:
             P[:, i] = X[:, j]
+        pick = None  # one study drop per member, shared by every "drawn" parameter
         for param, cols in self.per_drop.items():
             i = pnames.index(param)
             rule = drop.parameters.get(param)
@@ -285,9 +303,11 @@ class Predictor:
             elif rule == "mean":
                 P[:, i] = X[:, list(cols.values())].mean(axis=1)
             elif rule == "drawn":
-                rng = rng if rng is not None else np.random.default_rng(0)
-                pick = rng.integers(0, len(cols), X.shape[0])
-                P[:, i] = X[:, list(cols.values())][np.arange(X.shape[0]), pick]
+                if pick is None:
+                    rng = rng if rng is not None else np.random.default_rng(0)
+                    pick = rng.integers(0, len(self.study_drops), X.shape[0])
+                names = [self.study_drops[k] for k in pick]
+                P[:, i] = [X[r, cols[n]] if n in cols else np.nan for r, n in enumerate(names)]
         return P
 
     # -- flying -------------------------------------------------------------------------

@@ -178,6 +178,7 @@ def members_of(
     limits: Any = None,
     nearest_generation: bool = False,
     analysis: Analysis | None = None,
+    relaxed_by: float | None = None,
 ) -> Members:
     """Members of D to fly: all of them, or ``n`` chosen to keep the weights.
 
@@ -199,6 +200,9 @@ def members_of(
         instead, named in every output as not D.
     analysis : Analysis, optional
         The analysis to read D from (default: the store's under ``limits``).
+    relaxed_by : float, optional
+        ``limits`` are the stated ones relaxed by this factor (a stage's last resort, where D
+        at the stated limits is empty): the set is named so, as not D, in every output.
 
     Raises
     ------
@@ -211,6 +215,20 @@ def members_of(
         a = analysis if analysis is not None else st.analysis(limits)
         source = "D at the stated limits" if limits is None else "D under the limits given"
         is_d = True
+        stand_in = [
+            c.limit_note for c in st.spec.criteria
+            if c.limit is not None and c.limit_source == "quantile" and "stand-in" in c.limit_note
+        ]  # fmt: skip
+        if limits is None and stand_in:  # a stage's last resort, saved in the store
+            why = stand_in[0].split(": stated limit")[0].removeprefix("stand-in, ")
+            source = f"the set under the store's saved limits, stand-ins ({why}), NOT D"
+            is_d = False
+        if relaxed_by is not None:
+            source = (
+                f"the set under the stated limits relaxed ×{relaxed_by:.3g} (the last resort: D "
+                "at the stated limits is empty), NOT D"
+            )
+            is_d = False
         if not a.n_feasible:
             gens = generations(st.store)
             if nearest_generation and gens:
@@ -499,6 +517,7 @@ class DropPrediction:
     notes: list[str]
     wind_text: str
     noise_text: str
+    parameters_text: str = ""
 
     def channel(self, name: str) -> ChannelPrediction:
         for c in self.channels:
@@ -519,6 +538,7 @@ class DropPrediction:
             "flown": self.flown,
             "wind": self.wind_text,
             "noise": self.noise_text,
+            "parameters": self.parameters_text,
             "notes": self.notes,
         }
 
@@ -558,9 +578,9 @@ class Prediction:
         """The prediction in words, with units (what ``vectorid predict`` prints)."""
         m = self.members
         lines = [
-            f"What {m.source} of {self.store} predicts ({self.model}; {len(m)} members flown: "
-            f"{m.chosen}; effective sample size of the set {m.ess:.0f})",
-            "  bands: credible = 5-95 % of the members' outputs (the spread of D, not a "
+            f"What {m.source} predicts (store {self.store}, model {self.model}; {len(m)} members "
+            f"flown: {m.chosen}; effective sample size of the set {m.ess:.0f})",
+            "  bands: credible = 5-95 % of the members' outputs (their spread, not a "
             "prediction interval);",
             "         with-noise = 5-95 % of a measured sample (outputs + the stated "
             "measurement noise)",
@@ -853,15 +873,18 @@ def _predict_drop(
         channels.append(ch)
     disp, dnotes = _dispersion(flown, w, drop, landing, seed, rng)
     notes += dnotes
-    verdict, within = _verdict(drop, channels, disp)
+    verdict, within = _verdict(drop, channels, disp, "D" if members.is_d else "this set")
     return DropPrediction(
         drop.name, drop.kind, predictor.duration(drop), channels, disp, verdict, within, failed,
-        int(ok.sum()), notes, drop.wind_text, drop.noise_text,
+        int(ok.sum()), notes, drop.wind_text, drop.noise_text, predictor.describe_parameters(drop),
     )  # fmt: skip
 
 
 def _verdict(
-    drop: DropToPredict, channels: list[ChannelPrediction], disp: Dispersion | None
+    drop: DropToPredict,
+    channels: list[ChannelPrediction],
+    disp: Dispersion | None,
+    what: str = "D",
 ) -> tuple[str, bool | None]:
     if drop.kind == "planned":
         return "a planned drop: no data to check the prediction against", None
@@ -878,8 +901,8 @@ def _verdict(
     tail = f" ({', '.join(unjudged)}: no stated noise, not judged)" if unjudged else ""
     if not bad:
         text = (
-            f"the data lie within what D predicts: every channel's with-noise 90 % band holds at "
-            f"least {100 * CHECK_COVERAGE:.0f} % of its samples ({shares}){tail}"
+            f"the data lie within what {what} predicts: every channel's with-noise 90 % band "
+            f"holds at least {100 * CHECK_COVERAGE:.0f} % of its samples ({shares}){tail}"
         )
         if disp is not None and disp.measured_inside_r95 is False:
             text += (
@@ -899,7 +922,7 @@ def _verdict(
             f"with-noise 90 % band (outside: {spans})"
         )
     return (
-        "the data do NOT lie within what D predicts: " + "; ".join(parts) + tail,
+        f"the data do NOT lie within what {what} predicts: " + "; ".join(parts) + tail,
         False,
     )
 
@@ -910,6 +933,8 @@ def _describe_drop(d: DropPrediction) -> list[str]:
         f"{d.name} ({head}, {d.duration:g} s; wind: {d.wind_text}; noise: {d.noise_text}):",
         f"  members flown {d.flown}" + (f", failed {d.failed}" if d.failed else ""),
     ]
+    if d.parameters_text:
+        lines.append(f"  parameters of this drop: {d.parameters_text}")
     for c in d.channels:
         lines.append(f"  {c.name} [{c.unit}] ({', '.join(c.components)}), s from the start:")
         idx = np.unique(np.linspace(0, c.t.size - 1, min(5, c.t.size)).astype(int))
@@ -978,6 +1003,7 @@ def predict(
     seed: int = 0,
     limits: Any = None,
     nearest_generation: bool = False,
+    relaxed_by: float | None = None,
 ) -> Prediction:
     """What D predicts for ``drops`` (see the module docstring).
 
@@ -996,6 +1022,9 @@ def predict(
         Bounds overriding the study's (``{"pos_h": 40.0}`` or ``--limit`` bounds): D under them.
     nearest_generation : bool
         Where D is empty on a sequential store, fly its nearest generation (named as not D).
+    relaxed_by : float, optional
+        ``limits`` are the stated ones relaxed by this factor (named as not D; see
+        :func:`members_of`).
 
     Returns
     -------
@@ -1027,7 +1056,10 @@ def predict(
                 parsed += predictor.read_drops(d)
         if not parsed:
             raise StudyDefinitionError("drops", "no drop to predict", "give a drop file")
-        mem = members_of(st, members, seed, limits=limits, nearest_generation=nearest_generation)
+        mem = members_of(
+            st, members, seed, limits=limits, nearest_generation=nearest_generation,
+            relaxed_by=relaxed_by,
+        )  # fmt: skip
         preds = [_predict_drop(predictor, mem, d, seed) for d in parsed]
         return Prediction(str(st.store.path), mem, preds, int(seed), predictor.model.name)
     finally:
