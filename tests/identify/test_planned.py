@@ -136,3 +136,35 @@ def test_per_drop_variables_need_a_rule_for_a_new_drop(tmp_path):
     d.parameters = {"CD0": 1.0}
     with pytest.raises(StudyDefinitionError, match="is a design variable"):
         pred.check_drop(d)
+
+
+def test_the_initial_position_is_the_mean_of_fixes_moved_back_along_the_velocity():
+    """A curved start (decelerating), noisy fixes, exact velocity: the moved-back mean is off
+    by the mean noise of the first 10 s of fixes (plus the trapezoid's error)."""
+    from vectorid.identify.drops import fit_initial_state
+    from vectorid.identify.flight import FlightChannel, FlightData
+    from vectorid.identify.planned import fit_prediction_state
+
+    t = np.arange(0.0, 30.0, 0.25)
+    vn = 2.0 + 8.0 * np.exp(-t / 2.0)  # decelerating from 10 to 2 m/s
+    north = 2.0 * t + 16.0 * (1.0 - np.exp(-t / 2.0))
+    rng = np.random.default_rng(3)
+    noise = rng.normal(0.0, 3.0, (t.size, 3))
+    pos = np.column_stack([north, 0 * t, -1000.0 + 6.0 * t]) + noise
+    vel = np.column_stack([vn, 0 * t, 6.0 + 0 * t])
+    fl = FlightData("f", {
+        "position": FlightChannel("position", t, pos, ("north", "east", "down"), "m"),
+        "velocity": FlightChannel("velocity", t, vel, ("north", "east", "down"), "m/s"),
+    })  # fmt: skip
+    ours = fit_prediction_state(fl, 0.0, 1.0, ORIGIN, None, "f")
+    line = fit_initial_state(fl, 0.0, 1.0, ORIGIN, None, "f")
+    assert abs(line.north) > 5 * abs(ours.north)  # a line through 1 s of noisy fixes
+    n = int(np.sum(t <= 10.0))
+    assert abs(ours.north - noise[:n, 0].mean()) < 0.05  # the mean noise (+ the trapezoid)
+    assert abs(ours.altitude - (ORIGIN + 1000.0)) < 3 * 3.0 / np.sqrt(n)
+    assert ours.velocity == line.velocity  # only the position changes
+    # without a velocity channel it is the study's fit
+    del fl.channels["velocity"]
+    assert fit_prediction_state(fl, 0.0, 1.0, ORIGIN, None, "f") == fit_initial_state(
+        fl, 0.0, 1.0, ORIGIN, None, "f"
+    )

@@ -15,8 +15,8 @@ threads use every core) and returns :class:`Flown`: each channel in the data's c
 (position north, east, down relative to the drop's origin, m; altitude above it, m; velocity
 NED, m/s; Euler angles, rad; body rates, rad/s), on the channel's own time base. What the
 measurement noise does to the prediction of a drop with data — the initial state is fitted to
-noisy samples — is :meth:`Predictor.initial_state_errors` (the study's own fit applied to
-seeded noise) times :meth:`Predictor.state_jacobian` (central differences).
+noisy samples — is :meth:`Predictor.initial_state_errors` (the fit applied to seeded noise)
+times :meth:`Predictor.state_jacobian` (central differences).
 """
 
 from __future__ import annotations
@@ -30,11 +30,17 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vectorid.errors import StudyDefinitionError, suggest
-from vectorid.identify.drops import fit_initial_state
 from vectorid.identify.flight import FlightChannel, FlightData
 from vectorid.identify.identification import sim_channel, window_variable
 from vectorid.identify.noise.floor import _STATE, _shift, _state_vector
-from vectorid.identify.planned import PREDICTED_CHANNELS, DropToPredict, read_drop_file
+from vectorid.identify.noise.statements import parse_discrepancy
+from vectorid.identify.planned import (
+    POSITION_SPAN,
+    PREDICTED_CHANNELS,
+    DropToPredict,
+    fit_prediction_state,
+    read_drop_file,
+)
 from vectorid.identify.system import resolve_model
 from vectorid.models.atmosphere import ISA
 from vectorid.models.base import Model, SimulationResult
@@ -108,6 +114,9 @@ class Predictor:
         The study's noise statement (``[identification] noise``: a table, ``"estimate"`` or None).
     study_drops : sequence of str
         The study's drop names (for per-drop variables).
+    allowance : mapping, optional
+        The study's model-discrepancy allowance per channel (``[identification] discrepancy``
+        noise keys, SI): channel -> one bound per component.
     """
 
     def __init__(
@@ -122,6 +131,7 @@ class Predictor:
         atmosphere: ISA | None = None,
         noise: Any = None,
         study_drops: Sequence[str] = (),
+        allowance: Mapping[str, Sequence[float]] | None = None,
     ) -> None:
         if isinstance(model, SystemModel) or not isinstance(model, Model):
             raise _err(
@@ -136,6 +146,7 @@ class Predictor:
         check_time_steps(self.dt, self.output_dt, where="identification")
         self.atmosphere = atmosphere
         self.noise = noise
+        self.allowance = {k: [float(x) for x in v] for k, v in dict(allowance or {}).items()}
         pnames = list(model.parameter_names)
         self.base = model.nominal.copy()
         for k, v in dict(fixed or {}).items():
@@ -212,6 +223,7 @@ class Predictor:
             atmosphere=None if atm is None else ISA(float(atm.get("temperature_offset", 0.0))),
             noise=table.get("noise"),
             study_drops=names,
+            allowance=parse_discrepancy(table.get("discrepancy"), spec.criterion_names)["channels"],
         )
 
     def read_drops(self, path: str | Path) -> list[DropToPredict]:
@@ -405,16 +417,16 @@ class Predictor:
         self, drop: DropToPredict, draws: int, rng: np.random.Generator
     ) -> NDArray[np.float64]:
         """Errors (draws, 12) of a data drop's fitted initial state under its stated noise:
-        the study's own fit (:func:`~vectorid.identify.drops.fit_initial_state`) of the data
-        plus a seeded noise draw, minus its fit of the data (zeros for a planned drop, whose
-        initial state is stated, or where no fitted channel has a stated noise). Order:
-        altitude, north, east, velocity (3), Euler angles (3), rates (3)."""
+        the fit (:func:`~vectorid.identify.planned.fit_prediction_state`) of the data plus a
+        seeded noise draw, minus its fit of the data (zeros for a planned drop, whose initial
+        state is stated, or where no fitted channel has a stated noise). Order: altitude,
+        north, east, velocity (3), Euler angles (3), rates (3)."""
         out = np.zeros((draws, len(_STATE)))
         d = drop.drop
         if d is None or drop.noise is None:
             return out
         t0, span = float(d.t0), float(d.init_span)
-        reach = max(span, 3.0)
+        reach = max(span, 3.0, POSITION_SPAN)
         base: dict[str, FlightChannel] = {}
         noisy: list[str] = []
         for ch in _FIT_CHANNELS:
@@ -432,7 +444,8 @@ class Predictor:
 
         def fit(chans: dict[str, FlightChannel]) -> NDArray[np.float64]:
             fd = FlightData("noise", chans)
-            s = fit_initial_state(fd, t0, span, d.origin_altitude, d.wind, drop.name)
+            s = fit_prediction_state(fd, t0, span, d.origin_altitude, d.wind, drop.name,
+                                     end=t0 + d.duration)  # fmt: skip
             return _state_vector(s)
 
         zero = fit(base)
