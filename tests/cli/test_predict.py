@@ -106,3 +106,16 @@ def test_nearest_generation_only_when_named(tmp_path, capsys):
     assert doc["set"]["is_d"] is False and "NOT D" in doc["set"]["set"]
     code, out, _ = _cli(capsys, "predict", store, f, "--nearest-generation")
     assert "NOT D" in out.splitlines()[0] and "NOTE: these members are" in out
+
+
+def test_the_report_takes_the_predictions(store, tmp_path, capsys):
+    f = drop_file(tmp_path / "next.toml", [planned(noise={"position_h": 2.0})])
+    out = tmp_path / "r.html"
+    code, _, err = _cli(capsys, "report", store, "--predict", f, "--members", 40, "--out", out,
+                        "--max-points", 200)  # fmt: skip
+    assert code == 0, err
+    page = out.read_text(encoding="utf-8")
+    assert "Predictions" in page and "landing dispersion" in page
+    code, _, err = _cli(capsys, "report", store, "--predict", tmp_path / "none.toml", "--out",
+                        tmp_path / "r2.html")  # fmt: skip
+    assert code == 2 and "no such drop file" in err and not (tmp_path / "r2.html").exists()

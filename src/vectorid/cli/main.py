@@ -264,7 +264,7 @@ VERB_GROUPS = (
     ("run", ("run", "info", "verify", "repair")),
     ("analyse", ("table", "pareto", "section", "refine", "robustness", "correlation",
                  "sensitivity", "export")),
-    ("identify from flight data", ("identifiability", "step", "descent")),
+    ("identify from flight data", ("identifiability", "step", "descent", "predict")),
     ("view", ("hist", "plot", "report", "ui")),
 )  # fmt: skip
 
