@@ -891,9 +891,12 @@ def _predict_drop(
     disp, dnotes = _dispersion(flown, w, drop, landing, seed, rng)
     notes += dnotes
     verdict, within = _verdict(drop, channels, disp, "D" if members.is_d else "this set")
+    wind = drop.wind_text
+    if drop.wind is None and any("wind" in k for k in drop.parameters):
+        wind = "no profile: the model's own wind parameters (see the drop's parameters)"
     return DropPrediction(
         drop.name, drop.kind, predictor.duration(drop), channels, disp, verdict, within, failed,
-        int(ok.sum()), notes, drop.wind_text, drop.noise_text, predictor.describe_parameters(drop),
+        int(ok.sum()), notes, wind, drop.noise_text, predictor.describe_parameters(drop),
     )  # fmt: skip
 
 
