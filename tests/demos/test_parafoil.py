@@ -54,6 +54,10 @@ def test_parafoil_demo_end_to_end_reduced(tmp_path, capsys):
         "c33 kC_star",  # the parameter legend with units and meanings
         "[  m·s] pure",  # the criteria legend with units
         "app. inertia yaw",  # meanings beside names in the verdict tables
+        "What stage 2's D predicts for a second, planned manoeuvre",
+        "R50 ",  # the landing radii with their bootstrap intervals
+        "R95 ",
+        "gust realisations it lands inside R95 in",
     ):
         assert needle in text, needle
     # no chosen vector shows a value for a gain its verdict does not call identified

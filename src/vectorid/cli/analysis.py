@@ -6,7 +6,8 @@
     vectorid refine STORE [--limit ...] [--pareto] [--quantile Q] [--margin F]
                           [--bound NAME=LO:HI ...] [--apply] [--out FIG.html] [--json]
     vectorid robustness STORE --trial ID [--trial ID ...] [--radius R] [--points N] [--seed S]
-    vectorid report STORE [--limit ...] [--chosen ID ...] [--max-points N] --out report.html
+    vectorid report STORE [--limit ...] [--chosen ID ...] [--max-points N] [--predict DROP.toml]
+                          --out report.html
     vectorid correlation STORE [--limit ...] [--set pareto|feasible] [--method pearson|spearman]
     vectorid sensitivity STORE [--limit ...]
     vectorid hist STORE [--limit ...] [--param NAME ...] [--bins N] [--by-stage] [--out FIG.html]
@@ -117,6 +118,16 @@ def add_parsers(sub: Any) -> None:
         help="points per set in each point cloud (default 3000)",
     )
     p.add_argument("--top", type=positive_int, default=10, help="test table rows (default 10)")
+    p.add_argument(
+        "--predict",
+        action="append",
+        default=[],
+        metavar="DROP.toml",
+        help="add what D predicts for these drops (vectorid predict; repeatable)",
+    )
+    p.add_argument(
+        "--members", type=positive_int, help="members flown for --predict (default: all)"
+    )
 
     c = sub.add_parser("correlation", help="parameter correlation among near-optimal vectors")
     add_store_argument(c)
@@ -393,6 +404,12 @@ def _cmd_report(args: argparse.Namespace) -> int:
         ) from None
     study = _open(args.store)
     with study:
+        prediction = None
+        if args.predict:
+            from ..workflows.predict import predict
+
+            limits = parse_limits_for(study.spec, args.limit)
+            prediction = predict(study, args.predict, members=args.members, limits=limits or None)
         res = write_report(
             study.store,
             args.out,
@@ -401,6 +418,7 @@ def _cmd_report(args: argparse.Namespace) -> int:
             chosen=args.chosen,
             max_points=args.max_points,
             top=args.top,
+            prediction=prediction,
         )
         a = _analysis(study, args)
         note = _sampler_note(study, a)

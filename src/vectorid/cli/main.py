@@ -14,6 +14,7 @@ Verbs (a contract; more may be added)::
     vectorid init PROBLEM [--out FILE] [--trials N]
     vectorid demo [g12|parafoil] [--out DIR] [--trials N] [--analytic]
     vectorid descent LOG --mass KG [--columns time=COL,altitude=COL] [...] [--json]
+    vectorid predict STORE DROP.toml... [--members N] [--seed S] [--json] [--out DIR]
 
 Errors in user input print one line saying what was expected, what came and how to fix it,
 and exit with status 2 (never a traceback: a damaged store, a file that cannot be read or
@@ -325,7 +326,7 @@ VERB_GROUPS = (
     ("run", ("run", "info", "verify", "repair")),
     ("analyse", ("table", "pareto", "section", "refine", "robustness", "correlation",
                  "sensitivity", "export")),
-    ("identify from flight data", ("identifiability", "step", "descent")),
+    ("identify from flight data", ("identifiability", "step", "descent", "predict")),
     ("view", ("hist", "plot", "report", "ui")),
 )  # fmt: skip
 
@@ -365,6 +366,7 @@ _EXTENSION_MODULES = (
     "vectorid.cli.ui",
     "vectorid.cli.descent",
     "vectorid.cli.step",
+    "vectorid.cli.predict",
 )
 
 

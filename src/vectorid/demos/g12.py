@@ -374,9 +374,8 @@ def _copy_data(out: Path) -> dict:
 def _rms_errors(ident, x: np.ndarray) -> tuple[float, float]:
     """RMS horizontal and vertical position errors (m) of one design vector on ident's drop."""
     d = ident.drops[0]
-    res = ident.simulate(x[None, :], d)
+    res = ident.simulate(x[None, :], d)  # positions relative to the drop's origin
     pos = np.array(res.position[0])
-    pos[:, 2] += d.origin_altitude
     meas = d.measured("position")
     e = pos - meas
     return float(np.sqrt(np.mean(e[:, 0] ** 2 + e[:, 1] ** 2))), float(

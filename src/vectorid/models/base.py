@@ -204,6 +204,11 @@ class SimulationResult(ChannelResult):
         0 = ok; other codes in ``STATUS_MESSAGES`` (``messages`` gives one line per trial).
     t_fail : ndarray (n,)
         Time of failure, s (NaN for trials that finished).
+    origin_altitude : float
+        Altitude above mean sea level of the origin that ``position`` (its ``down``) is
+        measured from, m: 0 for a model's own simulation (down = -altitude above sea level);
+        a drop's origin altitude where an identification returns positions relative to the
+        drop's origin (:meth:`vectorid.identify.Identification.simulate`).
     """
 
     t: NDArray[np.float64]
@@ -213,6 +218,7 @@ class SimulationResult(ChannelResult):
     t_fail: NDArray[np.float64]
     params: NDArray[np.float64]
     model: str
+    origin_altitude: float = 0.0
     position: NDArray[np.float64] = field(init=False, repr=False)
     velocity: NDArray[np.float64] = field(init=False, repr=False)
     euler: NDArray[np.float64] = field(init=False, repr=False)
