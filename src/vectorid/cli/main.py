@@ -146,8 +146,11 @@ def executor_of(args: argparse.Namespace) -> str | None:
     return executor
 
 
-def add_limit_options(sp: argparse.ArgumentParser, *, save: bool = True) -> None:
-    """Add ``--limit`` and ``--role`` (shared by every analysis verb), and ``--save``."""
+def add_limit_options(
+    sp: argparse.ArgumentParser, *, save: bool = True, role: bool = True
+) -> None:
+    """Add ``--limit`` and ``--role`` (shared by every analysis verb), and ``--save``
+    (``role=False``: a verb that reads only D, which roles do not change)."""
     sp.add_argument(
         "--limit",
         action="append",
@@ -156,13 +159,14 @@ def add_limit_options(sp: argparse.ArgumentParser, *, save: bool = True) -> None
         help="criteria or functional constraint, in the quantity's unit, e.g. 'f1<=40' or "
         "'f2>=0.5' (repeatable; 'f1<=inf' removes a limit)",
     )
-    sp.add_argument(
-        "--role",
-        action="append",
-        default=[],
-        metavar="NAME=pure|pseudo",
-        help="override a criterion's role for this analysis",
-    )
+    if role:
+        sp.add_argument(
+            "--role",
+            action="append",
+            default=[],
+            metavar="NAME=pure|pseudo",
+            help="override a criterion's role for this analysis",
+        )
     if save:
         add_save_option(sp)
 

@@ -18,7 +18,14 @@ import argparse
 import sys
 from typing import Any
 
-from .main import add_json_option, add_store_argument, open_study, positive_int, print_json
+from .main import (
+    add_json_option,
+    add_limit_options,
+    add_store_argument,
+    open_study,
+    positive_int,
+    print_json,
+)
 
 __all__ = ["COMMANDS", "add_parsers"]
 
@@ -32,7 +39,7 @@ def add_parsers(sub: Any) -> None:
         "predictive check) or planned (no data), and print per channel the median, the "
         "credible 5-95 %% band (D's spread) and the with-noise band (where a measured sample "
         "is expected), the landing R50/R90/R95 and, where there are data, whether they lie "
-        "within what D predicts. The store is only read.",
+        "within what D predicts. The store is only read (--save writes the limits, nothing else).",
     )
     add_store_argument(p)
     p.add_argument("drops", nargs="+", metavar="DROP.toml", help="drop file(s)")
@@ -42,13 +49,7 @@ def add_parsers(sub: Any) -> None:
         help="members of D to fly (default: all; fewer are drawn keeping their weights)",
     )
     p.add_argument("--seed", type=int, default=0, help="seed of the draws (default 0)")
-    p.add_argument(
-        "--limit",
-        action="append",
-        default=[],
-        metavar="'NAME<=VALUE'",
-        help="criteria constraint overriding the study's (repeatable): D under it, named so",
-    )
+    add_limit_options(p, role=False)
     p.add_argument(
         "--nearest-generation",
         action="store_true",

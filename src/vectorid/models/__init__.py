@@ -27,6 +27,7 @@ import os
 from collections.abc import Sequence
 from typing import Any
 
+from vectorid._hints import QUIET_ENV, waiting
 from vectorid._simd import configure as _configure_simd
 
 _configure_simd()  # before numba compiles: full-width vectors on AVX-512 CPUs (see _simd)
@@ -221,8 +222,6 @@ def compile_models(names: Sequence[str], workers: int | None = None) -> list[str
     import subprocess
     import sys
     import time
-
-    from vectorid._hints import QUIET_ENV, waiting
 
     todo = [n for n in dict.fromkeys(names) if get(n).kernel_cached() is False]
     if not todo:
