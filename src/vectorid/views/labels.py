@@ -45,6 +45,24 @@ class Labels:
         u = self.unit.get(name, "")
         return f"{name} [{u}]" if u and u != "-" else name
 
+    def unit_text(self, name: str) -> str:
+        """The unit as every axis title shows it: the study's unit, ``-`` for a dimensionless
+        quantity (the study says ``unit = "-"``), ``no unit given`` where the study (and, for
+        an identification, the model and the criteria library) gives none: never guessed."""
+        u = self.unit.get(name, "")
+        return u if u else "no unit given"
+
+    def title(self, name: str) -> str:
+        """``name [unit]`` with the unit always said (:meth:`unit_text`): an axis title."""
+        return f"{name} [{self.unit_text(name)}]"
+
+    def hover(self, name: str) -> str:
+        """Name, unit and meaning on one line (an axis title's hover, a header's tooltip)."""
+        m = self.meaning.get(name, "")
+        kind = self.kind.get(name, "")
+        text = f"{self.title(name)}" + (f" — {kind}" if kind else "")
+        return f"{text}: {m}" if m else text
+
     def tip(self, name: str) -> str:
         """A one-line tooltip: kind, unit and meaning."""
         parts = [self.kind.get(name, "")]
@@ -90,12 +108,15 @@ def labels_of(spec: Any) -> Labels:
         except Exception:  # an unknown model: the names stay without meanings
             pass
         try:
-            from ..identify.criteria import CRITERIA
+            from ..identify.criteria import get_criterion
 
             table = ident.get("criteria") if isinstance(ident.get("criteria"), Mapping) else {}
             for c in spec.criteria:
                 use = table.get(c.name, {}).get("use", c.name) if table else c.name
-                d = CRITERIA.get(str(use))
+                try:  # a library name, a band-limited spectral one ("peak_roll@0.05-0.5")
+                    d = get_criterion(str(use))
+                except Exception:
+                    d = None
                 if d is not None:
                     meaning[c.name] = d.meaning
                     if not unit[c.name]:

@@ -77,7 +77,19 @@ font-size:12px;background:#fff}
 .verdict{border:1px solid #999;border-radius:3px;padding:0 5px;white-space:nowrap}
 .v-identified{font-weight:700;background:#e9e9e9}.v-weak{font-style:italic}
 .v-not-identified{border-style:dashed;color:#444}
-#par-graph .gl-canvas{visibility:hidden}#par-graph .gl-canvas-pick{pointer-events:none !important}
+#par-graph{overflow-x:auto;overflow-y:hidden;background:#fff}
+.vid-par-title{font-size:13px;color:#333;margin:4px 0 2px;text-align:center}
+.vid-par-svg text{font-family:system-ui,-apple-system,Segoe UI,Roboto,sans-serif;fill:#333}
+.vid-axis-title{font-size:12px;cursor:move;paint-order:stroke;stroke:#fff;stroke-width:3px}
+.vid-title .vid-unit{fill:#666}
+.vid-tick-label{font-size:11px;fill:#555;paint-order:stroke;stroke:#fff;stroke-width:3px}
+.vid-axis-line{stroke:#444;stroke-width:1}
+.vid-tick{stroke:#444}.vid-hit{fill:transparent;cursor:crosshair}
+.vid-brush{fill:rgba(60,60,60,.22);stroke:#333;stroke-width:1;cursor:pointer}
+.vid-limit{fill:#d9a400;stroke:#8a6a00;stroke-width:.5}
+.axes-panel{font-size:13px}.axes-panel summary{cursor:pointer}
+.axes-panel .vid-axes label{display:inline-block;min-width:150px;margin:1px 8px 1px 0;
+font-size:12px}
 .busy{visibility:hidden;color:#a15c00;font-size:13px}
 body:has([data-dash-is-loading="true"]) .busy{visibility:visible}
 #vid-counts[data-dash-is-loading="true"] b{opacity:.4}
@@ -109,6 +121,7 @@ def _defaults(ctx: cb.UIContext) -> dict[str, Any]:
         fields[f"low.{g.name}"] = lo
         fields[f"high.{g.name}"] = hi
     x0, y0 = explore.default_axes(ctx)
+    view = sets.default_view(ctx)
     fields.update(
         tab="tables",
         x=x0,
@@ -116,8 +129,10 @@ def _defaults(ctx: cb.UIContext) -> dict[str, Any]:
         panel="histograms",
         crit=spec.criterion_names[0],
         trial=str(initial_choice(ctx) or ""),
+        axes=",".join(view["order"]),
+        hide=",".join(sets.default_hidden(ctx)),
     )
-    return {"fields": fields, "view": sets.default_view(ctx)}
+    return {"fields": fields, "view": view}
 
 
 def _layout(ctx: cb.UIContext) -> Any:
@@ -332,7 +347,7 @@ _VIEW_FIELDS = (
     ("selection", "data"),
     ("par-view", "data"),
     ("par-colour", "value"),
-    ("par-hidden", "value"),
+    ("par-shown", "value"),
 )
 
 
@@ -391,7 +406,12 @@ def _register_url(app: Any, ctx: cb.UIContext, w: Wiring) -> None:
 
     from dash import Input, Output, State
 
-    names = {"crit": json.dumps(w.crit), "cons": json.dumps(w.cons)}
+    spec = ctx.spec
+    names = {
+        "crit": json.dumps(w.crit),
+        "cons": json.dumps(w.cons),
+        "axes": json.dumps(spec.criterion_names + spec.constraint_names + spec.space.names),
+    }
     outs = [Output(i, "value") for i in w.ids("limit") + w.ids("role") + w.ids("low")]
     outs += [Output(i, "value") for i in w.ids("high")]
     outs += [
