@@ -350,7 +350,6 @@ def _with_derived(held: StudySpec, given: StudySpec, agreement: Any) -> StudySpe
     the builder's ``prepare`` hook (which also drops them when the file no longer asks)."""
     from dataclasses import replace as _replace
 
-
     if any(analysis_only(given, d.field) for d in agreement.differences):
         return prepare_spec(given)
     stored = {c.name: c for c in held.criteria}
@@ -400,7 +399,6 @@ def _record_accepted(
 ) -> None:
     """Record data-file content changes taken with ``accept_changes`` in the history."""
     import time
-
 
     now = time.time()
     entries = [

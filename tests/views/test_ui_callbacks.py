@@ -883,7 +883,7 @@ def test_verdicts_follow_the_constraints_in_force(tmp_path):
 
 def test_chosen_text_shows_a_value_only_where_identified():
     from vectorid.analysis.identifiability import ParameterVerdict
-    from vectorid.views.ui.verdicts import chosen_text, verdict_line
+    from vectorid.views.ui.verdicts import chosen_text, verdict_groups, verdict_line
 
     ok = ParameterVerdict("x6", "identified", (0.47705, 0.61797), (0.5, 0.6), (0.2, 1.0))
     weak = ParameterVerdict("x8", "weak", (0.8, 1.2), None, (0.75, 1.5), unit="m")
@@ -894,8 +894,12 @@ def test_chosen_text_shows_a_value_only_where_identified():
     )
     assert chosen_text(empty, None) == "box [0, 1] (not identified)"
     assert verdict_line([ok, weak, empty]) == (
-        "identified: x6 [0.47705, 0.61797]; weak: x8; not identified: x9"
+        "identified: x6 [0.47705, 0.61797]; weak: x8 [0.8, 1.2]; not identified: x9 [0, 1]"
     )
+    groups = verdict_groups([ok, weak, empty])
+    assert [g["verdict"] for g in groups] == ["identified", "weak", "not identified"]
+    assert groups[1]["items"][0]["range"] == "[0.8, 1.2]" and groups[1]["items"][0]["unit"] == "m"
+    assert groups[2]["items"][0]["range"] == "none in D (box [0, 1])"
     thin = ParameterVerdict("x8", "weak", (0.8, 1.2), None, (0.75, 1.5), n_feasible=6,
                             thin=True, n_needed=20)  # fmt: skip
     assert verdict_line([thin]).endswith(

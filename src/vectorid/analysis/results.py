@@ -34,6 +34,7 @@ if TYPE_CHECKING:  # pragma: no cover
 
 __all__ = ["Analysis", "Bound", "EmptyDiagnosis", "TestTable", "parse_limit", "parse_limits"]
 
+
 @dataclass
 class TestTable:
     """One criterion's column of the test table (seed 000 Fig. 6): trials sorted best first.

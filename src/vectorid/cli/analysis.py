@@ -35,12 +35,12 @@ from .main import add_limit_options, parse_limits_for, positive_int
 __all__ = ["COMMANDS", "add_parsers"]
 
 
-
 def _sampler_note(study: Any, a: Any) -> str | None:
     """The study's sampler's line on the sample analysed (None: nothing to say)."""
     from ..samplers import sampler_for
 
     return sampler_for(study.spec).describe(study.store, a.limits, a.trials)
+
 
 def add_parsers(sub: Any) -> None:
     """Add the analysis verbs to the ``vectorid`` sub-parsers."""

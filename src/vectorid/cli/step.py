@@ -107,8 +107,7 @@ def _cmd_step(args: argparse.Namespace) -> int:
     else:
         own = max(e for e in mine if e is not None)
         print(
-            f"the study's dt = {ident.dt:g} s: largest position error {own:.3g} m over every "
-            "drop"
+            f"the study's dt = {ident.dt:g} s: largest position error {own:.3g} m over every drop"
         )
     if overall is None:
         print(f"no candidate step is within {args.tolerance:g} m for every drop")

@@ -732,8 +732,10 @@ def run_parafoil_demo(
     ins = s2["inside"]
     n_in = sum(bool(v) for v in ins.values())
     misses = [k for k, v in ins.items() if not v]
-    print(f"  truth inside the feasible range of {n_in} of {len(ins)} gains"
-          + (f" (misses: {', '.join(misses)})" if misses else ""))
+    print(
+        f"  truth inside the feasible range of {n_in} of {len(ins)} gains"
+        + (f" (misses: {', '.join(misses)})" if misses else "")
+    )
     sec = _sections(ident8, true, st2.noise_limits, full_boxes)
     _print_sections(sec, full_boxes)
     pure = a2.pure

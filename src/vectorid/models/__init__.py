@@ -99,8 +99,10 @@ def register(name: str, target: str) -> None:
 
 def _is_import_path(text: str) -> bool:
     module, sep, name = text.partition(":")
-    return bool(sep) and all(p.isidentifier() for p in module.split(".")) and all(
-        p.isidentifier() for p in name.split(".")
+    return (
+        bool(sep)
+        and all(p.isidentifier() for p in module.split("."))
+        and all(p.isidentifier() for p in name.split("."))
     )
 
 

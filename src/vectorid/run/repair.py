@@ -372,7 +372,6 @@ def _repair_batches(
     )
     hook = os.environ.get("VECTORID_TEST_REPAIR_PAUSE")
     if hook:  # tests: a moment to kill the repair between computing and committing
-
         time.sleep(float(hook))
     report.recomputed += store.replace_batches(
         [d.block for d in damaged],
@@ -460,7 +459,6 @@ def _evaluate(spec, work: dict, executor: str | None, workers: int | None) -> di
 
 def _restore_definition(store: Store, study: Path) -> None:
     """Write the definition of ``study`` into ``store`` after checking it against stage 0."""
-
 
     spec = load_study(study)
     text = store.stage_box_text(0)

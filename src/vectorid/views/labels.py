@@ -3,11 +3,12 @@ for every axis, field and table header a person reads."""
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-__all__ = ["Labels", "labels_of"]
+__all__ = ["Labels", "Relaxed", "labels_of", "relaxation_line", "relaxed_of"]
 
 
 @dataclass(frozen=True)
@@ -124,3 +125,74 @@ def labels_of(spec: Any) -> Labels:
         except Exception:
             pass
     return Labels(unit, meaning, kind, nominal)
+
+
+#: How :func:`vectorid.analysis.relaxation.relaxation_text` names a relaxation in a saved
+#: limit's note (:func:`vectorid.workflows.extra.relax_study`), and the stated limit it gives.
+_RELAXED = re.compile(r"limits relaxed x(?P<f>[0-9]+(?:\.[0-9]+)?(?:e[+-]?[0-9]+)?)")
+_STATED = re.compile(r"stated limit (?P<v>[-+]?[0-9.]+(?:e[+-]?[0-9]+)?)(?: \((?P<why>[^)]*)\))?")
+
+
+@dataclass(frozen=True)
+class Relaxed:
+    """A criteria constraint saved relaxed, as the last resort when D at the stated limits
+    was not reached (:func:`vectorid.workflows.extra.relax_study`).
+
+    Attributes
+    ----------
+    factor : float
+        Common factor on the stated limit (dimensionless, > 1).
+    stated : float or None
+        The stated limit, in the criterion's unit (None where the note does not give it).
+    why : str
+        Where the stated limit came from (its note: the noise floor and its allowance).
+    """
+
+    factor: float
+    stated: float | None
+    why: str = ""
+
+    def label(self) -> str:
+        """``relaxed x1.35 (last resort: D not reached at the stated limits)``."""
+        return f"relaxed x{self.factor:g} (last resort: D not reached at the stated limits)"
+
+    def text(self, unit: str = "") -> str:
+        """The label, then the stated limit and where it came from."""
+        u = f" {unit}" if unit and unit != "-" else ""
+        parts = [self.label()]
+        if self.stated is not None:
+            parts.append(
+                f"stated limit {self.stated:.4g}{u}" + (f" ({self.why})" if self.why else "")
+            )
+        return "; ".join(parts)
+
+
+def relaxed_of(criterion: Any) -> Relaxed | None:
+    """The relaxation a criterion's saved limit carries (its source is the stand-in's and
+    its note names the relaxation), or None for a limit that is not relaxed."""
+    note = getattr(criterion, "limit_note", "") or ""
+    if getattr(criterion, "limit", None) is None or getattr(criterion, "source", "") != "quantile":
+        return None
+    m = _RELAXED.search(note)
+    if m is None:
+        return None
+    s = _STATED.search(note)
+    stated = float(s.group("v").rstrip(".")) if s else None
+    return Relaxed(float(m.group("f")), stated, (s.group("why") or "") if s else "")
+
+
+def relaxation_line(spec: Any) -> str:
+    """One line for the study as a whole: "" where no saved limit is relaxed; otherwise which
+    factor, on which criteria, and what it means for the ranges read under them."""
+    rel = {c.name: relaxed_of(c) for c in spec.criteria}
+    rel = {k: v for k, v in rel.items() if v is not None}
+    if not rel:
+        return ""
+    factors = sorted({r.factor for r in rel.values()})
+    f = ", ".join(f"x{v:g}" for v in factors)
+    names = ", ".join(rel) if len(rel) < len(spec.criteria) else "every criterion"
+    return (
+        f"D was not reached at the stated limits: the limits saved with the study are relaxed "
+        f"{f} on {names} (the last resort); ranges read under them are outer bounds of what "
+        "the data determine"
+    )

@@ -70,6 +70,8 @@ h3{margin:6px 0;font-size:15px}
 .source{font-size:11px;color:#555;line-height:1.25;margin:2px 0;display:-webkit-box;
 -webkit-line-clamp:2;-webkit-box-orient:vertical;overflow:hidden}
 .source.src-session,.chip.src-session{color:#222;font-weight:600}
+.source.src-relaxed{display:block;color:#6b4a00}.chip.src-relaxed{border-color:#d9a400;
+background:#fff7e0}.relaxed{color:#6b4a00;font-weight:600}
 .chip{display:inline-block;border:1px solid #ccc;border-radius:10px;padding:0 7px;margin:1px 3px;
 font-size:12px;background:#fff}
 .chip.src-session{border-color:#777;background:#eee}
@@ -95,7 +97,14 @@ body:has([data-dash-is-loading="true"]) .busy{visibility:visible}
 #vid-counts[data-dash-is-loading="true"] b{opacity:.4}
 @media print{.top{position:static}.busy,button,.modebar-container{display:none !important}}
 .rangebar{position:relative;width:140px;height:12px;background:#e4e4e4;border-radius:2px;
-margin-top:3px}.rangebar>div{position:absolute}.rb-trial{top:-3px;height:18px;width:2px}
+margin-top:3px}
+.vpanel{background:#fff;border:1px solid #e4e4e4;border-radius:6px;padding:4px 8px;margin:4px 0;
+font-size:13px}.vgroup{display:flex;flex-wrap:wrap;gap:4px 6px;align-items:center;margin:3px 0}
+.vgroup-name{font-weight:600;min-width:120px}.vchip{border:1px solid #bbb;border-radius:4px;
+padding:0 5px;background:#fafafa;font-size:12px;white-space:nowrap}
+.vchip .rangebar{display:inline-block;width:44px;height:8px;margin:0 0 0 4px;vertical-align:middle}
+.vchip .rangebar>div{height:6px !important;top:1px !important}
+.vchip.v-identified{border-color:#2ca02c;background:#f1faf1}.vchip.v-weak{border-style:dashed}.rangebar>div{position:absolute}.rb-trial{top:-3px;height:18px;width:2px}
 """
 
 _INDEX = (
