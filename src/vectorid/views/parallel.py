@@ -286,10 +286,8 @@ def parallel_axes(
         rs = [[float(min(r)), float(max(r))] for r in rs]
         if rs and name in values:
             kept[name] = rs
-    n_shown = len([n for n in names if n not in hide])
     title = (
-        f"Parallel coordinates (N={a.n:,}, ND={a.n_feasible:,}, NP={a.n_pareto:,}); "
-        f"{n_shown} of {len(names)} axes; lines: "
+        f"Parallel coordinates (N={a.n:,}, ND={a.n_feasible:,}, NP={a.n_pareto:,}); lines: "
         + ", ".join(
             [
                 part("pareto", "Pareto (green)"),
