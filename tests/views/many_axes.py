@@ -47,10 +47,13 @@ def criteria_of(U: np.ndarray, rng: np.random.Generator) -> np.ndarray:
     return F * (1 + 0.01 * rng.standard_normal(F.shape))
 
 
-def many_axes_store(folder: Path, trials: int = 4000, *, name: str = "gains33") -> Path:
+def many_axes_store(
+    folder: Path, trials: int = 4000, *, name: str = "gains33", worse: float = 1.0
+) -> Path:
     """Write the store (``folder/<name>.db``) and save its limits relaxed: the stated limits
     leave D holding a handful of trials, so :func:`relax_study` relaxes them by a common
-    factor and names the relaxation in each limit's note."""
+    factor and names the relaxation in each limit's note. ``worse`` scales every criterion
+    (a second, poorer model of the same data: same stated limits, from the first one's)."""
     folder.mkdir(parents=True, exist_ok=True)
     space = Space([Continuous(g, 0.2, 2.0, nominal=1.0, unit=u) for g, u in zip(GAINS, GAIN_UNITS)])
     spec = StudySpec(
@@ -67,7 +70,8 @@ def many_axes_store(folder: Path, trials: int = 4000, *, name: str = "gains33") 
     store = Store.create(path, spec)
     X = space.scale(PointSequence(33, "sobol").points(0, trials))
     rng = np.random.default_rng(7)
-    F = criteria_of((X - 0.2) / 1.8, rng)
+    F0 = criteria_of((X - 0.2) / 1.8, rng)
+    F = F0 * worse
     status = np.zeros(trials, np.int8)
     for s in range(0, trials, 2048):
         e = min(trials, s + 2048)
@@ -75,7 +79,7 @@ def many_axes_store(folder: Path, trials: int = 4000, *, name: str = "gains33") 
             0, s, X[s:e], F[s:e], np.empty((e - s, 0)), status[s:e], np.zeros(e - s), {}
         )
     store.close()
-    stated = {c: float(np.quantile(F[:, i], 0.05)) for i, (c, _) in enumerate(CRITERIA)}
+    stated = {c: float(np.quantile(F0[:, i], 0.05)) for i, (c, _) in enumerate(CRITERIA)}
     notes = {c: "noise floor q=0.99, joint 95% over 8 criteria" for c in stated}
     with Study.open(path, write=True) as st:
         rel = relax_study(st, stated, notes)

@@ -1,9 +1,10 @@
 """The ``vectorid ui`` verb (loaded by :mod:`vectorid.cli`)::
 
-    vectorid ui STORE [--host 127.0.0.1] [--port 8050] [--executor serial|processes]
-                      [--workers N] [--max-points N]
+    vectorid ui STORE [OTHER] [--host 127.0.0.1] [--port 8050]
+                      [--executor serial|processes] [--workers N] [--max-points N]
 
-Serves the browser UI of a study store; needs the ``ui`` extra (dash).
+Serves the browser UI of a study store; needs the ``ui`` extra (dash). With a second store,
+a *Compare* tab shows the two models side by side (the same criteria on the same data).
 """
 
 from __future__ import annotations
@@ -32,6 +33,11 @@ def add_parsers(sub: Any) -> None:
     u = sub.add_parser("ui", help="serve the interactive browser UI of a study store")
     u.add_argument("store", help="the study store (.db)")
     u.add_argument(
+        "other",
+        nargs="?",
+        help="a second store to compare with (two models of the same data: a Compare tab)",
+    )
+    u.add_argument(
         "--host",
         default="127.0.0.1",
         help="interface to bind (default 127.0.0.1; anything else is reachable by others)",
@@ -55,10 +61,11 @@ def _cmd_ui(args: argparse.Namespace) -> int:
     from ..errors import StoreError
 
     path = Path(args.store)
-    if not path.is_file():
-        raise StoreError(
-            f"no store at {path}; run a study first (`vectorid demo`, `vectorid run STUDY.toml`)"
-        )
+    for p in (path, Path(args.other)) if args.other else (path,):
+        if not p.is_file():
+            raise StoreError(
+                f"no store at {p}; run a study first (`vectorid demo`, `vectorid run STUDY.toml`)"
+            )
     import importlib.util
 
     from .._hints import install_hint
@@ -81,6 +88,7 @@ def _cmd_ui(args: argparse.Namespace) -> int:
             executor=args.executor,
             workers=args.workers,
             max_points=args.max_points,
+            compare=args.other,
         )
     except ImportError as exc:  # pragma: no cover - a broken dash installation only
         raise StudyDefinitionError("ui", str(exc)) from None

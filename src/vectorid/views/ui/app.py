@@ -24,6 +24,7 @@ from . import callbacks as cb
 from . import client
 from .data import FreedMemoryReleaser, StoreCache
 from .jobs import JobManager
+from .pages import compare as compare_page
 from .pages import detail, explore, sets
 from .pages.common import Wiring, err
 
@@ -197,6 +198,17 @@ def _layout(ctx: cb.UIContext) -> Any:
                                 value="overview",
                                 children=detail.overview_layout(ctx),
                             ),
+                            *(
+                                [
+                                    dcc.Tab(
+                                        label="Compare two models",
+                                        value="compare",
+                                        children=compare_page.compare_layout(ctx),
+                                    )
+                                ]
+                                if "compare" in ctx.extra
+                                else []
+                            ),
                         ],
                     ),
                 ],
@@ -211,6 +223,7 @@ def create_app(
     executor: str | None = None,
     workers: int | None = None,
     max_points: int = 20_000,
+    compare: str | Path | None = None,
 ) -> tuple[Any, cb.UIContext]:
     """Build the Dash app serving one study store.
 
@@ -222,6 +235,9 @@ def create_app(
         For background run jobs (see :func:`vectorid.run.run_store`).
     max_points : int
         Points drawn per set in the criterion-vs-criterion plot.
+    compare : path, optional
+        A second store: a *Compare two models* tab shows both side by side
+        (:mod:`vectorid.views.ui.compare`; the spectral peaks are computed in a thread).
 
     Returns
     -------
@@ -248,6 +264,10 @@ def create_app(
         progress_of=lambda: cache.version()[0],
     )
     ctx = cb.UIContext(cache=cache, jobs=jobs, max_points=max_points)
+    if compare is not None:
+        from .compare import start_compare
+
+        start_compare(ctx, compare)
     _warm(ctx)  # load, compile (numba) and keep what the first page needs
     jobs.warm()  # the job worker imports vectorid while the page loads
 
@@ -318,6 +338,8 @@ def create_app(
     explore.register(app, ctx, w, tokens)
     sets.register(app, ctx, w, tokens)
     detail.register(app, ctx, w)
+    if "compare" in ctx.extra:
+        compare_page.register(app, ctx)
     _register_jobs(app, ctx, w)
     return app, ctx
 
