@@ -77,9 +77,7 @@ def test_parafoil_demo_end_to_end_reduced(tmp_path, capsys):
     assert ("Stage 3: the reduced set" in text) == ran3 and ("is the fit kept?" in text) == ran3
     assert ("stage 3 not run: nothing to fix or tie" in text) == (not ran3)
     assert ("6-DoF model, the reduced set, the evaluations stage 3 needed" in text) == ran3
-    assert ("6-DoF model, stage 2's 33 gains, the evaluations stage 2 needed" in text) == (
-        not ran3
-    )
+    assert ("6-DoF model, stage 2's 33 gains, the evaluations stage 2 needed" in text) == (not ran3)
     for name in ("stage1", "stage2", "stage3", "6dof"):
         made = ran3 or name != "stage3"
         assert (out / f"parafoil-{name}.db").exists() == made

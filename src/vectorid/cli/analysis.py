@@ -6,8 +6,8 @@
     vectorid refine STORE [--limit ...] [--pareto] [--quantile Q] [--margin F]
                           [--bound NAME=LO:HI ...] [--apply] [--out FIG.html] [--json]
     vectorid robustness STORE --trial ID [--trial ID ...] [--radius R] [--points N] [--seed S]
-    vectorid report STORE [--limit ...] [--chosen ID ...] [--max-points N] [--predict DROP.toml]
-                          --out report.html
+    vectorid report STORE [OTHER] [--limit ...] [--chosen ID ...] [--max-points N]
+                          [--predict DROP.toml] --out report.html
     vectorid correlation STORE [--limit ...] [--set pareto|feasible] [--method pearson|spearman]
     vectorid sensitivity STORE [--limit ...]
     vectorid hist STORE [--limit ...] [--param NAME ...] [--bins N] [--by-stage] [--out FIG.html]
@@ -103,8 +103,16 @@ def add_parsers(sub: Any) -> None:
     b.add_argument("--out", help="write the robustness figure to this .html file")
     add_json_option(b)
 
-    p = sub.add_parser("report", help="self-contained HTML report of the study")
+    p = sub.add_parser(
+        "report", help="self-contained HTML report of the study (or two models compared)"
+    )
     add_store_argument(p)
+    p.add_argument(
+        "other",
+        nargs="?",
+        help="a second store: write the comparison of the two models instead (the same "
+        "criteria on the same data: N/ND/NP, limits met, best values, spectral peaks)",
+    )
     add_limit_options(p)
     p.add_argument("--out", required=True, help="the .html file to write")
     p.add_argument(
@@ -402,6 +410,16 @@ def _cmd_report(args: argparse.Namespace) -> int:
         raise StudyDefinitionError(
             "report", f"the report needs plotly ({exc})", install_hint("plot")
         ) from None
+    if args.other:
+        from ..views.compare import write_comparison
+
+        for path in (args.store, args.other):
+            _open(path).close()  # one-line errors for a missing or damaged store
+        res = write_comparison(args.store, args.other, args.out)
+        print(f"comparison written to {res.path} ({res.size / 1e6:.1f} MB, {res.seconds:.1f} s)")
+        for n in res.notes:
+            print(f"  spectral peaks: {n}")
+        return 0
     study = _open(args.store)
     with study:
         prediction = None

@@ -1,9 +1,10 @@
 """The ``vectorid ui`` verb (loaded by :mod:`vectorid.cli`)::
 
-    vectorid ui STORE [--host 127.0.0.1] [--port 8050] [--executor serial|processes]
-                      [--workers N] [--max-points N]
+    vectorid ui STORE [OTHER] [--host 127.0.0.1] [--port 8050]
+                      [--executor serial|processes] [--workers N] [--max-points N]
 
-Serves the browser UI of a study store; needs the ``ui`` extra (dash).
+Serves the browser UI of a study store; needs the ``ui`` extra (dash). With a second store,
+a *Compare* tab shows the two models side by side (the same criteria on the same data).
 """
 
 from __future__ import annotations
@@ -32,6 +33,11 @@ def add_parsers(sub: Any) -> None:
     u = sub.add_parser("ui", help="serve the interactive browser UI of a study store")
     add_store_argument(u)
     u.add_argument(
+        "other",
+        nargs="?",
+        help="a second store to compare with (two models of the same data: a Compare tab)",
+    )
+    u.add_argument(
         "--host",
         default="127.0.0.1",
         help="interface to bind (default 127.0.0.1; anything else is reachable by others)",
@@ -50,16 +56,17 @@ def _cmd_ui(args: argparse.Namespace) -> int:
     from ..errors import StoreError
 
     path = Path(args.store)
-    if path.is_dir():
-        stores = sorted(p.name for p in path.glob("*.db"))[:5]
-        raise StoreError(
-            f"{path} is a folder, not a study store; point to the .db file"
-            + (f" (this folder holds {', '.join(stores)})" if stores else " (it holds none)")
-        )
-    if not path.is_file():
-        raise StoreError(
-            f"no store at {path}; run a study first (`vectorid demo`, `vectorid run STUDY.toml`)"
-        )
+    for p in (path, Path(args.other)) if args.other else (path,):
+        if p.is_dir():
+            stores = sorted(q.name for q in p.glob("*.db"))[:5]
+            raise StoreError(
+                f"{p} is a folder, not a study store; point to the .db file"
+                + (f" (this folder holds {', '.join(stores)})" if stores else " (it holds none)")
+            )
+        if not p.is_file():
+            raise StoreError(
+                f"no store at {p}; run a study first (`vectorid demo`, `vectorid run STUDY.toml`)"
+            )
     import importlib.util
 
     from .._hints import install_hint
@@ -82,6 +89,7 @@ def _cmd_ui(args: argparse.Namespace) -> int:
             executor=args.executor,
             workers=args.workers,
             max_points=args.max_points,
+            compare=args.other,
         )
     except ImportError as exc:  # pragma: no cover - a broken dash installation only
         raise StudyDefinitionError("ui", str(exc)) from None

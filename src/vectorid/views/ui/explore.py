@@ -18,9 +18,10 @@ from ...analysis.weights import how_weighted
 from ...errors import StudyDefinitionError, VectoridError
 from ...samplers import sampler_for
 from .. import clouds
+from ..labels import relaxation_line
 from .context import UIContext, analysis_of, fmt, num
 from .data import page_numbers, page_table, parse_trial_id, refused
-from .verdicts import limit_sources, verdict_line, verdicts_of
+from .verdicts import limit_sources, verdict_groups, verdict_line, verdicts_of
 
 __all__ = [
     "box_to_limits",
@@ -216,9 +217,14 @@ def summary_view(
         (columns, data, styles of the test tables), ``sources`` (where each criterion's
         limit in force came from, :func:`~vectorid.views.ui.verdicts.limit_sources`) and
         ``verdicts`` (the identifiability verdicts in one line,
-        :func:`~vectorid.views.ui.verdicts.verdict_line`).
+        :func:`~vectorid.views.ui.verdicts.verdict_line`), ``verdict_groups`` (the verdict
+        panel, :func:`~vectorid.views.ui.verdicts.verdict_groups`), ``thin`` (D too small
+        to show a spread, in words, or ""), ``relaxed`` (the study's saved limits relaxed
+        as the last resort, in words, or "", :func:`vectorid.views.labels.
+        relaxation_line`) and ``nd``.
     """
     a, c = analysis_of(ctx, limit_texts, roles, functional)
+    vs = verdicts_of(ctx, a)
     messages = list(c.messages)
     note = sampler_note(ctx, a)
     if note:
@@ -277,7 +283,16 @@ def summary_view(
         "ranges": ranges,
         "table": {"columns": columns, "data": data, "styles": styles},
         "sources": limit_sources(ctx, a, c),
-        "verdicts": verdict_line(verdicts_of(ctx, a)),
+        "verdicts": verdict_line(vs),
+        "verdict_groups": verdict_groups(vs),
+        "thin": (
+            f"thin: D holds {vs[0].n_feasible} trials, fewer than the {vs[0].n_needed} needed "
+            'to show its spread (run more trials, or sampler = "sequential")'
+            if vs and vs[0].thin
+            else ""
+        ),
+        "relaxed": relaxation_line(ctx.spec),
+        "nd": a.n_feasible,
     }
 
 
