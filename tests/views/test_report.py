@@ -83,9 +83,11 @@ def test_report_contents(report):
         assert f">{heading}" in text, heading
     # point clouds in SVG (every figure drawn at load, few WebGL contexts)
     kinds = {t["type"] for f in figs for t in f["data"]}
-    assert "scattergl" not in kinds and "parcoords" in kinds
+    assert "scattergl" not in kinds and "parcoords" not in kinds  # parallel: SVG lines
     gl = {"splom", "parcoords", "scatter3d", "scattergl"}
-    assert sum(any(t["type"] in gl for t in f["data"]) for f in figs) <= 3  # matrix, parallel
+    assert sum(any(t["type"] in gl for t in f["data"]) for f in figs) <= 2  # the matrix, 3-D
+    # every figure laid out to print: an A4 page's width, no font under 11 px
+    assert all(f["layout"]["width"] == 700 and f["layout"]["height"] <= 1000 for f in figs)
     assert any(t.startswith("Double tuning: ranges per parameter") for t in titles)
     # wide tables scroll in their container
     assert text.count('<div class="scroll"><table>') >= 5
@@ -142,13 +144,16 @@ def _render_and_check(res, name: str) -> Path:
                     break
                 time.sleep(0.2)
             assert done == n
-            # and each has its picture for print (fitted to an A4 page, point clouds as pixels)
+            # and each WebGL figure has its picture for print (the others print as drawn)
             deadline = time.time() + 90
             while time.time() < deadline:
                 if d.execute_script("return window.vectoridPrintReady === true"):
                     break
                 time.sleep(0.2)
-            assert d.execute_script("return document.querySelectorAll('img.raster').length") == n
+            assert d.execute_script(
+                "return document.querySelectorAll('img.raster').length === "
+                "document.querySelectorAll('div.fig.gl').length"
+            )
             # every figure drew something: an SVG with plot content, and WebGL canvases
             # with non-zero size for the point clouds
             drawn = d.execute_script(

@@ -15,6 +15,7 @@ from typing import Any
 from ..analysis.identifiability import ParameterVerdict, identifiability
 from ..analysis.results import Analysis
 from ..builders import variable_meanings
+from .labels import relaxed_of
 
 __all__ = ["identifiability_html", "limits_html", "report_section", "verdicts_for_report"]
 
@@ -44,6 +45,9 @@ def limits_html(a: Analysis) -> str:
         same = c.limit is not None and abs(c.limit - v) <= 1e-12 * max(1.0, abs(v))
         src = c.source if same else "this analysis (--limit)"
         note = c.limit_note if same else ""
+        rel = relaxed_of(c) if same else None
+        if rel is not None:  # relaxed as the last resort: said, never a "quantile" stand-in
+            src, _, note = rel.text(c.unit).partition("; ")
         side = "<=" if a.senses[j] == "min" else ">="
         rows.append(
             f"<tr><td class=l>{_e(c.name)}</td><td class=l>{_e(a.roles[j])}</td>"

@@ -15,12 +15,14 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
+import plotly.graph_objects as go
 
 from ..analysis.classes import CLASS_COLOURS, point_classes
 from ..analysis.results import Analysis
+from ..analysis.sensitivity import sensitivity
 from .clouds import _base_layout, _plain, b64, column, figure, thin
 
-__all__ = ["brush_event", "parallel_axes", "parallel_figure"]
+__all__ = ["brush_event", "parallel_axes", "parallel_figure", "parallel_print_figure", "top_axes"]
 
 _CODE = {"infeasible": 0, "feasible": 1, "pareto": 2}
 _SCALE = [
@@ -306,6 +308,161 @@ def parallel_axes(
         "count": counts,
         "height": 470,
     }
+
+
+def top_axes(a: Analysis, at_most: int = 16, ks: Mapping[str, float] | None = None) -> list[str]:
+    """The axes a reader needs first: the criteria and functionals, then the gains D depends
+    on most (KS statistic between D and the rest, :func:`vectorid.analysis.sensitivity.
+    sensitivity`; given as ``ks`` or computed), up to ``at_most`` axes in all (at least four
+    gains)."""
+    head = list(a.crit_names) + list(a.con_names)
+    names = a.spec.space.names
+    if ks is None:
+        ks = dict(zip(names, map(float, sensitivity(a).ks))) if a.n_feasible else {}
+    order = sorted(
+        range(len(names)),
+        key=lambda j: (
+            not np.isfinite(ks.get(names[j], np.nan)),
+            -np.nan_to_num(ks.get(names[j], 0.0)),
+            j,
+        ),
+    )
+    room = max(4, at_most - len(head))
+    return head + [names[j] for j in order[:room]]
+
+
+def parallel_print_figure(
+    a: Analysis,
+    names: Sequence[str],
+    *,
+    lines: int | None = 500,
+    seed: int = 0,
+    labels: Any = None,
+    width: int = 700,
+) -> Any:
+    """Parallel coordinates for the report and for print: the same lines as the browser
+    UI's (thinned per set, Pareto on top), drawn as plain SVG lines (no WebGL: prints as
+    vectors, draws in a fraction of a second), each axis scaled to its range with its two
+    ends written, titles upright with their unit, the constraints in force marked (amber).
+
+    Parameters
+    ----------
+    a : Analysis
+    names : sequence of str
+        The axes, in order (:func:`top_axes` for the report).
+    lines : int, optional
+        Lines drawn per set (a uniform random subset beyond; the title says so).
+    labels : Labels, optional
+    width : int
+        Figure width, px (700: an A4 page's text width).
+
+    Returns
+    -------
+    go.Figure
+    """
+    pc = point_classes(a)
+    rows, counts = thin(pc, lines, seed)
+    n = len(names)
+    xs = np.arange(n, dtype=float)
+    traces = []
+    lims = []
+    cols = {}
+    for name in names:
+        v, kind = column(a, name)
+        lo, hi = _range(v)
+        cols[name] = (v, lo, hi)
+        if kind in ("criterion", "functional"):
+            for b in a.bounds[name] if kind == "functional" else ():
+                if math.isfinite(b) and lo <= b <= hi:
+                    lims.append((names.index(name), (b - lo) / (hi - lo)))
+            if kind == "criterion":
+                sense = a.senses[a.crit_names.index(name)]
+                blo, bhi = a.bounds[name]
+                w = bhi if sense == "min" else blo
+                if math.isfinite(w) and lo <= w <= hi:
+                    lims.append((names.index(name), (w - lo) / (hi - lo)))
+    for k, label in (
+        ("infeasible", "infeasible"),
+        ("feasible", "in D, not Pareto"),
+        ("pareto", "Pareto"),
+    ):
+        r = rows[k]
+        if not len(r):
+            continue
+        Y = np.column_stack(
+            [(cols[m][0][r] - cols[m][1]) / (cols[m][2] - cols[m][1]) for m in names]
+        )
+        X = np.tile(np.append(xs, np.nan), len(r))
+        Yl = np.column_stack([Y, np.full(len(r), np.nan)]).ravel()
+        shown = f"{len(r):,} of {counts[k]:,}" if len(r) < counts[k] else f"{counts[k]:,}"
+        traces.append(
+            {
+                "type": "scatter",
+                "mode": "lines",
+                "x": X.astype(np.float32),
+                "y": Yl.astype(np.float32),
+                "name": f"{label} ({shown})",
+                "line": {"color": CLASS_COLOURS[k], "width": 1.4 if k == "pareto" else 0.6},
+                "opacity": 0.9 if k == "pareto" else 0.3,
+                "hoverinfo": "skip",
+            }
+        )
+    shapes = [
+        {"type": "line", "x0": x, "x1": x, "y0": 0, "y1": 1, "line": {"color": "#444", "width": 1}}
+        for x in xs
+    ]
+    ann = []
+    for i, name in enumerate(names):
+        _, lo, hi = cols[name]
+        title = labels.title(name) if labels is not None else name
+        ann.append(
+            {
+                "x": i,
+                "y": 1.0,
+                "yref": "paper",
+                "yshift": 34,
+                "text": title,
+                "textangle": -90,
+                "xanchor": "center",
+                "yanchor": "bottom",
+                "showarrow": False,
+                "font": {"size": 12},
+            }
+        )
+        for y, v, anchor in ((1.0, hi, "bottom"), (0.0, lo, "top")):
+            ann.append({"x": i, "y": y + (0.012 if y else -0.012), "text": f"{v:.3g}",
+                        "showarrow": False, "yanchor": anchor, "font": {"size": 11},
+                        "yshift": (12 if i % 2 else 0) * (1 if y else -1)})  # fmt: skip
+    lim_trace = {
+        "type": "scatter",
+        "mode": "markers",
+        "x": [x + 0.08 for x, _ in lims],
+        "y": [y for _, y in lims],
+        "marker": {"symbol": "triangle-left", "size": 10, "color": "#d9a400"},
+        "name": "constraint in force",
+        "hoverinfo": "skip",
+    }
+    longest = max((len(labels.title(m) if labels is not None else m) for m in names), default=4)
+    top = 70 + int(7.2 * longest)
+    layout = _base_layout(
+        title={
+            "text": f"Parallel coordinates (N={a.n:,}, ND={a.n_feasible:,}, NP={a.n_pareto:,})",
+            "font": {"size": 13},
+            "y": 0.99,
+            "yanchor": "top",
+        },
+        width=width,
+        height=top + 420,
+        margin={"t": top, "l": 30, "r": 30, "b": 80},
+        xaxis={"visible": False, "range": [-0.5, n - 0.5]},
+        yaxis={"visible": False, "range": [-0.06, 1.0 + 0.02]},
+        shapes=shapes,
+        annotations=ann,
+        showlegend=True,
+        legend={"orientation": "h", "y": -0.08, "x": 0, "font": {"size": 11}},
+        font={"size": 12},
+    )
+    return go.Figure({"data": [*traces, lim_trace], "layout": layout})
 
 
 _KEY = re.compile(r"^dimensions\[(\d+)\]\.constraintrange$")

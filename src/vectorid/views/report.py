@@ -51,7 +51,8 @@ from ..store import Store
 from . import figures as fg
 from .clouds import PROPOSED_COLOUR
 from .history import history
-from .labels import labels_of
+from .labels import labels_of, relaxation_line, relaxed_of
+from .parallel import parallel_print_figure, top_axes
 
 __all__ = ["ReportResult", "build_report", "write_report"]
 
@@ -70,7 +71,8 @@ img.raster{display:none}
 body{max-width:none;padding:0}.modebar-container{display:none!important}
 .fig.rastered{display:none!important}
 img.raster{display:block;width:100%;max-width:186mm;break-inside:avoid;margin:6px 0}
-.scroll{overflow:visible}table{font-size:10px}}
+.scroll{overflow:visible}table{font-size:11px;max-width:100%}
+td,th{overflow-wrap:anywhere;padding:2px 4px}.fig{min-height:0!important}}
 .counts{font-size:18px}.counts b{font-size:22px}.note{color:#555;font-size:13px;
 border-left:3px solid #d9a400;padding-left:6px}
 nav a{margin-right:10px}
@@ -89,18 +91,18 @@ _LOADER = """
         return t.type==='splom'||t.type==='scatter3d'||t.type==='parcoords';})){
       div.innerHTML='<p class="note">This figure needs WebGL, which this browser lacks.</p>';
       div.dataset.state='plotted'; return;}
-    Plotly.newPlot(div, fig.data, fig.layout, {responsive:true, displaylogo:false});
+    Plotly.newPlot(div, fig.data, fig.layout, {displaylogo:false});
     div.dataset.state='plotted';
-    raster(div);
+    if(div.classList.contains('gl')) raster(div);
   }
-  // for print: each figure as a picture the width of an A4 page (720 CSS px, drawn at
-  // twice that), so that point clouds print as pixels, not as tens of thousands of vector
-  // marks, and no figure runs over the page's edge; the screen keeps the live figure
+  // every figure is laid out the width of an A4 page and prints as it is drawn (SVG, text
+  // as text); a WebGL figure (the criteria matrix, 3-D trajectories) prints as a picture
+  // of the same size (drawn at twice that), since a WebGL canvas does not print as vectors
   var pending = 0;
   function ready(){ if(!pending && next >= divs.length) window.vectoridPrintReady = true; }
   function raster(div){
     if(!window.Plotly || !Plotly.toImage || !div.clientWidth) return;
-    var w = 720, h = Math.min(980, Math.round(div.clientHeight * w / div.clientWidth));
+    var w = div.clientWidth, h = div.clientHeight;
     pending++;
     Plotly.toImage(div, {format:'png', width:w, height:h, scale:2}).then(function(url){
       var img = document.createElement('img');
@@ -174,6 +176,63 @@ def _table(head: Sequence[str], rows: Iterable[Sequence[Any]], left: int = 1) ->
     return "".join(out)
 
 
+#: Trace types drawn in WebGL: the only figures printed as pictures (a WebGL canvas does not
+#: print as vectors); every other figure prints as it is drawn, in SVG (text as text).
+_GL = {"splom", "scatter3d", "scattergl", "parcoords"}
+#: Every figure is laid out this wide (px): an A4 page's text width (186 mm at 96 px per
+#: inch is 703 px), so that it prints at the size it is drawn, and no taller than a page.
+PRINT_WIDTH = 700
+PRINT_HEIGHT = 1000
+#: The smallest font of any figure text, px: 11 px prints at 8.25 pt at the page's width.
+MIN_FONT = 11
+
+
+def _font(holder: dict[str, Any], key: str = "font", least: int = MIN_FONT) -> None:
+    f = holder.get(key)
+    if not isinstance(f, dict):
+        f = {}
+        holder[key] = f
+    size = f.get("size")
+    if size is None or size < least:
+        f["size"] = least
+
+
+def _print_layout(lay: dict[str, Any]) -> int:
+    """A report figure's layout made to print: :data:`PRINT_WIDTH` wide, at most
+    :data:`PRINT_HEIGHT` tall, no font under :data:`MIN_FONT` px (ticks, axis titles,
+    annotations, legend, colour bars). Returns the height, px."""
+    lay["width"] = PRINT_WIDTH
+    lay["autosize"] = False
+    h = int(min(lay.get("height") or 450, PRINT_HEIGHT))
+    lay["height"] = h
+    _font(lay, least=12)
+    title = lay.get("title")
+    if isinstance(title, dict):
+        _font(title, least=12)
+        if isinstance(title.get("text"), str):  # a <sub> line is drawn at 70 %: full size
+            title["text"] = title["text"].replace("<sub>", "").replace("</sub>", "")
+    for k, v in list(lay.items()):
+        if isinstance(v, dict) and k.startswith(("xaxis", "yaxis", "scene")):
+            _font(v, "tickfont")
+            if v.get("type") == "log":  # no 2 and 5 between decades: plotly draws them small
+                v.setdefault("dtick", 1)
+            t = v.get("title")
+            if isinstance(t, dict):
+                _font(t)
+            for axis in ("xaxis", "yaxis", "zaxis"):  # a 3-D scene's axes
+                if isinstance(v.get(axis), dict):
+                    _font(v[axis], "tickfont")
+    for ann in lay.get("annotations") or []:
+        if isinstance(ann, dict):
+            _font(ann)
+    if isinstance(lay.get("legend"), dict) or "legend" not in lay:
+        _font(lay.setdefault("legend", {}))
+    ca = lay.get("coloraxis")
+    if isinstance(ca, dict) and isinstance(ca.get("colorbar"), dict):
+        _font(ca["colorbar"], "tickfont")
+    return h
+
+
 class _Page:
     def __init__(self) -> None:
         self.parts: list[str] = []
@@ -200,11 +259,18 @@ class _Page:
         ]
         if thinned:
             self.notes.append(f"{title}: thinned for display: " + "; ".join(dict.fromkeys(thinned)))
-        payload = figure.to_json().replace("</", "<\\/")
-        height = int(figure.layout.height or 450)
+        from plotly.io.json import to_json_plotly
+
+        d = figure.to_plotly_json()
+        gl = any(t.get("type") in _GL for t in d.get("data", []))
+        for t in d.get("data", []):  # text drawn in cells and on bars: no smaller either
+            if "texttemplate" in t or "text" in t:
+                _font(t, "textfont")
+        height = _print_layout(d.setdefault("layout", {}))
+        payload = to_json_plotly(d).replace("</", "<\\/")
         self.parts.append(
-            f'<div class="fig" id="fig{i}" style="min-height:{height}px"></div>'
-            f'<script type="application/json" id="fig{i}-json">{payload}</script>'
+            f'<div class="fig{" gl" if gl else ""}" id="fig{i}" style="min-height:{height}px">'
+            f'</div><script type="application/json" id="fig{i}-json">{payload}</script>'
         )
         if caption:
             self.parts.append(f'<p class="muted">{_e(caption)}</p>')
@@ -250,7 +316,7 @@ def _definition(page: _Page, a: Analysis, store: Store) -> None:
                     a.roles[j],
                     _f(a.bounds[c.name][1] if a.senses[j] == "min" else a.bounds[c.name][0]),
                     _e(c.unit),
-                    _e(c.source + (f": {c.limit_note}" if c.limit_note else "")),
+                    _e(_source_words(c)),
                 ]
                 for j, c in enumerate(spec.criteria)
             ],
@@ -270,6 +336,14 @@ def _definition(page: _Page, a: Analysis, store: Store) -> None:
         )
 
 
+def _source_words(c: Any) -> str:
+    """Where a saved limit came from; a relaxed one says so first, with its factor."""
+    rel = relaxed_of(c)
+    if rel is not None:
+        return rel.text(c.unit)
+    return c.source + (f": {c.limit_note}" if c.limit_note else "")
+
+
 def _counts(page: _Page, a: Analysis) -> None:
     page.h2("Trials, feasible set and Pareto set")
     page.add(
@@ -277,6 +351,9 @@ def _counts(page: _Page, a: Analysis) -> None:
         f"NP = <b>{a.n_pareto}</b> &nbsp; <span class=muted>(failed {a.n_failed}, meeting the "
         f"functional constraints {a.n_functional})</span></p>"
     )
+    relaxed = relaxation_line(a.spec)
+    if relaxed:
+        page.add(f"<p class=note><b>{_e(relaxed)}</b></p>")
     bounds = [str(b) for b in a.active_bounds()]
     page.add("<p>Constraints in force: " + (_e(", ".join(bounds)) or "none") + "</p>")
     pure = [a.crit_names[i] for i in a.pure]
@@ -356,31 +433,37 @@ def _sequential(page: _Page, a: Analysis, store: Store) -> None:
             page.add(f"<p>Local search: stage {st.stage}, {_e(st.note)}.</p>")
 
 
+#: Criteria per test table: four column pairs fit an A4 page's width at 8 pt and more.
+TABLES_PER_ROW = 4
+
+
 def _test_tables(page: _Page, a: Analysis, top: int) -> None:
     page.h2(f"Test tables (top {top} rows per criterion)")
     tables = a.test_tables()
-    head = []
-    for t in tables:
-        head += [f"{t.name} ({t.sense}) id", "value"]
     page.add(
         "<p class=muted>Each criterion's trials meeting the functional constraints, best first "
         "(seed 000 Fig. 6); <span class=x>red</span>: outside D.</p>"
     )
-    rows: list[list[str]] = [[], [], []]
-    for t in tables:
-        rows[0] += [f"min {_f(t.min)}", ""]
-        rows[1] += [f"max {_f(t.max)}", ""]
-        rows[2] += [f"limit {'-' if t.limit is None else _f(t.limit)}", ""]
-    for i in range(top):
-        r = []
-        for t in tables:
-            if i < len(t.ids):
-                cls = "" if t.feasible[i] else ' class="x"'
-                r += [f"<span{cls}>{t.ids[i]}</span>", f"<span{cls}>{_f(t.values[i])}</span>"]
-            else:
-                r += ["", ""]
-        rows.append(r)
-    page.add(_table(head, rows, left=0))
+    for k in range(0, len(tables), TABLES_PER_ROW):
+        part = tables[k : k + TABLES_PER_ROW]
+        head = []
+        for t in part:
+            head += [f"{t.name} ({t.sense}) id", "value"]
+        rows: list[list[str]] = [[], [], []]
+        for t in part:
+            rows[0] += [f"min {_f(t.min)}", ""]
+            rows[1] += [f"max {_f(t.max)}", ""]
+            rows[2] += [f"limit {'-' if t.limit is None else _f(t.limit)}", ""]
+        for i in range(top):
+            r = []
+            for t in part:
+                if i < len(t.ids):
+                    cls = "" if t.feasible[i] else ' class="x"'
+                    r += [f"<span{cls}>{t.ids[i]}</span>", f"<span{cls}>{_f(t.values[i])}</span>"]
+                else:
+                    r += ["", ""]
+            rows.append(r)
+        page.add(_table(head, rows, left=0))
 
 
 def _pareto_table(page: _Page, a: Analysis, limit: int = 100) -> None:
@@ -400,17 +483,29 @@ def _pareto_table(page: _Page, a: Analysis, limit: int = 100) -> None:
             f"{_e(a.crit_names[a.pure[0]])}; `vectorid pareto --json` lists all</p>"
         )
     names = a.spec.space.names
-    page.add(
-        _table(
-            ["id", *a.crit_names, *names],
-            [
-                [str(a.trials.id[i])]
-                + [_f(v) for v in a.trials.F[i]]
-                + [_f(v) for v in a.trials.X[i]]
-                for i in shown
-            ],
-        )
-    )
+    head = ["id", *a.crit_names, *names]
+    body = [
+        [str(a.trials.id[i])] + [_f(v) for v in a.trials.F[i]] + [_f(v) for v in a.trials.X[i]]
+        for i in shown
+    ]
+    page.add(_columns(head, body))
+
+
+#: Columns per table after the first (the id): ten columns of numbers fit an A4 page's
+#: width at 8 pt and more; a wider table is cut into several, each repeating the id.
+COLUMNS_PER_TABLE = 10
+
+
+def _columns(
+    head: Sequence[str], rows: Sequence[Sequence[str]], per: int = COLUMNS_PER_TABLE
+) -> str:
+    """A table of many columns as several tables of ``per`` columns each, each repeating the
+    first column (the trial id), so that every one fits a printed page."""
+    out = []
+    for k in range(1, max(2, len(head)), per):
+        cols = [0, *range(k, min(len(head), k + per))]
+        out.append(_table([head[c] for c in cols], [[r[c] for c in cols] for r in rows], left=1))
+    return "".join(out)
 
 
 def _chosen(
@@ -724,6 +819,32 @@ def _inputs_history(page: _Page, store: Store) -> None:
         page.add(_table(["run", "what happened"], [[str(n), _e(t)] for n, t in errors], left=0))
 
 
+def _verdict_summary(verdicts: Sequence[Any], a: Analysis) -> str:
+    """What D pins down, at a glance (as the browser UI's first screen shows it): each
+    verdict's variables with D's range, never a value."""
+    parts = [
+        f"<p><b>What D pins down</b> under the constraints in force (ND = {a.n_feasible:,}):"
+        "</p><ul class=verdicts>"
+    ]
+    for verdict in ("identified", "weak", "not identified"):
+        vs = [v for v in verdicts if v.verdict == verdict]
+        if not vs:
+            continue
+        items = []
+        for v in vs:
+            r = v.feasible if v.feasible is not None else v.box
+            u = f" {v.unit}" if v.unit and v.unit != "-" else ""
+            where = "" if v.feasible is not None else "none in D, box "
+            items.append(f"<b>{_e(v.name)}</b> {where}[{_f(r[0])}, {_f(r[1])}]{_e(u)}")
+        parts.append(f"<li><b>{verdict} ({len(vs)}):</b> " + ", ".join(items) + "</li>")
+    relaxed = relaxation_line(a.spec)
+    if relaxed:
+        parts.append(f"</ul><p class=note>{_e(relaxed)}</p>")
+    else:
+        parts.append("</ul>")
+    return "".join(parts)
+
+
 def build_report(
     store: Store,
     *,
@@ -755,6 +876,7 @@ def build_report(
     verdicts = verdicts_for_report(a, store)
     ids = _chosen(page, a, chosen, verdicts)
     page.h2("Identifiability")
+    page.add(_verdict_summary(verdicts, a))
     page.add(report_section(a, verdicts, ids))
 
     drawable = a.ok.any()
@@ -788,10 +910,20 @@ def build_report(
             )
     if drawable:
         page.h2("Parallel coordinates")
+        axes = top_axes(a)
+        rest = len(a.crit_names) + len(a.con_names) + len(spec.space) - len(axes)
         page.fig(
-            fg.parallel_figure(a, lines=min(max_points, 500), seed=seed, labels=lab),
-            "criteria, functionals and parameters; the constraints in force are the brushes on "
-            "the criterion axes (in the browser UI, brushing an axis sets the constraint)",
+            parallel_print_figure(a, axes, lines=min(max_points, 500), seed=seed, labels=lab),
+            "criteria, functionals and the gains D depends on most (sensitivity: KS statistic "
+            "between D and the other trials)"
+            + (
+                f"; {rest} other gains are left out here (the browser UI shows any axis)"
+                if rest
+                else ""
+            )
+            + "; amber: the constraints in force. In the browser UI a drag along an axis selects "
+            "trials (a brush is a selection); brushes become constraints only with the button "
+            "'Brushed criteria → constraints Φ**'",
         )
         page.h2("History")
         page.fig(
