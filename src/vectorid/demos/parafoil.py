@@ -1206,6 +1206,11 @@ def _run_parafoil_demo(
     )
     if report:
         print(f"  (report: vectorid report {r6.store})")
+    print(
+        "  side by side (N/ND/NP, the limits each meets, best values, spectral peaks):\n"
+        f"    vectorid ui {stc.result.store} {r6.store}\n"
+        f"    vectorid report {stc.result.store} {r6.store} --out compare.html"
+    )
 
     # ---- the truth check ----------------------------------------------------------------
     print()
@@ -1250,5 +1255,6 @@ def _run_parafoil_demo(
     print(f"  vectorid correlation {r2.store} --set feasible")
     print(f"  vectorid report      {last.store} --out report.html")
     print(f"  vectorid ui          {r2.store}")
+    print(f"  vectorid ui          {stc.result.store} {r6.store}   (8-DoF and 6-DoF side by side)")
     sys.stdout.flush()
     return 0
