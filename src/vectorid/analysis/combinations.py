@@ -92,6 +92,7 @@ __all__ = [
     "Combination",
     "combinations_json",
     "combinations_of",
+    "combinations_text",
     "identifiable_combinations",
     "widened_range",
 ]
@@ -168,17 +169,29 @@ class Combination:
         (z(g) = (g - low)/(high - low))."""
         return " ".join(f"{c:+.{digits}f} z({g})" for g, c in self.loadings.items())
 
+    def own_units(self) -> tuple[dict[str, float], tuple[float, float], str]:
+        """The combination read in the gains' own units, scaled so that the leading gain's
+        coefficient is 1: ``(coefficients, range, unit)`` with ``sum(coefficients[g] * x[g])``
+        within ``range`` over D, in the leading gain's unit (a coefficient carries the unit
+        of the leading gain over that of its own gain)."""
+        lead = next(iter(self.per_unit))
+        a0 = self.per_unit[lead]
+        off = sum(c * self.lows[g] for g, c in self.per_unit.items())
+        coeffs = {g: c / a0 for g, c in self.per_unit.items()}
+        lo, hi = sorted(((self.range[0] + off) / a0, (self.range[1] + off) / a0))
+        return coeffs, (lo, hi), self.units.get(lead, "")
+
     def own_units_text(self, digits: int = 3) -> str:
-        """The combination per unit of each gain: ``"+0.71/m·(x1 - 0 m) ..."``, the same
-        number as :meth:`text` once each gain is read in its own unit."""
-        out = []
-        for g, c in self.per_unit.items():
-            u = self.units.get(g, "")
-            u = "" if u in ("", "-") else u
-            per = f"/{u}" if u else ""
-            low = f"{self.lows[g]:.4g}{' ' + u if u else ''}"
-            out.append(f"{c:+.{digits}g}{per}·({g} - {low})")
-        return " ".join(out)
+        """:meth:`own_units` in words: ``"x1 + 1·x2 in [0.889, 0.971] m"``."""
+        coeffs, (lo, hi), unit = self.own_units()
+        terms = []
+        for k, (g, c) in enumerate(coeffs.items()):
+            if k == 0:
+                terms.append(g)
+            else:
+                terms.append(f"{'-' if c < 0 else '+'} {abs(c):.{digits}g}·{g}")
+        u = "" if unit in ("", "-") else f" {unit}"
+        return f"{' '.join(terms)} in [{lo:.{digits + 1}g}, {hi:.{digits + 1}g}]{u}"
 
     def to_dict(self) -> dict[str, Any]:
         """This combination as one entry of ``vectorid identifiability --combinations --json``
@@ -194,6 +207,11 @@ class Combination:
             "margin_factor": float(self.margin_factor),
             "box_extent": [float(self.box_extent[0]), float(self.box_extent[1])],
             "per_unit": {g: float(c) for g, c in self.per_unit.items()},
+            "own_units": {
+                "coefficients": {g: float(c) for g, c in self.own_units()[0].items()},
+                "range": [float(v) for v in self.own_units()[1]],
+                "unit": self.own_units()[2],
+            },
             "lows": {g: float(v) for g, v in self.lows.items()},
             "units": dict(self.units),
             "n_feasible": int(self.n_feasible),
@@ -507,3 +525,46 @@ def combinations_json(combos: Sequence[Combination]) -> dict[str, Any]:
         "combinations": [c.to_dict() for c in combos],
         "range_units": "z = (x - low)/(high - low) per gain: shares of the box sides",
     }
+
+
+def combinations_text(combos: Sequence[Combination], n_feasible: int | None = None) -> str:
+    """The combinations for people: one block each, narrowest first, with the range in z,
+    the verdict and the reading in the gains' own units; a plain sentence when there is none.
+
+    Parameters
+    ----------
+    combos : sequence of Combination
+        From :func:`identifiable_combinations`.
+    n_feasible : int, optional
+        Members of D (said when D is too small to have combinations).
+
+    Returns
+    -------
+    str
+    """
+    if n_feasible is not None and n_feasible < 2:
+        return (
+            f"combinations: D holds {n_feasible} member(s); a combination needs at least two "
+            "to show a spread"
+        )
+    if not combos:
+        return (
+            "combinations: none is identified or weak: no direction in the gains along which "
+            "D is narrower than the 'weak' share of a box side"
+        )
+    lines = [
+        "combinations D pins down (z(g) = (g - low)/(high - low): each gain as a share of its "
+        "box; range and width in z, shares of a box side; ranges widened to hold D's boundary, "
+        "docs/identification.md):"
+    ]
+    for k, c in enumerate(combos, 1):
+        lines.append(f"  c{k}  {c.text()}")
+        lines.append(
+            f"      range [{c.range[0]:.4g}, {c.range[1]:.4g}] (members [{c.members_range[0]:.4g}, "
+            f"{c.members_range[1]:.4g}]), width {c.width_fraction:.1%} of a box side"
+        )
+        lines.append(f"      verdict {c.verdict}: {c.reason}")
+        lines.append(f"      in the gains' units: {c.own_units_text()}")
+    n_id = sum(c.verdict == "identified" for c in combos)
+    lines.append(f"  {n_id} identified, {len(combos) - n_id} weak")
+    return "\n".join(lines)
