@@ -164,10 +164,17 @@ class Combination:
         in z: ``sum(per_unit[g] * (x[g] - lows[g]))``."""
         return float(sum(c * (float(x[g]) - self.lows[g]) for g, c in self.per_unit.items()))
 
-    def text(self, digits: int = 2) -> str:
+    def text(self, digits: int = 2, terms: int = 6) -> str:
         """The combination in words, on the box-normalised gains: ``"+0.71 z(x1) +0.71 z(x2)"``
-        (z(g) = (g - low)/(high - low))."""
-        return " ".join(f"{c:+.{digits}f} z({g})" for g, c in self.loadings.items())
+        (z(g) = (g - low)/(high - low)), the ``terms`` largest coefficients first and the
+        count and size of the rest (:meth:`to_dict` has them all)."""
+        items = list(self.loadings.items())
+        out = " ".join(f"{c:+.{digits}f} z({g})" for g, c in items[:terms])
+        rest = items[terms:]
+        if rest:
+            big = max(abs(c) for _, c in rest)
+            out += f" ... + {len(rest)} smaller terms (|coefficient| <= {big:.{digits}f})"
+        return out
 
     def own_units(self) -> tuple[dict[str, float], tuple[float, float], str]:
         """The combination read in the gains' own units, scaled so that the leading gain's
@@ -181,17 +188,18 @@ class Combination:
         lo, hi = sorted(((self.range[0] + off) / a0, (self.range[1] + off) / a0))
         return coeffs, (lo, hi), self.units.get(lead, "")
 
-    def own_units_text(self, digits: int = 3) -> str:
-        """:meth:`own_units` in words: ``"x1 + 1·x2 in [0.889, 0.971] m"``."""
+    def own_units_text(self, digits: int = 3, terms: int = 6) -> str:
+        """:meth:`own_units` in words: ``"x1 + 1·x2 in [0.889, 0.971] m"`` (the ``terms``
+        largest terms in z first, and the count of the rest)."""
         coeffs, (lo, hi), unit = self.own_units()
-        terms = []
-        for k, (g, c) in enumerate(coeffs.items()):
-            if k == 0:
-                terms.append(g)
-            else:
-                terms.append(f"{'-' if c < 0 else '+'} {abs(c):.{digits}g}·{g}")
+        items = list(coeffs.items())
+        parts = []
+        for k, (g, c) in enumerate(items[:terms]):
+            parts.append(g if k == 0 else f"{'-' if c < 0 else '+'} {abs(c):.{digits}g}·{g}")
+        if len(items) > terms:
+            parts.append(f"+ {len(items) - terms} smaller terms")
         u = "" if unit in ("", "-") else f" {unit}"
-        return f"{' '.join(terms)} in [{lo:.{digits + 1}g}, {hi:.{digits + 1}g}]{u}"
+        return f"{' '.join(parts)} in [{lo:.{digits + 1}g}, {hi:.{digits + 1}g}]{u}"
 
     def to_dict(self) -> dict[str, Any]:
         """This combination as one entry of ``vectorid identifiability --combinations --json``
@@ -235,12 +243,22 @@ def _wstats(t: np.ndarray, w: np.ndarray) -> tuple[float, float, float, float]:
     return mu, math.sqrt(m2), m4 / m2**2 - 3.0, max(v, 0.0)
 
 
+def _dimension(kurt: float, nvar: float, ess: float, pmax: float) -> float:
+    """The ellipsoid dimension m whose projections have excess kurtosis -6/(m + 4), from a
+    kurtosis estimate moved two standard errors toward zero, within [1, pmax]."""
+    k_up = kurt + 2.0 * math.sqrt(nvar / max(ess, 1.0))
+    if k_up >= -6.0 / (pmax + 4.0):
+        return pmax
+    return min(max(-6.0 / k_up - 4.0, 1.0), pmax)
+
+
 def widened_range(
     t: np.ndarray,
     w: np.ndarray | None = None,
     *,
     p: int | None = None,
     extent: tuple[float, float] = (-math.inf, math.inf),
+    m_floor: float = 1.0,
 ) -> tuple[tuple[float, float], float]:
     """The range along one direction that holds D's boundary (module docstring).
 
@@ -254,6 +272,9 @@ def widened_range(
         Largest ellipsoid dimension allowed (default: no bound but 1e6).
     extent : (float, float)
         Where the set cannot reach beyond (the box's extent along the direction).
+    m_floor : float
+        Least ellipsoid dimension to assume (the pooled estimate over D's narrow
+        directions, :func:`combinations_of`).
 
     Returns
     -------
@@ -266,8 +287,7 @@ def widened_range(
     mu, sd, kurt, nvar = _wstats(t, ww)
     ess = 1.0 / float(ww @ ww)
     pmax = float(p) if p else 1e6
-    k_up = kurt + 2.0 * math.sqrt(nvar / max(ess, 1.0))  # two standard errors toward zero
-    m = pmax if k_up >= -6.0 / (pmax + 4.0) else min(max(-6.0 / k_up - 4.0, 1.0), pmax)
+    m = max(_dimension(kurt, nvar, ess, pmax), min(m_floor, pmax))
     f = math.sqrt(m + 2.0)
     lo = min(float(t.min()), mu - f * sd)
     hi = max(float(t.max()), mu + f * sd)
@@ -376,7 +396,8 @@ def combinations_of(
     lows = np.zeros(p) if lows is None else np.asarray(lows, dtype=float)
     units = [""] * p if units is None else list(units)
     tol = 1e-12 * max(float(evals.max()), 1e-300)
-    out: list[Combination] = []
+    ess = 1.0 / float(wn @ wn)
+    found = []  # (readable direction, projections, box extent along it)
     seen: list[np.ndarray] = []
     for i in np.argsort(evals):
         if evals[i] <= tol and n <= p:
@@ -399,13 +420,30 @@ def combinations_of(
         seen.append(u)
         t = Z @ u
         extent = (float(np.minimum(u, 0).sum()), float(np.maximum(u, 0).sum()))
-        rng, f = widened_range(t, w, p=p, extent=extent)
+        found.append((u, t, extent))
+    # D's ellipsoid dimension pooled over the directions its members keep off the box (there
+    # the criteria, not the box, bound D): one m for all of them, so that a direction whose
+    # own kurtosis happens to read flatter still gets the margin D's shape calls for
+    kurts, nvars = [], []
+    for _, t, extent in found:
+        ew = extent[1] - extent[0]
+        if t.min() - extent[0] > 0.02 * ew and extent[1] - t.max() > 0.02 * ew:
+            _, _, kk, nv = _wstats(t, wn)
+            kurts.append(kk)
+            nvars.append(nv)
+    m_pool = (
+        _dimension(float(np.mean(kurts)), float(np.mean(nvars)), ess, float(p)) if kurts else 1.0
+    )
+    out: list[Combination] = []
+    for u, t, extent in found:
+        rng, f = widened_range(t, w, p=p, extent=extent, m_floor=m_pool)
         width = rng[1] - rng[0]
         verdict, reason = _judge(
             width, rng, extent, n, limited, identified, weak, int(min_feasible)
         )
         if not include_all and verdict == "not identified":
             continue
+        order = np.argsort(-np.abs(u), kind="stable")
         idx = [j for j in order if u[j] != 0.0]
         out.append(
             Combination(
