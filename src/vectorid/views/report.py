@@ -37,6 +37,7 @@ import numpy as np
 
 from .._version import __version__
 from ..analysis.choice import best_per_criterion, suggest_choice
+from ..analysis.combinations import identifiable_combinations
 from ..analysis.correlation import correlation_of, parameter_spread
 from ..analysis.histograms import histograms, stage_histograms
 from ..analysis.refine import propose_refine, refine_history
@@ -819,9 +820,12 @@ def _inputs_history(page: _Page, store: Store) -> None:
         page.add(_table(["run", "what happened"], [[str(n), _e(t)] for n, t in errors], left=0))
 
 
-def _verdict_summary(verdicts: Sequence[Any], a: Analysis) -> str:
+def _verdict_summary(verdicts: Sequence[Any], a: Analysis, combos: Sequence[Any] = ()) -> str:
     """What D pins down, at a glance (as the browser UI's first screen shows it): each
-    verdict's variables with D's range, never a value."""
+    verdict's variables with D's range, never a value; then the combinations of gains D pins
+    down (:func:`vectorid.analysis.combinations.identifiable_combinations`), each with its
+    range in z and its width, the table below the verdicts giving their loadings and their
+    reading in the gains' own units."""
     parts = [
         f"<p><b>What D pins down</b> under the constraints in force (ND = {a.n_feasible:,}):"
         "</p><ul class=verdicts>"
@@ -837,6 +841,19 @@ def _verdict_summary(verdicts: Sequence[Any], a: Analysis) -> str:
             where = "" if v.feasible is not None else "none in D, box "
             items.append(f"<b>{_e(v.name)}</b> {where}[{_f(r[0])}, {_f(r[1])}]{_e(u)}")
         parts.append(f"<li><b>{verdict} ({len(vs)}):</b> " + ", ".join(items) + "</li>")
+    if combos:
+        n_id = sum(c.verdict == "identified" for c in combos)
+        items = [
+            f"<b>c{k}</b> {_e(c.text(terms=4))} in [{c.range[0]:.3g}, {c.range[1]:.3g}] "
+            f"({c.verdict}, width {c.width_fraction:.0%} of a box side)"
+            for k, c in enumerate(combos, 1)
+        ]
+        parts.append(
+            f"<li><b>combinations ({n_id} identified, {len(combos) - n_id} weak; z(g) = "
+            "(g - low)/(high - low), loadings and the gains' units below):</b> "
+            + "; ".join(items)
+            + "</li>"
+        )
     relaxed = relaxation_line(a.spec)
     if relaxed:
         parts.append(f"</ul><p class=note>{_e(relaxed)}</p>")
@@ -871,13 +888,15 @@ def build_report(
     _history(page, store)
     _test_tables(page, a, top)
     _pareto_table(page, a)
-    from .identifiability import report_section, verdicts_for_report
+    from .identifiability import combinations_html, report_section, verdicts_for_report
 
     verdicts = verdicts_for_report(a, store)
+    combos = identifiable_combinations(a) if a.n_feasible >= 2 else []
     ids = _chosen(page, a, chosen, verdicts)
     page.h2("Identifiability")
-    page.add(_verdict_summary(verdicts, a))
+    page.add(_verdict_summary(verdicts, a, combos))
     page.add(report_section(a, verdicts, ids))
+    page.add("<h3>Combinations of gains D pins down</h3>" + combinations_html(a, combos=combos))
 
     drawable = a.ok.any()
     names = list(a.crit_names)

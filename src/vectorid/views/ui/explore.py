@@ -21,7 +21,14 @@ from .. import clouds
 from ..labels import relaxation_line
 from .context import UIContext, analysis_of, fmt, num
 from .data import page_numbers, page_table, parse_trial_id, refused
-from .verdicts import limit_sources, verdict_groups, verdict_line, verdicts_of
+from .verdicts import (
+    combination_items,
+    combinations_of,
+    limit_sources,
+    verdict_groups,
+    verdict_line,
+    verdicts_of,
+)
 
 __all__ = [
     "box_to_limits",
@@ -221,10 +228,12 @@ def summary_view(
         panel, :func:`~vectorid.views.ui.verdicts.verdict_groups`), ``thin`` (D too small
         to show a spread, in words, or ""), ``relaxed`` (the study's saved limits relaxed
         as the last resort, in words, or "", :func:`vectorid.views.labels.
-        relaxation_line`) and ``nd``.
+        relaxation_line`), ``combinations`` (the combinations of gains D pins down,
+        :func:`~vectorid.views.ui.verdicts.combination_items`) and ``nd``.
     """
     a, c = analysis_of(ctx, limit_texts, roles, functional)
     vs = verdicts_of(ctx, a)
+    combos = combination_items(combinations_of(ctx, a))
     messages = list(c.messages)
     note = sampler_note(ctx, a)
     if note:
@@ -292,6 +301,7 @@ def summary_view(
             else ""
         ),
         "relaxed": relaxation_line(ctx.spec),
+        "combinations": combos,
         "nd": a.n_feasible,
     }
 

@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from ...analysis.combinations import Combination, identifiable_combinations
 from ...analysis.identifiability import ParameterVerdict, identifiability
 from ...analysis.results import Analysis
 from ..labels import relaxed_of
@@ -31,6 +32,8 @@ from .data import Constraints
 __all__ = [
     "UI_NOTE",
     "chosen_text",
+    "combination_items",
+    "combinations_of",
     "identifiability_view",
     "limit_sources",
     "sources_to_save",
@@ -77,6 +80,48 @@ def verdicts_of(ctx: UIContext, a: Analysis) -> list[ParameterVerdict]:
         while len(memo) > _MEMO:
             memo.popitem(last=False)
     return vs
+
+
+def combinations_of(ctx: UIContext, a: Analysis) -> list[Combination]:
+    """The combinations of gains D pins down under the constraints of ``a``
+    (:func:`vectorid.analysis.combinations.identifiable_combinations`: identified and weak
+    ones, narrowest first; memoised per analysis like :func:`verdicts_of`)."""
+    with _LOCK:
+        memo: OrderedDict = ctx.extra.setdefault("combinations", OrderedDict())
+        hit = memo.get(id(a))
+        if hit is not None and hit[0] is a:
+            memo.move_to_end(id(a))
+            return hit[1]
+    cs = identifiable_combinations(a) if a.n_feasible >= 2 else []
+    with _LOCK:
+        memo[id(a)] = (a, cs)
+        while len(memo) > _MEMO:
+            memo.popitem(last=False)
+    return cs
+
+
+def combination_items(cs: list[Combination]) -> list[dict[str, Any]]:
+    """The verdict panel's combinations: per combination its terms on the box-normalised
+    gains (z(g) = (g - low)/(high - low), the four largest and the count of the rest), its
+    range over D in z, its width as a share of one box side, its verdict, why, and its
+    reading in the gains' own units.
+
+    Returns
+    -------
+    list of dict
+        ``text``, ``range`` (text), ``width`` (0-1), ``verdict``, ``why``, ``own_units``.
+    """
+    return [
+        {
+            "text": c.text(terms=4),
+            "range": f"[{c.range[0]:.3g}, {c.range[1]:.3g}]",
+            "width": round(float(c.width_fraction), 4),
+            "verdict": c.verdict,
+            "why": c.reason,
+            "own_units": c.own_units_text(),
+        }
+        for c in cs
+    ]
 
 
 def span(p: tuple[float, float] | None) -> str:

@@ -242,12 +242,20 @@ def verdict_table(rows: list[dict[str, Any]], prefix: str, *, trial: bool = Fals
 
 
 def verdict_panel(
-    groups: list[dict[str, Any]], *, nd: int, thin: str = "", relaxed: str = ""
+    groups: list[dict[str, Any]],
+    *,
+    nd: int,
+    thin: str = "",
+    relaxed: str = "",
+    combinations: list[dict[str, Any]] | None = None,
 ) -> list[Any]:
     """What D pins down, at a glance: the identified, weak and not identified variables,
     each a chip (``vid-vchip-<variable>``, with ``data-verdict``) holding D's range and unit
-    and a small drawing of it over the box (hover: meaning and why); the relaxation of the
-    saved limits, where the study had to relax them, said first."""
+    and a small drawing of it over the box (hover: meaning and why); then the combinations
+    of gains D pins down (``vid-combo-<k>``: the terms on the box-normalised gains, the
+    range in z, the width as a share of a box side; hover: the reading in the gains' own
+    units and why), from :func:`~vectorid.views.ui.verdicts.combination_items`; the
+    relaxation of the saved limits, where the study had to relax them, said first."""
     from dash import html
 
     out: list[Any] = []
@@ -277,6 +285,40 @@ def verdict_panel(
             html.Div(
                 [html.Span(f"{g['verdict']} ({len(g['items'])})", className="vgroup-name"), *chips],
                 className="vgroup",
+            )
+        )
+    if combinations:
+        chips = [
+            html.Span(
+                [
+                    html.B(f"c{k}"),
+                    f" {it['text']} in {it['range']}, width {100 * it['width']:.0f} %",
+                ],
+                id=f"vid-combo-{k}",
+                className="vchip v-" + it["verdict"].replace(" ", "-"),
+                title=f"in the gains' units: {it['own_units']}; {it['why']}",
+                **{"data-verdict": it["verdict"]},
+            )
+            for k, it in enumerate(combinations, 1)
+        ]
+        n_id = sum(it["verdict"] == "identified" for it in combinations)
+        out.append(
+            html.Div(
+                [
+                    html.Span(
+                        f"combinations ({n_id} identified, {len(combinations) - n_id} weak)",
+                        className="vgroup-name",
+                    ),
+                    *chips,
+                    html.Span(
+                        "z(g) = (g - low)/(high - low): each gain as a share of its box; "
+                        "range in z over D, widened to hold its boundary; width: a share of "
+                        "one box side",
+                        className="muted",
+                    ),
+                ],
+                className="vgroup",
+                id="vid-combos",
             )
         )
     if thin:

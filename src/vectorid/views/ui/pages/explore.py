@@ -585,7 +585,13 @@ def register(app: Any, ctx: UIContext, w: Wiring, tokens: Any) -> None:
             t["columns"] if shown else no_update,
             t["data"] if shown else no_update,
             t["styles"] if shown else no_update,
-            verdict_panel(s["verdict_groups"], nd=s["nd"], thin=s["thin"], relaxed=s["relaxed"]),
+            verdict_panel(
+                s["verdict_groups"],
+                nd=s["nd"],
+                thin=s["thin"],
+                relaxed=s["relaxed"],
+                combinations=s["combinations"],
+            ),
             *cls,
         )
 
