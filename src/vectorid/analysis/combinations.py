@@ -85,6 +85,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .identifiability import thin_threshold
+from .weights import trial_weights
 
 if TYPE_CHECKING:  # pragma: no cover - for annotations only
     from .results import Analysis
@@ -532,8 +533,6 @@ def identifiable_combinations(
     >>> sorted((g, round(v, 2)) for g, v in combos[0].loadings.items())
     [('x1', 0.71), ('x2', 0.71)]
     """
-    from .weights import trial_weights
-
     mask = a.feasible
     lows, highs = _box(a)
     spans = highs - lows
