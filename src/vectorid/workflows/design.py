@@ -20,6 +20,13 @@ sensors: :mod:`vectorid.identify.planned`, shared with ``vectorid predict``). Fo
    and its limit is that criterion's value under the noise alone at a joint coverage of 95 %
    over the plan's channels (seeded draws of the stated noise, Gauss–Markov where stated): the
    truth itself meets every limit in 95 % of records, as with ``limits = "noise"`` in a study.
+   The noise acts twice, as it would once the drop is flown and identified: on the samples
+   (ε), and through the initial state the study fits to the noisy first seconds
+   (:func:`vectorid.identify.drops.fit_initial_state`), which moves every member's simulation
+   by J·δ (δ: that fit's error under the same draw; J: d(outputs)/d(initial state) at the
+   member nearest the members' mean, :meth:`~vectorid.identify.predictor.Predictor.
+   state_jacobian`). A plan without a position or altitude sensor cannot have its start
+   fitted to its own data: its initial state is then taken as known, and a note says so.
 3. **Let each member play the truth**: its outputs plus one seeded draw of the noise are the
    data; the members that meet every limit against those data are those the plan would keep.
    The **expected fraction kept** is the weighted share of D's members kept, averaged over the
@@ -39,8 +46,9 @@ sensors: :mod:`vectorid.identify.planned`, shared with ``vectorid predict``). Fo
    as identified there, and ``thin_share`` says how often it happened (more members resolve it).
 
 What this does not do: it judges the plan's data by a criterion of its own (a mean square of
-noise-scaled residuals), not by the study's criteria, and it does not re-identify; the
-validation against flying the plan on twins is ``tests/workflows/test_design_twins.py``.
+noise-scaled residuals), not by the study's criteria, and it does not re-identify. Flying the
+plans on twins and identifying again (``scripts/design_twins.py``, figures in
+docs/identification.md) is the check; it does not yet show the ranking right in 80 % of twins.
 """
 
 from __future__ import annotations
@@ -57,8 +65,11 @@ from vectorid.analysis import Analysis
 from vectorid.analysis.combinations import identifiable_combinations, widened_range
 from vectorid.analysis.identifiability import identifiability, thin_threshold
 from vectorid.errors import StudyDefinitionError
+from vectorid.identify.drops import fit_initial_state
+from vectorid.identify.flight import FlightChannel, FlightData
+from vectorid.identify.noise.floor import _state_vector
 from vectorid.identify.planned import DropToPredict
-from vectorid.identify.predictor import Predictor
+from vectorid.identify.predictor import _FIT_CHANNELS, Predictor
 from vectorid.study import Study
 from vectorid.workflows.predict import Members, _alive_after_landing, members_of, simulate_members
 
@@ -121,6 +132,7 @@ class Candidate:
     combinations: list[dict[str, Any]] = field(default_factory=list)
     failed: int = 0
     thin_share: float = 0.0
+    notes: list[str] = field(default_factory=list)
 
     @property
     def shrinks(self) -> bool:
@@ -143,6 +155,7 @@ class Candidate:
             "combinations": list(self.combinations),
             "failed": int(self.failed),
             "thin_share": float(self.thin_share),
+            "notes": list(self.notes),
         }
 
 
@@ -206,6 +219,8 @@ class Design:
                     "members to show which gains it identifies (those count as not identified): "
                     "fly more members (--members) to resolve them"
                 )
+            for note in c.notes:
+                lines.append(f"   note: {note}")
             if c.failed:
                 lines.append(f"   {c.failed} member(s) failed to fly it (left out)")
         lines.append("")
@@ -227,16 +242,105 @@ class Design:
 # -- one plan ---------------------------------------------------------------------------------
 
 
+class _DropNoise:
+    """What the noise does to one planned drop's residuals once it is flown and identified:
+    the sensors' noise ε, and through the initial state the study fits to the noisy first
+    seconds (:func:`vectorid.identify.drops.fit_initial_state`, the study's own fit) a
+    member's simulation moved by J·δ (δ: the fit's error, J: d(outputs)/d(initial state) of
+    the reference member, :meth:`Predictor.state_jacobian`). The residual a member shows
+    against the data is then its difference from the truth minus (ε - J·δ)."""
+
+    def __init__(
+        self, predictor: Predictor, drop: DropToPredict, flown: Any, ref: int, p_ref: NDArray
+    ) -> None:
+        self.drop = drop
+        self.comps = {
+            c: [
+                None if drop.noise is None else drop.noise.component(c, j)
+                for j in range(Y.shape[2])
+            ]
+            for c, Y in flown.channels.items()
+        }
+        self.times = flown.times
+        self.J: dict[str, NDArray] | None = None
+        self.note = ""
+        span = float(predictor.init_span)
+        reach = max(span, 3.0)
+        base: dict[str, FlightChannel] = {}
+        for c, Y in flown.channels.items():
+            if c not in _FIT_CHANNELS or not any(x is not None for x in self.comps[c]):
+                continue
+            t = flown.times[c]
+            sel = t <= reach + 1e-9
+            if sel.sum() >= 2 and np.isfinite(Y[ref][sel]).all():
+                base[c] = FlightChannel(c, t[sel], Y[ref][sel], flown.components[c], flown.units[c])
+        self.base = base
+        if not ("position" in base or "altitude" in base):
+            self.note = (
+                f"{drop.name}: no position or altitude sensor, so its initial state cannot be "
+                "fitted to its data: taken as known"
+            )
+            return
+        self.span = span
+        try:
+            self.zero = self._fit(base)
+        except (StudyDefinitionError, ValueError, np.linalg.LinAlgError) as exc:
+            self.note = f"{drop.name}: its initial state cannot be fitted ({exc}): taken as known"
+            return
+        self.J = predictor.state_jacobian(p_ref, drop)
+
+    def _fit(self, chans: dict[str, FlightChannel]) -> NDArray:
+        d = self.drop
+        s = fit_initial_state(
+            FlightData("plan", chans), 0.0, self.span, d.origin_altitude, d.wind, d.name
+        )
+        return _state_vector(s)
+
+    def draw(self, n: int, rng: np.random.Generator) -> dict[str, NDArray]:
+        """``n`` draws of ε - J·δ per channel, (n, T, k) in the channel's unit (0 where a
+        component has no stated noise)."""
+        out = {}
+        for c, comps in self.comps.items():
+            t = self.times[c]
+            E = np.zeros((n, t.size, len(comps)))
+            for j, cn in enumerate(comps):
+                if cn is not None:
+                    E[:, :, j] = cn.draw(t, n, rng)
+            out[c] = E
+        if self.J is None:
+            return out
+        delta = np.empty((n, len(self.zero)))
+        for r in range(n):
+            chans = {}
+            for c, b in self.base.items():
+                k = b.t.size
+                chans[c] = FlightChannel(c, b.t, b.values + out[c][r, :k], b.components, b.unit)
+            delta[r] = self._fit(chans) - self.zero
+        for c in out:
+            if c in self.J:
+                out[c] = out[c] - np.einsum("rs,stk->rtk", delta, self.J[c])
+        return out
+
+
 def _blocks(
     predictor: Predictor, members: Members, drops: Sequence[DropToPredict], seed: int
-) -> tuple[list[tuple[str, NDArray, list[Any], NDArray]], NDArray]:
-    """Per drop and channel with stated noise: (label, Y (m, T, k) in σ units, component
-    noises, times), and the members that flew every drop."""
+) -> tuple[list[tuple[str, NDArray, int, str, NDArray, NDArray]], NDArray, list[_DropNoise]]:
+    """Per drop and channel with stated noise: (label, Y (m, T, k') in σ units, drop index,
+    channel, kept components, their σ); the members that flew every drop; each drop's noise."""
     blocks = []
+    noises = []
     ok = np.ones(len(members), dtype=bool)
-    for d in drops:
-        flown = simulate_members(predictor, members, d, seed)
-        ok &= flown.ok
+    flowns = [simulate_members(predictor, members, d, seed) for d in drops]
+    for f in flowns:
+        ok &= f.ok
+    if ok.any():  # the member nearest the members' weighted mean (box-scaled) is linearised
+        X = members.X
+        span = np.ptp(X, axis=0)
+        span = np.where(span > 0, span, 1.0)
+        w = np.where(ok, members.weights, 0.0)
+        mean = (w / w.sum()) @ X
+        ref = int(np.argmin(np.where(ok, np.sum(((X - mean) / span) ** 2, axis=1), np.inf)))
+    for di, (d, flown) in enumerate(zip(drops, flowns)):
         landing = _alive_after_landing(flown, d)
         for name, Y in flown.channels.items():
             Y = np.array(Y, dtype=float)
@@ -250,7 +354,10 @@ def _blocks(
             if not keep:
                 continue
             sig = np.array([comps[j].total for j in keep])
-            blocks.append((f"{d.name}.{name}", Y[:, :, keep] / sig, [comps[j] for j in keep], t))
+            blocks.append((f"{d.name}.{name}", Y[:, :, keep] / sig, di, name, np.array(keep), sig))
+        if ok.any():
+            p_ref = predictor.parameters(members.X[ref : ref + 1], d, np.random.default_rng(0))[0]
+            noises.append(_DropNoise(predictor, d, flown, ref, p_ref))
     if not blocks:
         raise StudyDefinitionError(
             "noise",
@@ -259,16 +366,20 @@ def _blocks(
             "state it in the drop: noise = { position_h = 1.5, position_v = 3.0 } (or in the "
             "study's [identification] noise)",
         )
-    return blocks, ok
+    return blocks, ok, noises
 
 
-def _limits(blocks: Sequence[tuple[str, NDArray, list[Any], NDArray]], rng) -> NDArray:
+def _draw(blocks, noises: Sequence[_DropNoise], n: int, rng) -> list[NDArray]:
+    """``n`` joint draws of every block's effective noise, in σ units: (n, T, k') each."""
+    per_drop = [nz.draw(n, rng) for nz in noises]
+    return [per_drop[di][ch][:, :, keep] / sig for _, _, di, ch, keep, sig in blocks]
+
+
+def _limits(blocks, noises: Sequence[_DropNoise], rng) -> NDArray:
     """Per block, the mean-square criterion's limit under the noise alone at a joint coverage
     of :data:`COVERAGE` (seeded draws)."""
-    S = np.empty((LIMIT_DRAWS, len(blocks)))
-    for b, (_, _, comps, t) in enumerate(blocks):
-        E = np.stack([c.draw(t, LIMIT_DRAWS, rng) / c.total for c in comps], axis=2)
-        S[:, b] = np.mean(E**2, axis=(1, 2))
+    E = _draw(blocks, noises, LIMIT_DRAWS, rng)
+    S = np.column_stack([np.nanmean(e**2, axis=(1, 2)) for e in E])
     lo, hi = COVERAGE, 1.0
     for _ in range(40):  # the per-block quantile at which the joint coverage is COVERAGE
         q = 0.5 * (lo + hi)
@@ -280,16 +391,14 @@ def _limits(blocks: Sequence[tuple[str, NDArray, list[Any], NDArray]], rng) -> N
     return np.quantile(S, hi, axis=0)
 
 
-def _kept(
-    blocks: Sequence[tuple[str, NDArray, list[Any], NDArray]], L: NDArray, ok: NDArray, rng
-) -> NDArray:
+def _kept(blocks, noises: Sequence[_DropNoise], L: NDArray, ok: NDArray, rng) -> NDArray:
     """(m, m) bool: row t, the members kept when member t plays the truth (one noise draw)."""
     m = ok.size
     K = np.ones((m, m), dtype=bool)
     K[:, ~ok] = False
-    for b, (_, Y, comps, t) in enumerate(blocks):
-        E = np.stack([c.draw(t, m, rng) / c.total for c in comps], axis=2)
-        D = (Y + E).reshape(m, -1)  # each member's data when it is the truth
+    E = _draw(blocks, noises, m, rng)
+    for b, (_, Y, *_rest) in enumerate(blocks):
+        D = (Y + E[b]).reshape(m, -1)  # each member's data when it is the truth
         Yf = Y.reshape(m, -1)
         for i in np.flatnonzero(ok):
             cols = np.isfinite(D[i])
@@ -297,11 +406,8 @@ def _kept(
                 continue
             Yc = Yf[:, cols]
             bad = ~np.isfinite(Yc).all(axis=1)
-            r = Yc - D[i, cols]
-            s = np.einsum(
-                "ij,ij->i", np.where(bad[:, None], 0.0, r), np.where(bad[:, None], 0.0, r)
-            )
-            s = s / cols.sum()
+            r = np.where(bad[:, None], 0.0, Yc - D[i, cols])
+            s = np.einsum("ij,ij->i", r, r) / cols.sum()
             K[i] &= (s <= L[b]) & ~bad
     return K
 
@@ -330,15 +436,15 @@ def _candidate(
     identified: float,
 ) -> Candidate:
     rng = np.random.default_rng([seed, 34])
-    blocks, ok = _blocks(predictor, members, drops, seed)
+    blocks, ok, noises = _blocks(predictor, members, drops, seed)
     if not ok.any():
         raise StudyDefinitionError(
             Path(file).name,
             f"no member of D could fly this plan ({', '.join(d.name for d in drops)})",
             "check its initial state, wind and inputs against the study's drops",
         )
-    L = _limits(blocks, rng)
-    K = _kept(blocks, L, ok, rng)
+    L = _limits(blocks, noises, rng)
+    K = _kept(blocks, noises, L, ok, rng)
     w = np.where(ok, members.weights, 0.0)
     w = w / w.sum()
     frac = K.astype(float) @ w  # per truth: the weighted share kept
@@ -400,6 +506,7 @@ def _candidate(
         combinations=new_combos,
         failed=int((~ok).sum()),
         thin_share=float(pw @ (nk < need)),
+        notes=[nz.note for nz in noises if nz.note],
     )
 
 
