@@ -133,6 +133,13 @@ class Candidate:
     failed: int = 0
     thin_share: float = 0.0
     notes: list[str] = field(default_factory=list)
+    n_flown: int = 0
+
+    @property
+    def below_resolution(self) -> bool:
+        """The plan keeps about one of the members flown (the truth itself): the members
+        cannot show how much less it would keep; plans below it are not ranked apart."""
+        return self.n_flown > 0 and self.expected_fraction_kept <= 2.0 / self.n_flown
 
     @property
     def shrinks(self) -> bool:
@@ -156,6 +163,8 @@ class Candidate:
             "failed": int(self.failed),
             "thin_share": float(self.thin_share),
             "notes": list(self.notes),
+            "n_flown": int(self.n_flown),
+            "below_resolution": bool(self.below_resolution),
         }
 
 
@@ -224,6 +233,13 @@ class Design:
             if c.failed:
                 lines.append(f"   {c.failed} member(s) failed to fly it (left out)")
         lines.append("")
+        low = [c.name for c in self.candidates if c.below_resolution]
+        if len(low) > 1:
+            lines.append(
+                f"{', '.join(low)} keep about one of the members flown (the truth itself): the "
+                "members cannot show which of them would keep less, so their order among "
+                "themselves means nothing; fly more members (--members) or compare shorter plans."
+            )
         if self.none_shrinks:
             lines.append(
                 f"No plan would shrink D: with any of them at least {NO_SHRINK:.0%} of D's "
@@ -233,9 +249,12 @@ class Design:
             )
         else:
             best = min(self.candidates, key=lambda c: c.rank)
-            lines.append(
-                f"Most informative: {best.name} (keeps {best.expected_fraction_kept:.1%} of D)."
-            )
+            if best.below_resolution and len(low) > 1:
+                lines.append(f"Most informative: one of {', '.join(low)} (see above).")
+            else:
+                lines.append(
+                    f"Most informative: {best.name} (keeps {best.expected_fraction_kept:.1%} of D)."
+                )
         return "\n".join(lines)
 
 
@@ -354,7 +373,11 @@ def _blocks(
             if not keep:
                 continue
             sig = np.array([comps[j].total for j in keep])
-            blocks.append((f"{d.name}.{name}", Y[:, :, keep] / sig, di, name, np.array(keep), sig))
+            allow = list(predictor.allowance.get(name) or ())
+            allow = np.array([(allow[j] if j < len(allow) else 0.0) for j in keep]) / sig
+            blocks.append(
+                (f"{d.name}.{name}", Y[:, :, keep] / sig, di, name, np.array(keep), sig, allow)
+            )
         if ok.any():
             p_ref = predictor.parameters(members.X[ref : ref + 1], d, np.random.default_rng(0))[0]
             noises.append(_DropNoise(predictor, d, flown, ref, p_ref))
@@ -372,14 +395,22 @@ def _blocks(
 def _draw(blocks, noises: Sequence[_DropNoise], n: int, rng) -> list[NDArray]:
     """``n`` joint draws of every block's effective noise, in σ units: (n, T, k') each."""
     per_drop = [nz.draw(n, rng) for nz in noises]
-    return [per_drop[di][ch][:, :, keep] / sig for _, _, di, ch, keep, sig in blocks]
+    return [per_drop[di][ch][:, :, keep] / sig for _, _, di, ch, keep, sig, _ in blocks]
+
+
+def _beyond(r: NDArray, allow: NDArray) -> NDArray:
+    """Residuals (σ units, components last) less the study's discrepancy allowance: what
+    lies beyond ±allowance (0 inside it), as the with-allowance band of ``predict`` reads."""
+    if not np.any(allow):
+        return r
+    return np.sign(r) * np.maximum(np.abs(r) - allow, 0.0)
 
 
 def _limits(blocks, noises: Sequence[_DropNoise], rng) -> NDArray:
     """Per block, the mean-square criterion's limit under the noise alone at a joint coverage
     of :data:`COVERAGE` (seeded draws)."""
     E = _draw(blocks, noises, LIMIT_DRAWS, rng)
-    S = np.column_stack([np.nanmean(e**2, axis=(1, 2)) for e in E])
+    S = np.column_stack([np.nanmean(_beyond(e, b[6]) ** 2, axis=(1, 2)) for e, b in zip(E, blocks)])
     lo, hi = COVERAGE, 1.0
     for _ in range(40):  # the per-block quantile at which the joint coverage is COVERAGE
         q = 0.5 * (lo + hi)
@@ -397,16 +428,17 @@ def _kept(blocks, noises: Sequence[_DropNoise], L: NDArray, ok: NDArray, rng) ->
     K = np.ones((m, m), dtype=bool)
     K[:, ~ok] = False
     E = _draw(blocks, noises, m, rng)
-    for b, (_, Y, *_rest) in enumerate(blocks):
+    for b, (_, Y, *_rest, allow) in enumerate(blocks):
         D = (Y + E[b]).reshape(m, -1)  # each member's data when it is the truth
         Yf = Y.reshape(m, -1)
+        a_flat = np.tile(allow, Y.shape[1])
         for i in np.flatnonzero(ok):
             cols = np.isfinite(D[i])
             if not cols.any():
                 continue
             Yc = Yf[:, cols]
             bad = ~np.isfinite(Yc).all(axis=1)
-            r = np.where(bad[:, None], 0.0, Yc - D[i, cols])
+            r = np.where(bad[:, None], 0.0, _beyond(Yc - D[i, cols], a_flat[cols]))
             s = np.einsum("ij,ij->i", r, r) / cols.sum()
             K[i] &= (s <= L[b]) & ~bad
     return K
@@ -507,6 +539,7 @@ def _candidate(
         failed=int((~ok).sum()),
         thin_share=float(pw @ (nk < need)),
         notes=[nz.note for nz in noises if nz.note],
+        n_flown=int(ok.sum()),
     )
 
 
