@@ -162,14 +162,36 @@ class Combination:
         return self.verdict == "identified"
 
     def value_of(self, x: Mapping[str, float]) -> float:
-        """This combination of a vector given in the gains' own units (e.g. a twin's truth),
-        in z: ``sum(per_unit[g] * (x[g] - lows[g]))``."""
+        """This combination of a vector given in the gains' own units (e.g. a twin's truth).
+
+        Parameters
+        ----------
+        x : mapping of str to float
+            Gain name -> value in its unit (every gain of :attr:`loadings`).
+
+        Returns
+        -------
+        float
+            ``sum(per_unit[g] * (x[g] - lows[g]))``, in z.
+        """
         return float(sum(c * (float(x[g]) - self.lows[g]) for g, c in self.per_unit.items()))
 
     def text(self, digits: int = 2, terms: int = 6) -> str:
         """The combination in words, on the box-normalised gains: ``"+0.71 z(x1) +0.71 z(x2)"``
         (z(g) = (g - low)/(high - low)), the ``terms`` largest coefficients first and the
-        count and size of the rest (:meth:`to_dict` has them all)."""
+        count and size of the rest (:meth:`to_dict` has them all).
+
+        Parameters
+        ----------
+        digits : int
+            Decimals of the coefficients.
+        terms : int
+            Terms written out.
+
+        Returns
+        -------
+        str
+        """
         items = list(self.loadings.items())
         out = " ".join(f"{c:+.{digits}f} z({g})" for g, c in items[:terms])
         rest = items[terms:]
@@ -192,7 +214,19 @@ class Combination:
 
     def own_units_text(self, digits: int = 3, terms: int = 6) -> str:
         """:meth:`own_units` in words: ``"x1 + 1·x2 in [0.889, 0.971] m"`` (the ``terms``
-        largest terms in z first, and the count of the rest)."""
+        largest terms in z first, and the count of the rest).
+
+        Parameters
+        ----------
+        digits : int
+            Significant digits of the coefficients (one more for the range).
+        terms : int
+            Terms written out.
+
+        Returns
+        -------
+        str
+        """
         coeffs, (lo, hi), unit = self.own_units()
         items = list(coeffs.items())
         parts = []

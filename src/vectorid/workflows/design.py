@@ -170,7 +170,22 @@ class Candidate:
 
 @dataclass
 class Design:
-    """The plans' worth, ranked (see the module docstring)."""
+    """The plans' worth, ranked (see the module docstring).
+
+    Attributes
+    ----------
+    store : str
+        The store's path.
+    members : Members
+        D's members flown (how chosen, from which set).
+    candidates : list of Candidate
+        One per plan, in the order given (``rank`` orders them).
+    identified_now : list of str
+        Gains identified before any plan.
+    combinations_now : int
+        Combinations identified before any plan.
+    seed : int
+    """
 
     store: str
     members: Members
