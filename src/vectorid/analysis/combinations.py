@@ -599,7 +599,9 @@ def combinations_json(combos: Sequence[Combination]) -> dict[str, Any]:
     }
 
 
-def combinations_text(combos: Sequence[Combination], n_feasible: int | None = None) -> str:
+def combinations_text(
+    combos: Sequence[Combination], n_feasible: int | None = None, limited: bool = True
+) -> str:
     """The combinations for people: one block each, narrowest first, with the range in z,
     the verdict and the reading in the gains' own units; a plain sentence when there is none.
 
@@ -609,6 +611,8 @@ def combinations_text(combos: Sequence[Combination], n_feasible: int | None = No
         From :func:`identifiable_combinations`.
     n_feasible : int, optional
         Members of D (said when D is too small to have combinations).
+    limited : bool
+        Whether a criteria constraint is in force (without one D says nothing).
 
     Returns
     -------
@@ -618,6 +622,11 @@ def combinations_text(combos: Sequence[Combination], n_feasible: int | None = No
         return (
             f"combinations: D holds {n_feasible} member(s); a combination needs at least two "
             "to show a spread"
+        )
+    if not limited:
+        return (
+            "combinations: none: no criteria constraint is in force, so D is every trial and "
+            "says nothing (state limits, or --limit)"
         )
     if not combos:
         return (
