@@ -69,14 +69,16 @@ def row(k: int, doc: dict) -> str:
         miss = f"{(dn**2 + de**2) ** 0.5:.1f} m vs {r95:.1f} m: {inside}"
     verdict = {True: "within", False: "**not within**", None: "not judged"}[d["within"]]
     return (
-        f"| {k} | {s['flown']} of {s['of']} ({what}) | {_pct(pos['coverage_credible'])} | "
+        f"| flight{k} ({d['duration_s']:.1f} s) | {s['flown']} of {s['of']} ({what}) | "
+        f"{_pct(pos['coverage_credible'])} | "
         f"{_pct(pos['coverage_with_noise'])} | {rms} | {miss} | {verdict} |"
     )
 
 
 HEAD = (
-    "| held out | members flown (of the set) | credible band holds | with-noise band holds | "
-    "median's RMS error | end point from the centre vs with-noise R95 | verdict |\n"
+    "| held out | distinct members flown (of the set's) | position values in the credible band | "
+    "in the with-noise band | median's RMS error | end point from the centre vs with-noise R95 "
+    "| verdict |\n"
     "|---|---|---|---|---|---|---|"
 )
 
