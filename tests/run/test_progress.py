@@ -7,6 +7,7 @@ import fcntl
 import io
 import os
 import pty
+import select
 import struct
 import subprocess
 import sys
@@ -45,6 +46,8 @@ def _run(folder, stderr_tty: bool) -> tuple[str, str]:
     """Run the script with its stderr on a pseudo-terminal or a pipe; (stdout, stderr)."""
     env = dict(os.environ)
     env.pop(_hints.QUIET_ENV, None)
+    for key in [k for k in env if k.startswith("TQDM_")]:  # a CI's tqdm settings
+        env.pop(key)
     script = textwrap.dedent(SCRIPT)
     if not stderr_tty:
         out = subprocess.run([sys.executable, "-c", script], cwd=folder, env=env,
@@ -53,22 +56,22 @@ def _run(folder, stderr_tty: bool) -> tuple[str, str]:
         return out.stdout, out.stderr
     leader, follower = pty.openpty()
     fcntl.ioctl(follower, termios.TIOCSWINSZ, struct.pack("HHHH", 24, 100, 0, 0))  # 100 columns
+    # the follower stays open here until the child has exited and everything it wrote is
+    # read: a terminal whose last follower closes may drop what is still buffered (Linux)
     try:
         proc = subprocess.Popen([sys.executable, "-c", script], cwd=folder, env=env,
                                 stdout=subprocess.PIPE, stderr=follower, text=True)  # fmt: skip
-        os.close(follower)
         chunks = []
         while True:
-            try:
-                data = os.read(leader, 4096)
-            except OSError:  # the child closed the terminal
+            ready, _, _ = select.select([leader], [], [], 0.1)
+            if ready:
+                chunks.append(os.read(leader, 4096))
+            elif proc.poll() is not None:
                 break
-            if not data:
-                break
-            chunks.append(data)
         stdout = proc.stdout.read()
         assert proc.wait(timeout=300) == 0
     finally:
+        os.close(follower)
         os.close(leader)
     return stdout, b"".join(chunks).decode("utf-8", "replace")
 

@@ -85,6 +85,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .identifiability import thin_threshold
+from .weights import trial_weights
 
 if TYPE_CHECKING:  # pragma: no cover - for annotations only
     from .results import Analysis
@@ -161,14 +162,36 @@ class Combination:
         return self.verdict == "identified"
 
     def value_of(self, x: Mapping[str, float]) -> float:
-        """This combination of a vector given in the gains' own units (e.g. a twin's truth),
-        in z: ``sum(per_unit[g] * (x[g] - lows[g]))``."""
+        """This combination of a vector given in the gains' own units (e.g. a twin's truth).
+
+        Parameters
+        ----------
+        x : mapping of str to float
+            Gain name -> value in its unit (every gain of :attr:`loadings`).
+
+        Returns
+        -------
+        float
+            ``sum(per_unit[g] * (x[g] - lows[g]))``, in z.
+        """
         return float(sum(c * (float(x[g]) - self.lows[g]) for g, c in self.per_unit.items()))
 
     def text(self, digits: int = 2, terms: int = 6) -> str:
         """The combination in words, on the box-normalised gains: ``"+0.71 z(x1) +0.71 z(x2)"``
         (z(g) = (g - low)/(high - low)), the ``terms`` largest coefficients first and the
-        count and size of the rest (:meth:`to_dict` has them all)."""
+        count and size of the rest (:meth:`to_dict` has them all).
+
+        Parameters
+        ----------
+        digits : int
+            Decimals of the coefficients.
+        terms : int
+            Terms written out.
+
+        Returns
+        -------
+        str
+        """
         items = list(self.loadings.items())
         out = " ".join(f"{c:+.{digits}f} z({g})" for g, c in items[:terms])
         rest = items[terms:]
@@ -191,7 +214,19 @@ class Combination:
 
     def own_units_text(self, digits: int = 3, terms: int = 6) -> str:
         """:meth:`own_units` in words: ``"x1 + 1·x2 in [0.889, 0.971] m"`` (the ``terms``
-        largest terms in z first, and the count of the rest)."""
+        largest terms in z first, and the count of the rest).
+
+        Parameters
+        ----------
+        digits : int
+            Significant digits of the coefficients (one more for the range).
+        terms : int
+            Terms written out.
+
+        Returns
+        -------
+        str
+        """
         coeffs, (lo, hi), unit = self.own_units()
         items = list(coeffs.items())
         parts = []
@@ -532,8 +567,6 @@ def identifiable_combinations(
     >>> sorted((g, round(v, 2)) for g, v in combos[0].loadings.items())
     [('x1', 0.71), ('x2', 0.71)]
     """
-    from .weights import trial_weights
-
     mask = a.feasible
     lows, highs = _box(a)
     spans = highs - lows
@@ -566,7 +599,9 @@ def combinations_json(combos: Sequence[Combination]) -> dict[str, Any]:
     }
 
 
-def combinations_text(combos: Sequence[Combination], n_feasible: int | None = None) -> str:
+def combinations_text(
+    combos: Sequence[Combination], n_feasible: int | None = None, limited: bool = True
+) -> str:
     """The combinations for people: one block each, narrowest first, with the range in z,
     the verdict and the reading in the gains' own units; a plain sentence when there is none.
 
@@ -576,6 +611,8 @@ def combinations_text(combos: Sequence[Combination], n_feasible: int | None = No
         From :func:`identifiable_combinations`.
     n_feasible : int, optional
         Members of D (said when D is too small to have combinations).
+    limited : bool
+        Whether a criteria constraint is in force (without one D says nothing).
 
     Returns
     -------
@@ -585,6 +622,11 @@ def combinations_text(combos: Sequence[Combination], n_feasible: int | None = No
         return (
             f"combinations: D holds {n_feasible} member(s); a combination needs at least two "
             "to show a spread"
+        )
+    if not limited:
+        return (
+            "combinations: none: no criteria constraint is in force, so D is every trial and "
+            "says nothing (state limits, or --limit)"
         )
     if not combos:
         return (

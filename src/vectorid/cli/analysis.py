@@ -689,7 +689,8 @@ def _cmd_identifiability(args: argparse.Namespace) -> int:
     )
     if combos is not None:
         print()
-        print(combinations_text(combos, a.n_feasible))
+        limited = any(b.name in a.crit_names for b in a.active_bounds())
+        print(combinations_text(combos, a.n_feasible, limited))
     return 0
 
 

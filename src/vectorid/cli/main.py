@@ -369,6 +369,7 @@ _EXTENSION_MODULES = (
     "vectorid.cli.descent",
     "vectorid.cli.step",
     "vectorid.cli.predict",
+    "vectorid.cli.design",
 )
 
 
