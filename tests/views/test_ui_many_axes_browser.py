@@ -16,6 +16,7 @@ from vectorid import Study
 
 _BOXES = """
 const host = document.querySelector('#par-graph');
+if (!host) return {titles: [], labels: [], width: 0};  // the page not yet laid out
 const box = e => { const r = e.getBoundingClientRect();
   return {x0: r.left, x1: r.right, y0: r.top, y1: r.bottom}; };
 const titles = [...host.querySelectorAll('.vid-title')].map(g => Object.assign(box(g), {
