@@ -71,3 +71,19 @@ def test_the_report_shows_the_combinations_with_their_loadings(store):
     assert "combinations (1 identified, 0 weak" in glance and "<b>c1</b>" in glance
     assert "z(x1)" in glance and "z(x2)" in glance
     assert "in the gains&#x27; units" in html[table:] or "in the gains' units" in html[table:]
+
+
+def test_the_panel_folds_the_wider_weak_combinations_away():
+    items = [
+        {"text": f"+1.00 z(x{k})", "range": "[0, 0.5]", "width": 0.3, "verdict": v, "why": "",
+         "own_units": f"x{k} in [0, 0.5]"}
+        for k, v in enumerate(["identified"] * 5 + ["weak"] * 3, 1)
+    ]  # fmt: skip
+    group = verdict_panel([], nd=100, combinations=items)[-1]
+    shown = [c.id for c in group.children if getattr(c, "id", "").startswith("vid-combo-")]
+    assert shown == [f"vid-combo-{k}" for k in range(1, 6)]  # every identified one
+    folded = [c for c in group.children if type(c).__name__ == "Details"]
+    assert len(folded) == 1 and folded[0].children[0].children == "3 more weak"
+    assert [c.id for c in folded[0].children[1:]] == ["vid-combo-6", "vid-combo-7", "vid-combo-8"]
+    few = verdict_panel([], nd=100, combinations=items[4:7])[-1]  # 1 identified, 2 weak
+    assert not [c for c in few.children if type(c).__name__ == "Details"]

@@ -241,6 +241,11 @@ def verdict_table(rows: list[dict[str, Any]], prefix: str, *, trial: bool = Fals
     )
 
 
+#: Combinations shown on the first screen before the rest are folded away (every identified
+#: one is shown, however many).
+COMBOS_SHOWN = 4
+
+
 def verdict_panel(
     groups: list[dict[str, Any]],
     *,
@@ -302,6 +307,8 @@ def verdict_panel(
             for k, it in enumerate(combinations, 1)
         ]
         n_id = sum(it["verdict"] == "identified" for it in combinations)
+        keep = max(n_id, COMBOS_SHOWN)  # every identified one; the narrowest weak ones
+        more = chips[keep:]
         out.append(
             html.Div(
                 [
@@ -309,7 +316,12 @@ def verdict_panel(
                         f"combinations ({n_id} identified, {len(combinations) - n_id} weak)",
                         className="vgroup-name",
                     ),
-                    *chips,
+                    *chips[:keep],
+                    *(
+                        [html.Details([html.Summary(f"{len(more)} more weak"), *more])]
+                        if more
+                        else []
+                    ),
                     html.Span(
                         "z(g) = (g - low)/(high - low): each gain as a share of its box; "
                         "range in z over D, widened to hold its boundary; width: a share of "
