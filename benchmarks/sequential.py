@@ -50,21 +50,34 @@ import shutil
 import sys
 import tempfile
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 import _machine
 
-PROBLEMS = ("parachute3", "parachute15", "parafoil33")
-METHODS = ("sobol", "sequential", "pyabc")
-#: Budgets (model evaluations) per problem: Sobol, the sequential sampler, pyABC.
+PROBLEMS = ("parachute3", "parachute15", "parachute15quiet", "parafoil33")
+METHODS = ("sobol", "sequential", "pyabc", "dynesty", "ultranest", "subset")
+ANCHORS = ("dynesty", "ultranest", "subset")
+#: Most model evaluations per problem and method (``--budget`` and friends override them).
 BUDGETS = {
-    "parachute3": (200_000, 50_000, 30_000),
-    "parachute15": (200_000, 50_000, 30_000),
-    "parafoil33": (32_768, 250_000, 3_000),
-}
+    "parachute3": {"sobol": 200_000, "sequential": 50_000, "pyabc": 30_000,
+                   "dynesty": 50_000, "ultranest": 50_000, "subset": 50_000},
+    "parachute15": {"sobol": 200_000, "sequential": 50_000, "pyabc": 30_000,
+                    "dynesty": 100_000, "ultranest": 150_000, "subset": 100_000},
+    "parachute15quiet": {"sobol": 200_000, "sequential": 150_000, "pyabc": 30_000,
+                         "dynesty": 150_000, "ultranest": 150_000, "subset": 150_000},
+    "parafoil33": {"sobol": 32_768, "sequential": 250_000, "pyabc": 3_000,
+                   "dynesty": 100_000, "ultranest": 100_000, "subset": 100_000},
+}  # fmt: skip
+#: Members of D in the reference sample (plain, scrambled Sobol points) that faithfulness is
+#: checked against, and the most evaluations spent on it.
+REFERENCE_MEMBERS = 4000
+REFERENCE_BUDGET = {"parachute3": 400_000, "parachute15": 1_000_000,
+                    "parachute15quiet": 1_000_000, "parafoil33": 65_536}  # fmt: skip
+#: Family-wise level of the per-parameter KS test (Bonferroni over the parameters).
+KS_LEVEL = 0.01
 SOBOL_BATCH = 1024
 VARS3 = (("x6", 0.3, 1.0), ("x8", 0.75, 1.5), ("x11", 0.06, 0.13))
 NOISE = {"position_h": 1.5, "position_v": 3.0, "velocity": 0.15, "euler_deg": 0.5, "rates": 0.01}
@@ -99,10 +112,20 @@ class Outcome:
     #: (Sobol's and pyABC's: their ``evaluations``; the sequential sampler goes on from there
     #: until its population is a faithful sample of D, ESS >= population)
     first: int | None = None
+    #: D's members that the method answers with (box units) and their weights (None: equal)
+    X: np.ndarray | None = field(default=None, repr=False)
+    w: np.ndarray | None = field(default=None, repr=False)
+    #: faithfulness: the variables whose KS test fails, the smallest family-wise p-value
+    ks_fails: list[str] | None = None
+    ks_p: float | None = None
+    #: evaluations until ``population`` faithful members (None: not reached; see ``why``)
+    faithful_at: int | None = None
+    why: str = ""
 
 
-def parachute_problem(folder: Path, free: int, seed: int = 0) -> Problem:
-    """The parachute twin with 3 or all 15 parameters free (see the module docstring)."""
+def parachute_problem(folder: Path, free: int, seed: int = 0, quiet: bool = False) -> Problem:
+    """The parachute twin with 3 or all 15 parameters free (see the module docstring); ``quiet``:
+    the sensor noise, and with it the stated limits, ten times smaller."""
     from vectorid import models
     from vectorid.identify.noise.resolve import resolve_noise_limits
     from vectorid.identify.twins import twin_drop, write_twin, write_wind_csv
@@ -115,8 +138,12 @@ def parachute_problem(folder: Path, free: int, seed: int = 0) -> Problem:
     # the parameters a drop does not vary: nominal, moved inside the box by 5 % where the
     # nominal sits on its edge (x5 = 0, x13 = 0.94): a truth on the edge is never inside the
     # range of finitely many members
-    truth = {p.name: float(np.clip(p.nominal, p.low + 0.05 * (p.high - p.low),
-                                   p.high - 0.05 * (p.high - p.low))) for p in model.parameters}
+    truth = {
+        p.name: float(
+            np.clip(p.nominal, p.low + 0.05 * (p.high - p.low), p.high - 0.05 * (p.high - p.low))
+        )
+        for p in model.parameters
+    }
     truth.update({n: float(rng.uniform(lo, hi)) for n, lo, hi in VARS3})
     if free == 3:
         variables = list(VARS3)
@@ -132,12 +159,13 @@ def parachute_problem(folder: Path, free: int, seed: int = 0) -> Problem:
         euler=tuple(rng.normal(0.0, 0.1, 3)),
         rates=tuple(rng.normal(0.0, 0.05, 3)),
     )
-    flight = twin_drop(model, truth, initial=ini, duration=34.0, noise=NOISE, seed=seed,
+    noise = {k: v / 10.0 for k, v in NOISE.items()} if quiet else NOISE
+    flight = twin_drop(model, truth, initial=ini, duration=34.0, noise=noise, seed=seed,
                        wind=wind, origin_altitude=ORIGIN)  # fmt: skip
     files = write_twin(flight, folder, "drop")
     write_wind_csv(WindProfile(levels, *wind(levels).T), folder / "wind.csv", levels)
     ident = {
-        "dt": 0.05, "output_dt": 0.25, "init_span": 1.0, "noise": NOISE, "limits": "noise",
+        "dt": 0.05, "output_dt": 0.25, "init_span": 1.0, "noise": noise, "limits": "noise",
         "drops": [{
             "name": "drop", "files": files, "wind": "wind.csv", "wind_format": "dropsonde",
             "wind_options": {"altitude": "altitude_m", "u": "u_ms", "v": "v_ms"},
@@ -145,8 +173,8 @@ def parachute_problem(folder: Path, free: int, seed: int = 0) -> Problem:
         }],
     }  # fmt: skip
     data = {
-        "study": {"name": f"parachute{free}", "model": "parachute6dof", "trials": 1024,
-                  "seed": 1, "executor": "serial"},
+        "study": {"name": f"parachute{free}" + ("quiet" if quiet else ""),
+                  "model": "parachute6dof", "trials": 1024, "seed": 1, "executor": "serial"},
         "variables": [{"name": n, "low": lo, "high": hi} for n, lo, hi in variables],
         "criteria": [{"name": c} for c in PURE] + [{"name": c, "role": "pseudo"} for c in PSEUDO],
         "identification": ident,
@@ -154,7 +182,8 @@ def parachute_problem(folder: Path, free: int, seed: int = 0) -> Problem:
     spec = resolve_noise_limits(StudySpec.from_dict(data, base_dir=folder))
     limits = {c.name: float(c.limit) for c in spec.criteria if c.limit is not None}
     boxes = {n: (lo, hi) for n, lo, hi in variables}
-    return Problem(f"parachute{free}", spec, {n: truth[n] for n in boxes}, limits, boxes)
+    name = f"parachute{free}" + ("quiet" if quiet else "")
+    return Problem(name, spec, {n: truth[n] for n in boxes}, limits, boxes)
 
 
 def parafoil_problem(folder: Path) -> Problem:
@@ -240,7 +269,7 @@ def run_sobol(p: Problem, folder: Path, population: int, budget: int) -> Outcome
     X = a.trials.X[rows]
     members = len(np.unique(X, axis=0))
     return Outcome("sobol", evaluations, wall, members, float(members),
-                   _inside(X, a.spec.space.names, p.truth), reached)  # fmt: skip
+                   _inside(X, a.spec.space.names, p.truth), reached, X=X)  # fmt: skip
 
 
 def run_sequential(p: Problem, folder: Path, population: int, budget: int) -> Outcome:
@@ -271,9 +300,13 @@ def run_sequential(p: Problem, folder: Path, population: int, budget: int) -> Ou
     reached = bool(getattr(summary, "converged", members >= population))
     evaluations = int(getattr(summary, "evaluations", a.n))
     note = "" if reached else summary.describe().splitlines()[0]
+    from vectorid.analysis.weights import trial_weights
+
+    # D's weights: importance weights (fewer than 20 variables) or the chains' holding times
+    w = trial_weights(a, in_d)
     return Outcome("sequential", evaluations, wall, members, ess,
                    _inside(X, a.spec.space.names, p.truth), reached, note,
-                   first=first)  # fmt: skip
+                   first=first, X=X, w=w)  # fmt: skip
 
 
 def run_pyabc(p: Problem, folder: Path, population: int, budget: int, seed: int = 1) -> Outcome:
@@ -335,7 +368,7 @@ def run_pyabc(p: Problem, folder: Path, population: int, budget: int, seed: int 
     wall = time.perf_counter() - t0
     evaluations = int(h.total_nr_simulations)
     df, w = h.get_distribution()
-    X = df[names].to_numpy(dtype=float)
+    X = df[list(p.spec.space.names)].to_numpy(dtype=float)  # the study's column order
     pops = h.get_all_populations()
     eps_last = float(pops["epsilon"].iloc[-1])
     reached = eps_last <= 1.0 and len(X) >= population
@@ -345,10 +378,176 @@ def run_pyabc(p: Problem, folder: Path, population: int, budget: int, seed: int 
     ess = float(w.sum() ** 2 / np.sum(w**2)) if np.all(np.isfinite(w)) and w.sum() > 0 else 0.0
     members = len(np.unique(X, axis=0)) if reached else 0
     return Outcome("pyabc", evaluations, wall, members, ess,
-                   _inside(X, names, p.truth) if reached else None, reached, note)  # fmt: skip
+                   _inside(X, names, p.truth) if reached else None, reached, note,
+                   X=X if reached else None, w=w if reached else None)  # fmt: skip
 
 
-RUNNERS = {"sobol": run_sobol, "sequential": run_sequential, "pyabc": run_pyabc}
+def _anchor(method: str):
+    """A runner for one of ``_anchors``' samplers (dynesty, UltraNest, OpenTURNS' subset
+    simulation) on the problem's D, in this process."""
+
+    def run(p: Problem, folder: Path, population: int, budget: int) -> Outcome:
+        import _anchors
+
+        target = _anchors.Target(p.spec)
+        t0 = time.perf_counter()
+        s = getattr(_anchors, f"run_{method}")(target, population, budget)
+        wall = time.perf_counter() - t0
+        if not len(s.X):
+            return Outcome(method, s.evaluations, wall, 0, 0.0, None, False, s.note)
+        # repeated vectors (a Markov chain's rejected moves) count as weights
+        X, inverse = np.unique(s.X, axis=0, return_inverse=True)
+        w0 = np.ones(len(s.X)) if s.weights is None else np.asarray(s.weights, float)
+        w = np.bincount(inverse.ravel(), weights=w0, minlength=len(X))
+        ess = float(w.sum() ** 2 / np.sum(w**2))
+        setup = ", ".join(f"{k} {v}" for k, v in s.extra.items())
+        note = "; ".join(x for x in (setup, s.note) if x)
+        return Outcome(method, s.evaluations, wall, len(X), ess,
+                       _inside(X, target.names, p.truth), s.reached, note, X=X,
+                       w=None if np.all(w == w[0]) else w)  # fmt: skip
+
+    run.__name__ = f"run_{method}"
+    return run
+
+
+RUNNERS = {"sobol": run_sobol, "sequential": run_sequential, "pyabc": run_pyabc,
+           **{m: _anchor(m) for m in ANCHORS}}  # fmt: skip
+
+
+@dataclass
+class Reference:
+    """A plain-Sobol sample of D: Owen-scrambled Sobol points, uniform in ``region`` (a box
+    inside the problem's box that holds D, or the whole box), and those of them in D."""
+
+    X: np.ndarray  # (m, p) members of D, box units
+    evaluations: int
+    region: str  # in words
+    note: str = ""
+
+
+def _region_words(names, low, high, box_low, box_high) -> str:
+    cut = [f"{n} [{lo:.4g}, {hi:.4g}]" for n, lo, hi, bl, bh in
+           zip(names, low, high, box_low, box_high) if lo > bl or hi < bh]  # fmt: skip
+    if not cut:
+        return "the whole box"
+    share = float(np.prod((high - low) / (box_high - box_low)))
+    return f"a box of {share:.3g} of the box's volume, around D ({', '.join(cut)})"
+
+
+def reference_sample(p: Problem, folder: Path, wanted: int, budget: int,
+                     around: list[np.ndarray], seed: int = 20240) -> Reference:  # fmt: skip
+    """A long plain-Sobol sample of D, the yardstick of every method's faithfulness.
+
+    Scrambled Sobol points (``seed``; not the study's own unscrambled points) fill the box in
+    batches of 2**14 until ``wanted`` of them are in D or ``budget`` evaluations are spent. A
+    region smaller than the box is used only where the box would need more than ``budget``:
+    then the box around every member any method found (``around``), widened by half its width
+    on each side (within the problem's box). That region holds D as far as the sample can tell
+    only if no member of D comes within a tenth of its width of a face the problem's box does
+    not share; a side that a member comes that close to is widened (doubled) and the sample
+    started again. Uniform points in a region that holds D, kept where they are in D, are
+    uniform on D, as in the whole box. The sample is cached in ``folder`` (reference.npz),
+    keyed by the problem's limits and ``wanted``.
+    """
+    from scipy.stats import qmc
+
+    import _anchors
+
+    cache = folder / "reference.npz"
+    key = json.dumps({"limits": p.limits, "wanted": wanted, "seed": seed,
+                      "names": list(p.boxes)}, sort_keys=True)  # fmt: skip
+    if cache.exists():
+        z = np.load(cache, allow_pickle=False)
+        if str(z["key"]) == key:
+            return Reference(z["X"], int(z["evaluations"]), str(z["region"]), str(z["note"]))
+    t = _anchors.Target(p.spec)
+    box_lo, box_hi = t.low.copy(), t.high.copy()
+    width = box_hi - box_lo
+
+    class Fill:
+        """Scrambled Sobol points uniform in [lo, hi], drawn on demand; the members kept."""
+
+        def __init__(self, lo: np.ndarray, hi: np.ndarray) -> None:
+            self.lo, self.hi = lo, hi
+            self.sobol = qmc.Sobol(t.p, scramble=True, seed=seed)
+            self.X, self.n = np.empty((0, t.p)), 0
+
+        def until(self, cap: int) -> None:
+            while self.n < cap and len(self.X) < wanted:
+                X = self.lo + self.sobol.random(2**14) * (self.hi - self.lo)
+                self.n += len(X)
+                self.X = np.concatenate([self.X, X[t.score(X) <= 1.0]])
+
+    # the whole box, with a pilot of an eighth of the budget: a smaller region only where the
+    # box would need more than the budget
+    f = Fill(box_lo, box_hi)
+    f.until(max(budget // 8, 2**14))
+    rate = len(f.X) / f.n
+    region = "the whole box"
+    if len(f.X) >= wanted or (rate > 0 and (wanted - len(f.X)) / rate <= budget - f.n):
+        f.until(budget)
+        X, spent = f.X, f.n
+    else:
+        spent = f.n
+        found = [x for x in [*around, f.X] if x is not None and len(x)]
+        if not found:
+            return Reference(np.empty((0, t.p)), spent, "none",
+                             f"no member of D in {spent:,} plain Sobol points of the box, and "
+                             "no method found one")  # fmt: skip
+        pts = np.concatenate(found)
+        lo, hi = pts.min(axis=0), pts.max(axis=0)
+        pad = 0.5 * np.maximum(hi - lo, 1e-3 * width)
+        lo, hi = np.maximum(lo - pad, box_lo), np.minimum(hi + pad, box_hi)
+        while True:
+            f = Fill(lo, hi)
+            f.until(budget - spent)
+            spent += f.n
+            X = f.X
+            gap = 0.1 * (hi - lo)
+            near_lo = (lo > box_lo) & (X.min(axis=0, initial=np.inf) < lo + gap)
+            near_hi = (hi < box_hi) & (X.max(axis=0, initial=-np.inf) > hi - gap)
+            if not (near_lo.any() or near_hi.any()) or spent >= budget:
+                break
+            lo, hi = (np.where(near_lo, np.maximum(lo - (hi - lo), box_lo), lo),
+                      np.where(near_hi, np.minimum(hi + (hi - lo), box_hi), hi))  # fmt: skip
+        region = _region_words(t.names, lo, hi, box_lo, box_hi)
+        if near_lo.any() or near_hi.any():
+            region += " (D may reach beyond it: members near its faces when the budget ended)"
+    note = "" if len(X) >= wanted else f"only {len(X)} of {wanted} members within its budget"
+    np.savez(cache, X=X, evaluations=spent, region=region, note=note, key=key)
+    return Reference(X, spent, region, note)
+
+
+def ks_check(o: Outcome, ref: Reference, names: list[str], level: float = KS_LEVEL) -> None:
+    """Per-parameter Kolmogorov–Smirnov of ``o``'s members (weighted, Kish's effective size)
+    against the reference sample; a parameter fails when its p-value is below ``level`` over
+    the number of parameters (Bonferroni: family-wise ``level``). Fills ``o.ks_fails`` and
+    ``o.ks_p`` (the smallest p-value times the number of parameters, at most 1)."""
+    from vectorid.analysis.weights import weighted_ks
+
+    if o.X is None or not len(o.X) or not len(ref.X):
+        return
+    k = len(names)
+    pv = np.array([weighted_ks(o.X[:, j], ref.X[:, j], o.w, None)[1] for j in range(k)])
+    o.ks_fails = [n for n, q in zip(names, pv) if not q >= level / k]
+    o.ks_p = float(min(1.0, np.nanmin(pv) * k)) if np.isfinite(pv).any() else float("nan")
+
+
+def faithful_at(o: Outcome, population: int, checked: bool) -> None:
+    """Evaluations until ``population`` faithful members: the method's evaluations when it
+    reached D with an effective sample size of at least ``population`` and its members pass
+    the KS check (``checked``: a reference exists); fills ``o.faithful_at`` or ``o.why``."""
+    at = o.evaluations if o.method != "sobol" else (o.evaluations if o.reached else None)
+    if not o.reached or at is None:
+        o.why = "D not reached"
+    elif o.ess < population - 0.5:
+        o.why = f"ESS {o.ess:.0f} < {population}"
+    elif not checked:
+        o.faithful_at, o.why = at, "not checked: no reference sample"
+    elif o.ks_fails:
+        o.why = "KS fails: " + ", ".join(o.ks_fails)
+    else:
+        o.faithful_at = at
 
 
 def _timed(runner, *args) -> Outcome:
@@ -367,6 +566,21 @@ def _timed(runner, *args) -> Outcome:
     return o
 
 
+def _problem(name: str, folder: Path) -> Problem:
+    if name == "parafoil33":
+        return parafoil_problem(folder)
+    return parachute_problem(folder, 3 if name == "parachute3" else 15,
+                             quiet=name == "parachute15quiet")  # fmt: skip
+
+
+def _ks_words(o: Outcome, k: int) -> str:
+    if o.ks_fails is None:
+        return "-"
+    if not o.ks_fails:
+        return f"passes (p·{k} {o.ks_p:.2g})"
+    return f"fails {len(o.ks_fails)}/{k} (p·{k} {o.ks_p:.2g})"
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
     ap.add_argument("--problems", default=",".join(PROBLEMS), help="comma-separated")
@@ -375,9 +589,21 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--sobol-budget", type=int, help="evaluations at most (default per problem)")
     ap.add_argument("--budget", type=int, help="the sequential sampler's budget")
     ap.add_argument("--pyabc-budget", type=int, help="pyABC's evaluations at most")
+    ap.add_argument(
+        "--anchor-budget",
+        type=int,
+        help="dynesty's, UltraNest's and subset simulation's evaluations at most",
+    )
+    ap.add_argument(
+        "--reference",
+        type=int,
+        default=REFERENCE_MEMBERS,
+        help="members of D in the plain-Sobol reference sample (0: no KS check)",
+    )
     ap.add_argument("--quick", action="store_true",
                     help="parachute3 only, population 50, small budgets (smoke test)")  # fmt: skip
-    ap.add_argument("--keep", help="folder for the twins and stores (default: a temp dir)")
+    ap.add_argument("--keep", help="folder for the twins, stores and reference samples "
+                    "(default: a temp dir; a kept reference sample is reused)")  # fmt: skip
     ap.add_argument("--json", help="write the results as JSON here")
     args = ap.parse_args(argv)
     problems = [s.strip() for s in args.problems.split(",") if s.strip()]
@@ -389,18 +615,21 @@ def main(argv: list[str] | None = None) -> int:
                   file=sys.stderr)  # fmt: skip
             return 2
     population = args.population
+    wanted = args.reference
     if args.quick:
         problems = ["parachute3"] if args.problems == ",".join(PROBLEMS) else problems
         population = min(population, 50)
+        wanted = min(wanted, 1000)
     print(_machine.describe())
-    print(f"population {population}; the machine may be shared (wall times under its load)")
+    print(f"population {population}; the machine may be shared (wall times under its load; "
+          "CPU seconds are this process's, all threads)")  # fmt: skip
     sys.stdout.flush()
     folder = Path(args.keep) if args.keep else Path(tempfile.mkdtemp(prefix="vectorid-seq-"))
     results: dict[str, list[Outcome]] = {}
+    nvars: dict[str, int] = {}
     for name in problems:
         sub = folder / name
-        p = parafoil_problem(sub) if name == "parafoil33" else parachute_problem(
-            sub, 3 if name == "parachute3" else 15)  # fmt: skip
+        p = _problem(name, sub)
         from vectorid.identify import Identification
 
         ident = Identification.from_spec(p.spec)
@@ -412,12 +641,15 @@ def main(argv: list[str] | None = None) -> int:
               f"truth meets the stated limits: {'yes' if worst <= 1 else 'no'} "
               f"(max Phi/Phi** {worst:.2f})")  # fmt: skip
         sys.stdout.flush()
-        budgets = dict(zip(METHODS, BUDGETS[name]))
+        budgets = dict(BUDGETS[name])
         if args.quick:
-            budgets = {"sobol": 20_000, "sequential": 10_000, "pyabc": 3_000}
+            budgets = {"sobol": 20_000, "sequential": 10_000, "pyabc": 3_000,
+                       **{m: 5_000 for m in ANCHORS}}  # fmt: skip
         budgets["sobol"] = args.sobol_budget or budgets["sobol"]
         budgets["sequential"] = args.budget or budgets["sequential"]
         budgets["pyabc"] = args.pyabc_budget or budgets["pyabc"]
+        for m in ANCHORS:
+            budgets[m] = args.anchor_budget or budgets[m]
         out = []
         for m in methods:
             _MISSES.clear()
@@ -432,22 +664,49 @@ def main(argv: list[str] | None = None) -> int:
                   f"{'' if o.reached else '  (D not reached; budget ' + str(budgets[m]) + ')'}"
                   f"{'  ' + o.note if o.note else ''}")  # fmt: skip
             sys.stdout.flush()
+        names = list(p.spec.space.names)
+        ref = None
+        if wanted > 0:
+            c0 = time.process_time()
+            ref = reference_sample(p, sub, wanted, REFERENCE_BUDGET[name] if not args.quick
+                                   else 100_000, [o.X for o in out])  # fmt: skip
+            print(f"  reference: {len(ref.X)} members of D in {ref.evaluations:,} scrambled "
+                  f"Sobol points of {ref.region} ({time.process_time() - c0:.1f} CPU-s)"
+                  f"{'; ' + ref.note if ref.note else ''}")  # fmt: skip
+        checked = ref is not None and len(ref.X) >= min(wanted, 1000)
+        for o in out:
+            if checked:
+                ks_check(o, ref, names)
+            faithful_at(o, population, checked)
+            at = "-" if o.faithful_at is None else f"{o.faithful_at:,}"
+            print(f"  {o.method:<10} KS against the reference: {_ks_words(o, len(names))}; "
+                  f"evaluations to {population} faithful members: {at}"
+                  f"{'  (' + o.why + ')' if o.why else ''}")  # fmt: skip
+        sys.stdout.flush()
         results[name] = out
+        nvars[name] = len(names)
     print()
     print(f"| problem | method | evaluations | {population}th member of D at | wall (s) | CPU (s) "
-          "| members of D | ESS | truth inside |")  # fmt: skip
-    print("|---|---|---|---|---|---|---|---|---|")
+          f"| members of D | ESS | KS, family-wise 1 % | to {population} faithful members "
+          "| truth inside |")  # fmt: skip
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     for name, out in results.items():
         for o in out:
             inside = "-" if o.truth_inside is None else ("yes" if o.truth_inside else "no")
             ev = f"{o.evaluations:,}" + ("" if o.reached else " (not reached)")
             first = o.first if o.method == "sequential" else (o.evaluations if o.reached else None)
             at = "-" if first is None else f"{first:,}"
+            ks = _ks_words(o, nvars[name])
+            fa = f"{o.faithful_at:,}" if o.faithful_at is not None else "-"
+            if o.why:
+                fa += f" ({o.why})"
             print(f"| {name} | {o.method} | {ev} | {at} | {o.wall:.1f} | {o.cpu:.1f} | {o.members} "
-                  f"| {o.ess:.0f} | {inside} |")  # fmt: skip
+                  f"| {o.ess:.0f} | {ks} | {fa} | {inside} |")  # fmt: skip
     if args.json:
+        skip = {"X", "w"}
         Path(args.json).write_text(json.dumps(
-            {k: [o.__dict__ for o in v] for k, v in results.items()}, indent=1), encoding="utf-8")
+            {k: [{a: b for a, b in o.__dict__.items() if a not in skip} for o in v]
+             for k, v in results.items()}, indent=1), encoding="utf-8")  # fmt: skip
     print(f"\n(load average after: {', '.join(f'{x:.2f}' for x in os.getloadavg())})")
     return 0
 
