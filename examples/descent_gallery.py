@@ -254,7 +254,13 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     data = Path(args.data)
     if not data.is_dir():
-        print(f"error: no shared data folder at {data}; give its path", file=sys.stderr)
+        print(
+            f"error: no shared data folder at {data}. The flights are RocketPy's "
+            "(github.com/RocketPy-Team/RocketPy, data/rockets/, MIT): fetch them with `python "
+            "scripts/fetch_data.py rocketpy-descents prometheus-2022` (writes ../shared/data), or "
+            "give the folder's path",
+            file=sys.stderr,
+        )
         return 2
     names = args.only or list(FLIGHTS)
     for n in names:

@@ -68,6 +68,8 @@ identify it, else its feasible range) and what the data cannot determine.
 from __future__ import annotations
 
 import argparse
+import contextlib
+import json
 import sys
 from pathlib import Path
 
@@ -153,12 +155,24 @@ def load(folder: Path, name: str) -> FlightData:
     return FlightData(name, channels, {}, None)
 
 
+def ident_table() -> dict:
+    """The ``[identification]`` table of every flight (without its drop): the model, its
+    options (the stated set with each flight's uniform wind), the steps, the fit span, and the
+    noise estimated from each flight's data. The stores keep it as ``[x-predict.identification]``
+    so that ``vectorid predict`` flies their members."""
+    return {"model": "parafoil6dof", "model_options": model_options(), "dt": 0.02,
+            "output_dt": 0.2, "init_span": 1.0, "noise": "estimate"}  # fmt: skip
+
+
+#: Keys of each flight's drop table beside its data (a drop file repeats them).
+DROP_KEYS = {"interpolation": "linear", "origin_altitude": ORIGIN_ALTITUDE}
+
+
 def several_flights(flights: dict[str, FlightData], gains: tuple[str, ...]) -> MultiFlight:
     """The flights as one batch model: the shared ``gains``, then each flight's uniform wind;
     each flight compared over its GNSS record."""
-    table = {"model": "parafoil6dof", "model_options": model_options(), "dt": 0.02,
-             "output_dt": 0.2, "init_span": 1.0}  # fmt: skip
-    drop = {"interpolation": "linear", "origin_altitude": ORIGIN_ALTITUDE}
+    table = {k: v for k, v in ident_table().items() if k != "noise"}
+    drop = dict(DROP_KEYS)
     return MultiFlight.from_flights(
         flights, table, gains, ["pos_h_abs", "pos_v_abs"], window_channels=("position",),
         drop=drop,
@@ -220,6 +234,7 @@ def run(
     spec = StudySpec(
         name=name, model=evaluate, space=space, criteria=tuple(crit),
         trials=trials, seed=1, executor="inline",
+        extra={"x-predict": {"identification": ident_table()}},
     )  # fmt: skip
     meanings = {**MEANINGS, **{v: "uniform wind of the flight, m/s" for v in model.variables
                                if v.startswith("wind_")}}  # fmt: skip
@@ -244,9 +259,7 @@ def _horizontal(errors: dict) -> dict[str, float]:
     return {n: e["horizontal"] for n, e in errors.items()}
 
 
-def identify(
-    folder: str | Path, out: str | Path, trials: int = 4096, budget: int = 50_000
-) -> dict:
+def identify(folder: str | Path, out: str | Path, trials: int = 4096, budget: int = 50_000) -> dict:
     """Run both studies on the four flights; returns the RMS tables and the step results.
     ``trials``: the wind-only study's size and the main study's first generation; ``budget``:
     the main study's evaluations at most (sequential sampler)."""
@@ -305,27 +318,148 @@ def identify(
     }
 
 
-def main(argv: list[str] | None = None) -> int:
-    from vectorid.workflows.stages import print_stage_limits, print_verdicts
+def drop_file(folder: Path, name: str, out: Path) -> Path:
+    """A drop file of flight ``name`` for ``vectorid predict``: its GNSS states as logged, and
+    beside them a CSV of what this script reads into the flight (the course as the yaw, the
+    brakes from delta_a: see :func:`load`), with the keys of the study's drop. Its wind is not
+    known in advance: each member flies the wind it has on one of the other flights, drawn at
+    random (``"drawn"``), as a user predicting a further flight of the day would have to."""
+    from vectorid._toml import toml_value
 
+    fl = load(folder, name)
+    yaw, ctl = fl["euler"], fl["controls"]
+    t = np.union1d(yaw.t, ctl.t)
+    rows = np.column_stack([t, yaw.at(np.clip(t, yaw.t[0], yaw.t[-1])),
+                            ctl.at(np.clip(t, ctl.t[0], ctl.t[-1]))])  # fmt: skip
+    derived = out / f"{name}_course_brakes.csv"
+    head = "t_s,roll_rad,pitch_rad,yaw_rad,flap_left,flap_right"
+    np.savetxt(derived, rows, delimiter=",", header=head, comments="", fmt="%.9g")
+    pos = fl["position"]
+    table = {
+        "name": name,
+        "files": [
+            {"file": str((folder / f"{name}_states.csv").resolve()), "mapping": {
+                "time": "t_s", "time_unit": "s",
+                "position": {"north": "x_north_m", "east": "y_east_m", "down": "z_down_m",
+                             "unit": "m"}}},
+            {"file": derived.name, "mapping": {
+                "time": "t_s", "time_unit": "s",
+                "euler": {"columns": ["roll_rad", "pitch_rad", "yaw_rad"], "unit": "rad"},
+                "controls": {"columns": ["flap_left", "flap_right"], "unit": "1"}}},
+        ],
+        "window": [float(pos.t[0]), float(pos.t[-1])],
+        **DROP_KEYS,
+        "check": ["position"],  # the course is read as a yaw for the initial state only
+        "parameters": {"wind_north": "drawn", "wind_east": "drawn"},
+    }  # fmt: skip
+    path = out / f"{name}.toml"
+    lines = [f"# {name} of the ETH parafoil, held out: predicted from the other flights",
+             "[[identification.drops]]"]  # fmt: skip
+    lines += [f"{k} = {toml_value(v)}" for k, v in table.items()]
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return path
+
+
+def predict_held_out(
+    folder: str | Path, out: str | Path, k: int, trials: int = 4096, budget: int = 50_000,
+    members: int = 400,
+):  # fmt: skip
+    """Identify from every flight but flight ``k`` (the example's study, on three flights),
+    then predict flight ``k`` with :func:`vectorid.workflows.predict.predict` — what
+    ``vectorid predict STORE flightK.toml`` does. Returns (stage, prediction, drop file)."""
+    from vectorid.workflows.predict import predict
+
+    folder, out = Path(folder), Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    held = f"flight{k}"
+    flights = {n: load(folder, n) for n in FLIGHTS if n != held}
+    names = [*GLIDE, *TURN]
+    full = several_flights(flights, tuple(names))
+    boxes = {**{g: GAIN_BOXES.get(g, GAIN_BOX) for g in names},
+             **{v: WIND_BOX for v in full.variables if v.startswith("wind_")}}  # fmt: skip
+    durations = {n: float(i.drops[0].grid[-1] - i.drops[0].grid[0]) for n, i in full.idents.items()}
+    limits, _ = noise_limits(full, gust_allowance(durations, ETH_GUSTS, sink=SINK))
+    st = run(full, boxes, out / f"eth-without-{held}.db", trials, f"eth-without-{held}",
+             limits, budget)  # fmt: skip
+    drops = drop_file(folder, held, out)
+    r = st.result
+    relaxed = st.n_noise_feasible == 0  # D at the stated limits is empty: the last resort, named
+    p = predict(r.store, drops, members=members, seed=k,
+                limits=r.analysis.limits if relaxed else None,
+                relaxed_by=st.factor if relaxed else None)  # fmt: skip
+    return st, p, drops
+
+
+def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("data", nargs="?", default=str(DEFAULT_DATA), help="the eth-parafoil folder")
-    ap.add_argument("--trials", type=int, default=4096,
-                    help="the first generation (Sobol points) and the wind-only study's size")
-    ap.add_argument("--budget", type=int, default=50_000,
-                    help="most model evaluations of the sequential sampler")
+    ap.add_argument(
+        "--trials",
+        type=int,
+        default=4096,
+        help="the first generation (Sobol points) and the wind-only study's size",
+    )
+    ap.add_argument(
+        "--budget",
+        type=int,
+        default=50_000,
+        help="most model evaluations of the sequential sampler",
+    )
     ap.add_argument("--out", default="eth-parafoil", help="folder of the stores")
-    ap.add_argument("--box", action="append", default=[], metavar="GAIN=LO:HI",
-                    help="a gain's box (x stated) instead of the example's, e.g. Cnr=0.02:3")
+    ap.add_argument(
+        "--box",
+        action="append",
+        default=[],
+        metavar="GAIN=LO:HI",
+        help="a gain's box (x stated) instead of the example's, e.g. Cnr=0.02:3",
+    )
+    ap.add_argument(
+        "--predict",
+        type=int,
+        choices=(1, 2, 3, 4),
+        metavar="K",
+        help="identify from the other flights, then predict flight K (1-4)",
+    )
+    ap.add_argument(
+        "--members",
+        type=int,
+        default=400,
+        help="members of D flown for --predict (400, drawn keeping their weights)",
+    )
+    ap.add_argument(
+        "--json",
+        action="store_true",
+        help="with --predict: print the JSON document of vectorid predict",
+    )
     args = ap.parse_args(argv)
+    if args.json and args.predict is None:
+        print("error: --json goes with --predict K (the JSON of vectorid predict)", file=sys.stderr)
+        return 2
+    with contextlib.ExitStack() as stack:
+        if args.json:  # stdout holds the JSON document only: everything else goes to stderr
+            stack.enter_context(contextlib.redirect_stdout(sys.stderr))
+        code, pred = _main(args)
+    if pred is not None and args.json:
+        print(json.dumps(pred.to_dict(), indent=2))
+    return code
+
+
+def _main(args: argparse.Namespace):
+    """The example's work and printing; returns (exit code, the prediction of --predict)."""
+    from vectorid.workflows.stages import print_stage_limits, print_verdicts
+
     folder = Path(args.data)
     if not (folder / "flight1_states.csv").exists():
         print(
-            f"error: {folder} holds no flight1_states.csv; pass the eth-parafoil folder of the "
-            "shared data",
+            f"error: {folder} holds no flight1_states.csv. The data are four flight tests of the "
+            "ETH Zürich student parafoil (github.com/yuliangzhong/6dof_parafoil_simulation, "
+            "branch feature/paper, experiments/const_ref/; no licence is stated, so vectorid "
+            "does not ship them). Fetch and convert them with `python scripts/fetch_data.py "
+            "eth-parafoil` (writes ../shared/data/eth-parafoil), or pass the folder that holds "
+            "them",
             file=sys.stderr,
         )
-        return 2
+        return 2, None
     geo = model_options()["geometry"]
     v = VEHICLE
     print("ETH Zürich small parafoil, four constant-heading flights (data README: eth-parafoil)")
@@ -360,9 +494,11 @@ def main(argv: list[str] | None = None) -> int:
         except ValueError:
             print(f"error: --box: expected GAIN=LO:HI with GAIN one of {', '.join((*GLIDE, *TURN))}"
                   f" and 0 < LO < HI, got {text!r}", file=sys.stderr)  # fmt: skip
-            return 2
+            return 2, None
         GAIN_BOXES[name] = pair
         print(f"  {name}'s box: {pair[0]:g}-{pair[1]:g} x stated (--box)")
+    if args.predict is not None:
+        return 0, _print_held_out(args, folder)
     res = identify(folder, args.out, args.trials, args.budget)
     for n, fl in res["flights"].items():
         p = fl["position"]
@@ -439,7 +575,30 @@ def main(argv: list[str] | None = None) -> int:
         f"(the box: {box});\n    11-17 s of small brake inputs (|delta_a| <= 0.24) under an "
         "unknown wind"
     )
-    return 0
+    return 0, None
+
+
+def _print_held_out(args: argparse.Namespace, folder: Path):
+    """--predict K: identify from the other flights, predict flight K, print what D says."""
+    from vectorid.workflows.stages import print_stage_limits
+
+    k = args.predict
+    others = ", ".join(n for n in FLIGHTS if n != f"flight{k}")
+    print(f"\nFlight {k} held out: identified from {others}, then predicted (vectorid predict)")
+    print(
+        f"  its wind is not known in advance: each member flies its own wind of one of {others},"
+        '\n  drawn at random (parameters = { wind_north = "drawn", wind_east = "drawn" })'
+    )
+    sys.stdout.flush()
+    st, p, drops = predict_held_out(folder, args.out, k, args.trials, args.budget, args.members)
+    r = st.result
+    a = r.analysis
+    print(f"\nIdentified without flight {k}: N = {a.n}   ND = {a.n_feasible} ({r.elapsed:.0f} s)")
+    print_stage_limits(st)
+    print()
+    print(p.describe())
+    print(f"\n(again: vectorid predict {r.store} {drops})")
+    return p
 
 
 if __name__ == "__main__":

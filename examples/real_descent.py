@@ -76,7 +76,11 @@ def identify(path: str | Path, out: str | Path, trials: int = 1024) -> DescentRe
     """Run the identification; the phases' stores go to ``out``."""
     p = Path(path)
     if not p.is_file():
-        raise VectoridError(f"no such file: {p} (the Prometheus TeleMega CSV)")
+        raise VectoridError(
+            f"no such file: {p} (the Prometheus TeleMega CSV: RocketPy's data/rockets/prometheus/"
+            ", github.com/RocketPy-Team/RocketPy; fetch it with `python scripts/fetch_data.py "
+            "prometheus-2022`, which writes ../shared/data/prometheus-2022)"
+        )
     return identify_descent(plan(p, trials), out)
 
 

@@ -237,8 +237,12 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     if not (Path(args.data) / "parafoildata_clean.csv").exists():
         print(
-            f"error: {args.data} holds no parafoildata_clean.csv; pass the ssi-parafoil folder of "
-            "the shared data",
+            f"error: {args.data} holds no parafoildata_clean.csv. The data are the Stanford "
+            "Student Space Initiative's parafoil log of 2018-05-19 (github.com/stanford-ssi/"
+            "balloons-Parafoil, parafoildata.xlsx at commit 7611732d; no licence is stated for "
+            "it, so vectorid does not ship it). Fetch and convert it with `python "
+            "scripts/fetch_data.py ssi-parafoil` (writes ../shared/data/ssi-parafoil; needs "
+            "pandas), or pass the folder that holds it",
             file=sys.stderr,
         )
         return 2

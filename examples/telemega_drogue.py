@@ -262,7 +262,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--json", action="store_true", help="print the figures as JSON")
     args = ap.parse_args(argv)
     if not Path(args.path).is_file():
-        print(f"error: no such file: {args.path} (the Prometheus TeleMega CSV)", file=sys.stderr)
+        print(
+            f"error: no such file: {args.path} (the Prometheus TeleMega CSV: RocketPy's "
+            "data/rockets/prometheus/, github.com/RocketPy-Team/RocketPy; fetch it with `python "
+            "scripts/fetch_data.py prometheus-2022`, which writes ../shared/data/prometheus-2022)",
+            file=sys.stderr,
+        )
         return 2
     d = figures(args.path)
     if args.json:

@@ -26,7 +26,11 @@ noise-floor criteria constraints there); and which keys of its table only shape 
 analysis (``analysis_keys``: the noise statement behind those constraints), so that editing
 them is taken into an existing store rather than refused; and what each design variable
 means (``meanings(spec) -> {name: text}``: an identification reads its model's parameter
-meanings), so that the analysis can say it without importing the builder.
+meanings), so that the analysis can say it without importing the builder; and which Python
+modules of the user's its model runs besides the study's ``model`` (``code_modules(spec) ->
+{module: role}``: an identification's own model class and its criterion functions ``use =
+"module:function"``, an FMU's reductions), so that a store hashes that code too (see
+:mod:`vectorid.store.inputs`).
 """
 
 from __future__ import annotations
@@ -45,6 +49,7 @@ __all__ = [
     "build_problem",
     "builder_for",
     "check_spec",
+    "code_modules",
     "data_files",
     "kind_of",
     "prepare_spec",
@@ -66,6 +71,7 @@ class Builder:
     analysis_keys: tuple[str, ...] = ()
     check: Callable[[Any], None] | str | None = None
     meanings: Callable[[Any], Mapping[str, str]] | str | None = None
+    code_modules: Callable[[Any], Mapping[str, str]] | str | None = None
 
     def resolve(self, attr: str) -> Callable[..., Any] | None:
         ref = getattr(self, attr)
@@ -89,6 +95,7 @@ def register_problem_builder(
     analysis_keys: tuple[str, ...] = (),
     check: Callable[[Any], None] | str | None = None,
     meanings: Callable[[Any], Mapping[str, str]] | str | None = None,
+    code_modules: Callable[[Any], Mapping[str, str]] | str | None = None,
 ) -> None:
     """Register how studies of ``kind`` become a Problem.
 
@@ -117,12 +124,18 @@ def register_problem_builder(
     meanings : callable or str, optional
         ``meanings(spec) -> {variable name: meaning}``: what each design variable is, for
         people (the identifiability verdicts print it beside the name).
+    code_modules : callable or str, optional
+        ``code_modules(spec) -> {module name: role}``: Python modules (``"pkg.mod"``) of the
+        user's that the study's model runs besides the study's ``model`` (a model class named
+        in the kind's table, criterion or reduction functions), with their role in words
+        (``"model module"``, ``"criterion module"``); they are hashed with the model's code.
     """
     if not isinstance(kind, str) or not kind or ":" in kind:
         raise ValueError(f"a builder kind is a non-empty name without ':', got {kind!r}")
     _BUILDERS[kind] = Builder(
-        kind, build, table, data_files, prepare, tuple(analysis_keys), check, meanings
-    )
+        kind, build, table, data_files, prepare, tuple(analysis_keys), check, meanings,
+        code_modules,
+    )  # fmt: skip
 
 
 def table_kinds() -> list[str]:
@@ -171,6 +184,19 @@ def data_files(spec: Any) -> dict[str, Path]:
     say). Paths are resolved against the study file's folder."""
     fn = _hook(spec, "data_files")
     return {} if fn is None else dict(fn(spec))
+
+
+def code_modules(spec: Any) -> dict[str, str]:
+    """``{module: role}`` of the user's Python modules ``spec``'s model runs besides the
+    study's ``model`` (empty when its builder does not say; see ``code_modules`` of
+    :func:`register_problem_builder`). A malformed table gives none: its builder reports it."""
+    fn = _hook(spec, "code_modules")
+    if fn is None:
+        return {}
+    try:
+        return {str(k): str(v) for k, v in dict(fn(spec)).items()}
+    except Exception:  # the builder says what is wrong when it builds
+        return {}
 
 
 def check_spec(spec: Any) -> None:
@@ -236,6 +262,22 @@ def _identification_files(spec: Any) -> dict[str, Path]:
     return out
 
 
+def _fmu_code_modules(spec: Any) -> dict[str, str]:
+    """Modules of the reductions of your own an FMU study names (``reduce =
+    "mypkg.reductions:overshoot"`` under ``[study.fmu.outputs]``)."""
+    outs = (spec.fmu or {}).get("outputs") if isinstance(spec.fmu, Mapping) else None
+    out: dict[str, str] = {}
+    if not isinstance(outs, Mapping):
+        return out
+    for entry in outs.values():
+        red = entry.get("reduce") if isinstance(entry, Mapping) else None
+        if isinstance(entry, str):
+            red = entry.partition("(")[0].strip() if "(" in entry else None
+        if isinstance(red, str) and ":" in red:
+            out[red.partition(":")[0].strip()] = "reduction module"
+    return out
+
+
 def _fmu_files(spec: Any) -> dict[str, Path]:
     rest = str(spec.model).partition(":")[2].strip()
     if not rest:
@@ -246,7 +288,12 @@ def _fmu_files(spec: Any) -> dict[str, Path]:
 
 register_problem_builder("python", "vectorid.problem:build_python_problem")
 register_problem_builder("cmd", "vectorid.external:build_external_problem")
-register_problem_builder("fmu", "vectorid.external:build_external_problem", data_files=_fmu_files)
+register_problem_builder(
+    "fmu",
+    "vectorid.external:build_external_problem",
+    data_files=_fmu_files,
+    code_modules=_fmu_code_modules,
+)
 register_problem_builder(
     "identification",
     "vectorid.identify.identification:problem_from_spec",
@@ -264,4 +311,5 @@ register_problem_builder(
     ),
     check="vectorid.timesteps:check_identification_steps",
     meanings="vectorid.identify.identification:parameter_meanings",
+    code_modules="vectorid.identify.system:code_modules",
 )

@@ -6,6 +6,7 @@ Every error a user can cause says what was expected, what came, and how to fix i
 from __future__ import annotations
 
 import difflib
+import warnings
 from collections.abc import Iterable
 
 __all__ = [
@@ -18,6 +19,7 @@ __all__ = [
     "VectoridNote",
     "VectoridWarning",
     "is_number",
+    "plural",
     "shown",
     "suggest",
 ]
@@ -77,7 +79,59 @@ class VectoridWarning(UserWarning):
 
 class VectoridNote(VectoridWarning):
     """Something vectorid decided on the user's behalf and says so (a study-file change
-    taken into the store, an empty store re-created): printed as one ``note:`` line."""
+    taken into the store, an empty store re-created): printed as one ``note:`` line, on the
+    command line and in Python alike (not in Python's warning format with a file and line:
+    it is no fault). Filter it like any warning: ``warnings.simplefilter("ignore",
+    VectoridNote)``."""
+
+
+def _format_warning(
+    message: Warning | str, category: type[Warning], filename: str, lineno: int,
+    line: str | None = None,
+) -> str:  # fmt: skip
+    """:func:`warnings.formatwarning` that prints a :class:`VectoridNote` as ``note: ...``
+    (one line, no source location); every other warning as Python does."""
+    if isinstance(category, type) and issubclass(category, VectoridNote):
+        return f"note: {message}\n"
+    return _PYTHON_FORMAT(message, category, filename, lineno, line)
+
+
+# Installed once (a reload keeps Python's own as the fallback, never itself).
+_PYTHON_FORMAT = getattr(warnings.formatwarning, "_vectorid_fallback", warnings.formatwarning)
+_format_warning._vectorid_fallback = _PYTHON_FORMAT  # type: ignore[attr-defined]
+warnings.formatwarning = _format_warning
+
+
+#: Plurals that are not the singular plus "s".
+_PLURALS = {"criterion": "criteria", "batch": "batches", "process": "processes",
+            "matrix": "matrices", "this": "these"}  # fmt: skip
+
+
+def plural(n: int, word: str, many: str | None = None) -> str:
+    """A count with its noun in the right number: ``"1 criterion"``, ``"2 criteria"``,
+    ``"0 members"``.
+
+    Parameters
+    ----------
+    n : int
+        The count.
+    word : str
+        The noun in the singular.
+    many : str, optional
+        Its plural (default: a known irregular one, else ``word + "s"``).
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> plural(1, "criterion"), plural(8, "criterion"), plural(1, "member"), plural(0, "batch")
+    ('1 criterion', '8 criteria', '1 member', '0 batches')
+    """
+    if n == 1:
+        return f"{n} {word}"
+    return f"{n} {many or _PLURALS.get(word, word + 's')}"
 
 
 def suggest(word: str, candidates: Iterable[str]) -> str:

@@ -88,7 +88,7 @@ from typing import Any
 import numpy as np
 
 from .errors import StudyDefinitionError, VectoridError, suggest
-from .problem import BatchModel, Problem, as_batch
+from .problem import BatchModel, Problem, as_batch, checked_output
 
 __all__ = [
     "REDUCTIONS",
@@ -494,6 +494,7 @@ class FmuModel:
                     suggest(name, outputs),
                 )
         self.reductions: list[tuple[str, Callable]] = []
+        self.labels: list[str] = []
         for name in outputs:
             where = f"study.fmu.outputs.{name}"
             entry = outs.get(name, name if name in variables else None)
@@ -526,6 +527,7 @@ class FmuModel:
                     where, f"expected 'reduce(variable)' or a table, got {entry!r}"
                 )
             self.reductions.append((known(where, var), _resolve_reduction(where, red)))
+            self.labels.append(f"reduction {red}({var}) of {name}")
         self.record = sorted({v for v, _ in self.reductions})
         self._unzipdir = fmpy.extract(str(self.path))
         atexit.register(shutil.rmtree, self._unzipdir, ignore_errors=True)
@@ -563,6 +565,9 @@ class FmuModel:
                 f"timed out after {self.timeout:g} s at simulation time {t[-1]:g} s of "
                 f"{self.stop_time:g} s"
             )
-        values = [red(t, np.asarray(res[var], dtype=float)) for var, red in self.reductions]
+        values = [
+            float(checked_output(label, red(t, np.asarray(res[var], dtype=float)), (), "a number"))
+            for (var, red), label in zip(self.reductions, self.labels)
+        ]
         k = self.n_criteria
         return np.array(values[:k]), np.array(values[k:])

@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from . import analytic
-from .errors import StudyDefinitionError, is_number, shown, suggest
+from .errors import StudyDefinitionError, VectoridError, is_number, shown, suggest
 
 __all__ = [
     "FAILED",
@@ -36,9 +36,12 @@ __all__ = [
     "Criterion",
     "EvalResult",
     "FunctionalConstraint",
+    "ModelOutputError",
     "Problem",
     "as_batch",
     "build_python_problem",
+    "checked_output",
+    "describe_exception",
     "load_model",
 ]
 
@@ -49,6 +52,81 @@ FAILED = 1
 LIMIT_SOURCES = ("", "expert", "noise", "quantile")
 
 BatchModel = Callable[[np.ndarray], Any]
+
+
+class ModelOutputError(VectoridError, ValueError):
+    """A function of the user's model returned another shape or type than its contract
+    says: one line naming the function, the expected and the returned shape. Raised inside a
+    batch, it fails the trials of that batch (bisected down to the trials that misbehave);
+    raised before any trial (the noise floor of an identification), it stops the study."""
+
+
+def _what_came(value: Any, arr: np.ndarray | None) -> str:
+    if isinstance(value, list | tuple):
+        inner = {np.shape(v) for v in value[:50]}
+        first = f" of shape {next(iter(inner))}" if len(inner) == 1 else ""
+        read = f" (read as shape {arr.shape})" if arr is not None else ""
+        return f"a {type(value).__name__} of {len(value)} items{first}{read}"
+    if arr is not None and arr.ndim == 0:
+        return f"a scalar {value!r} (shape ())"
+    if arr is None:
+        return f"a {type(value).__name__}"
+    return f"shape {arr.shape}"
+
+
+def checked_output(
+    where: str, value: Any, shape: tuple[int, ...], meaning: str, fix: str = ""
+) -> np.ndarray:
+    """``value`` as a float array of exactly ``shape``, checked before it is used.
+
+    Parameters
+    ----------
+    where : str
+        The function that returned it, as the user wrote it (``"msd.dynamics.MSD.rhs"``).
+    value : array_like
+        What it returned.
+    shape : tuple of int
+        The shape its contract says.
+    meaning : str
+        What the axes are (``"trials, states x, v"``).
+    fix : str, optional
+        How to return it right (said after the shapes).
+
+    Returns
+    -------
+    ndarray
+        ``value`` as float, shape ``shape`` (no copy when it is one already).
+
+    Raises
+    ------
+    ModelOutputError
+        Another shape (numpy broadcasting never fills it in), or values that are not real
+        numbers (text, objects, complex).
+    """
+    try:
+        arr = np.asarray(value)
+    except (ValueError, TypeError):  # a ragged list
+        arr = None
+    if arr is not None and arr.dtype.kind in "fiu" and arr.shape == shape:
+        return arr.astype(float, copy=False)
+    if arr is not None and arr.shape == shape:
+        kind = {"c": "complex numbers", "b": "booleans", "U": "text", "S": "bytes"}.get(
+            arr.dtype.kind, f"values of dtype {arr.dtype}"
+        )
+        raise ModelOutputError(
+            f"{where} returned {kind}, expected real numbers of shape {shape} ({meaning})"
+            + (f" — {fix}" if fix else "")
+        )
+    hint = fix
+    if isinstance(value, list | tuple) and len(shape) == 2 and len(value) == shape[1]:
+        hint = "a list of columns: stack them with np.column_stack([...])"
+    elif arr is not None and arr.ndim == 2 and len(shape) == 2 and arr.shape == shape[::-1]:
+        hint = "it is transposed: stack the columns with np.column_stack([...])"
+    return_msg = (
+        f"{where} returned {_what_came(value, arr)}, expected shape {shape} ({meaning})"
+        + (f" — {hint}" if hint else "")
+    )
+    raise ModelOutputError(return_msg)
 
 
 def _opt_finite(field_name: str, value: Any) -> float | None:
@@ -696,11 +774,18 @@ def _numeric(value: Any, what: str) -> np.ndarray:
     raise ValueError(f"model returned {what} that are not numbers: {example}; return floats")
 
 
+def describe_exception(exc: BaseException) -> str:
+    """One line naming an exception a model raised and where (``ValueError: ... (at
+    dynamics.py:40 in acceleration)``): how a failed trial's reason reads."""
+    return _describe(exc)
+
+
 def _describe(exc: BaseException) -> str:
-    """One line naming the exception and where it came from."""
+    """One line naming the exception and where it came from (a :class:`ModelOutputError`
+    names the user's function itself)."""
     tb = traceback.extract_tb(exc.__traceback__)
     where = ""
-    if tb:
+    if tb and not isinstance(exc, ModelOutputError):
         frame = tb[-1]
         where = f" (at {Path(frame.filename).name}:{frame.lineno} in {frame.name})"
     if isinstance(exc, SystemExit):

@@ -121,10 +121,37 @@ def sampler_names() -> list[str]:
 def sampler_kind(name: Any, where: str = "study.sampler") -> SamplerKind:
     """The registered sampler ``name``.
 
+    Parameters
+    ----------
+    name : str
+        The name a study gives (``[study] sampler``).
+    where : str
+        The field named in the error.
+
+    Returns
+    -------
+    SamplerKind
+
     Raises
     ------
     StudyDefinitionError
         For a name nobody registered (with the nearest registered name).
+
+    Examples
+    --------
+    Which ``[study]`` keys (sampler options) each sampler takes, and what they mean:
+
+    >>> from vectorid.sampler_kinds import SAMPLER_OPTIONS, sampler_kind, sampler_names
+    >>> sampler_names()
+    ['sobol', 'lhs', 'sequential']
+    >>> sampler_kind("sequential").options, sampler_kind("sobol").options
+    (('budget', 'population'), ())
+    >>> for key in sampler_kind("sequential").options:
+    ...     print(f"{key}: {SAMPLER_OPTIONS[key]}")
+    budget: most model evaluations (integer >= 1)
+    population: members of D wanted (integer >= 2)
+
+    :meth:`vectorid.Study.run` takes them as ``budget=`` and ``population=`` (its Examples).
     """
     kind = _KINDS.get(name) if isinstance(name, str) else None
     if kind is None:

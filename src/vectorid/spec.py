@@ -73,6 +73,8 @@ _STUDY_KEYS = {
     "timeout": "most seconds one trial may take (default: no limit)",
     "command": "command-line model as a list, e.g. ['python', 'sim.py', '{input}', '{output}']",
     "fmu": "table of FMU options: interface, start_time, stop_time, parameters, outputs, ...",
+    "inputs": "files and folders the model reads itself, hashed like data files "
+    '(e.g. ["lib/", "coefficients.csv"], relative to the study file)',
 }
 _TOP_KEYS = {"study", "variables", "criteria", "constraints", "limits"}
 _VARIABLE_KEYS = {"name", "type", "low", "high", "nominal", "unit", "values", "description"}
@@ -199,6 +201,9 @@ class StudySpec:
     fmu: dict[str, Any] | None = field(default=None, hash=False)
     budget: int | None = None
     population: int | None = None
+    #: Files and folders the model reads itself (``[study] inputs``), relative to ``base_dir``:
+    #: hashed like data files before a trial is added (:mod:`vectorid.store.inputs`).
+    inputs: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name:
@@ -313,6 +318,7 @@ class StudySpec:
                 f"expected a table, got {self.fmu!r}",
                 "write [study.fmu] with stop_time = ..., [study.fmu.outputs] ...",
             )
+        object.__setattr__(self, "inputs", _check_inputs(self.inputs))
         for flag in ("batch", "scramble"):
             if not isinstance(getattr(self, flag), bool):
                 raise StudyDefinitionError(
@@ -466,6 +472,8 @@ class StudySpec:
             study["command"] = list(self.command)
         if self.fmu is not None:
             study["fmu"] = dict(self.fmu)
+        if self.inputs:
+            study["inputs"] = list(self.inputs)
         if self.description:
             study["description"] = self.description
         out: dict[str, Any] = {
@@ -557,10 +565,56 @@ class StudySpec:
             fmu=study.get("fmu"),
             budget=study.get("budget"),
             population=study.get("population"),
+            inputs=study.get("inputs", ()),
         )
         if limits:
             spec = spec.with_limits(dict(limits))
         return spec
+
+
+def _check_inputs(value: Any) -> tuple[str, ...]:
+    """``[study] inputs``: a list of distinct, non-empty paths (files or folders)."""
+    fix = 'write inputs = ["lib/", "coefficients.csv"] (paths relative to the study file)'
+    if isinstance(value, str) or not isinstance(value, list | tuple):
+        raise StudyDefinitionError(
+            "study.inputs", f"expected a list of paths, got {shown(value)}", fix
+        )
+    seen: dict[str, int] = {}
+    for i, item in enumerate(value):
+        if not isinstance(item, str) or not item.strip() or "\x00" in item:
+            raise StudyDefinitionError(
+                f"study.inputs[{i}]", f"expected a file or folder path, got {shown(item)}", fix
+            )
+        key = str(Path(item.strip()))
+        if key in seen:
+            raise StudyDefinitionError(
+                f"study.inputs[{i}]",
+                f"{item!r} is declared twice (also inputs[{seen[key]}])",
+                "declare each file or folder once",
+            )
+        seen[key] = i
+    return tuple(v.strip() for v in value)
+
+
+def check_inputs_exist(spec: StudySpec) -> None:
+    """Every declared input (``[study] inputs``) exists, relative to the study file's folder
+    (run when a study file is loaded; a store read elsewhere is not refused for it).
+
+    Raises
+    ------
+    StudyDefinitionError
+        Naming the first that does not exist.
+    """
+    base = Path(spec.base_dir) if spec.base_dir else Path.cwd()
+    for i, item in enumerate(spec.inputs):
+        path = Path(item) if Path(item).is_absolute() else base / item
+        if not path.exists():
+            raise StudyDefinitionError(
+                f"study.inputs[{i}]",
+                f"{item!r} does not exist (looked for {path})",
+                "paths are relative to the study file's folder; declare files or folders "
+                "the model reads, or remove the entry",
+            )
 
 
 def _parse_list(data: Mapping[str, Any], key: str, parse, required: bool = True) -> list[Any]:
@@ -735,6 +789,6 @@ def load_study(path: str | Path) -> StudySpec:
             str(path), f"not valid TOML: {exc}", "fix the syntax at the position given"
         ) from None
     spec = StudySpec.from_dict(data, base_dir=path.resolve().parent)
-
+    check_inputs_exist(spec)
     check_spec(spec)  # what the study's builder cannot run (dt/output_dt, ...)
     return spec

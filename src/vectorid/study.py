@@ -58,6 +58,36 @@ class Study:
     -----
     The README's tour (``example.py``) and ``docs/studies.md`` ("From Python") show it at
     work; the test suite runs both.
+
+    Examples
+    --------
+    A model is a function of a batch of parameter vectors (n, p) that returns the criteria
+    (n, k) and the functionals (n, q); here two criteria, in m², of two lengths in m, and a
+    criteria constraint f1 <= 0.5 m² (a study file and :func:`vectorid.load_study` give the
+    same definition):
+
+    >>> import os, tempfile
+    >>> import numpy as np
+    >>> from vectorid import Continuous, Criterion, Space, Study, StudySpec
+    >>> def wells(X):
+    ...     f1 = X[:, 0] ** 2 + X[:, 1] ** 2
+    ...     f2 = (X[:, 0] - 1.0) ** 2 + X[:, 1] ** 2
+    ...     return np.column_stack([f1, f2]), np.empty((len(X), 0))
+    >>> space = Space([Continuous("x1", 0.0, 1.0, unit="m"), Continuous("x2", 0.0, 1.0, unit="m")])
+    >>> spec = StudySpec("wells", wells, space, (Criterion("f1", limit=0.5, unit="m2"),
+    ...                  Criterion("f2", unit="m2")), trials=256, seed=1)
+    >>> folder = tempfile.mkdtemp()
+    >>> with Study.create(spec, os.path.join(folder, "wells.db")) as study:
+    ...     summary = study.run(executor="inline")  # "processes" (the default): every core
+    ...     a = study.analysis()
+    >>> summary.stored, a.n, a.n_feasible, a.n_pareto  # N, ND, NP
+    (256, 256, 99, 20)
+
+    ``Study.open`` reads the store again later; nothing is recomputed:
+
+    >>> with Study.open(os.path.join(folder, "wells.db")) as study:
+    ...     study.analysis(limits={"f1": 0.25, "f2": 0.5}).n_feasible
+    11
     """
 
     def __init__(self, store: Store) -> None:
@@ -225,7 +255,7 @@ class Study:
         executor: str | None = None,
         workers: int | None = None,
         batch_size: int | None = None,
-        progress: bool | TextIO = False,
+        progress: bool | TextIO | None = None,
         keep_going: bool = False,
         timeout: float | None = None,
         budget: int | None = None,
@@ -247,21 +277,23 @@ class Study:
             Worker processes (default: all cores).
         batch_size : int, optional
             Trials per batch (default: chosen from the study size).
-        progress : bool or text file
-            Show a progress bar (on stderr, or on the given file).
+        progress : bool, text file or None
+            Show progress (on stderr, or on the given file): a bar over the trials, or one
+            line per generation of a sequential study. Default None: shown where someone
+            watches (a terminal or a notebook), silent otherwise (a script whose stderr goes
+            to a file or a pipe, a test).
         keep_going : bool
             Store the first batch even when every one of its trials failed (default: stop
             with the reason and store none).
         timeout : float, optional
-            Most seconds one trial may take, in s (default: the study's, else no limit).
-        budget, population : int, optional
-            A sequential study (``sampler = "sequential"``, docs/sequential.md): most model
-            evaluations and members of D wanted (saved in the study; default: the study's).
-            Its ``trials`` is the size of generation 0.
             Most seconds one trial may take, in s (default: the study's, else no limit): a
             batch of n trials may run n x ``timeout``; one that runs longer is re-run trial
             by trial, and a trial that takes longer is stored as failed, "timed out after
             X s" (see docs/store.md).
+        budget, population : int, optional
+            A sequential study (``sampler = "sequential"``, docs/sequential.md): most model
+            evaluations and members of D wanted (saved in the study; default: the study's,
+            else 50,000 and 200). Its ``trials`` is the size of generation 0.
         accept_changes : bool
             When the model's code or a data file changed since the stored trials were
             computed, take the change and record it in the store's history instead of
@@ -273,6 +305,28 @@ class Study:
             Trials stored and failed, the failure reasons with an example each, elapsed s
             (a :class:`~vectorid.samplers.sequential.SequentialSummary` for a sequential study:
             generations, evaluations, members of D, ESS).
+
+        Examples
+        --------
+        The sequential sampler's options, ``budget`` (most evaluations) and ``population``
+        (members of D wanted), on a study whose D is small (f1 <= 0.05 m²):
+
+        >>> import os, tempfile
+        >>> import numpy as np
+        >>> from vectorid import Continuous, Criterion, Space, Study, StudySpec
+        >>> def wells(X):
+        ...     f1 = X[:, 0] ** 2 + X[:, 1] ** 2
+        ...     f2 = (X[:, 0] - 1.0) ** 2 + X[:, 1] ** 2
+        ...     return np.column_stack([f1, f2]), np.empty((len(X), 0))
+        >>> space = Space([Continuous("x1", 0.0, 1.0), Continuous("x2", 0.0, 1.0)])
+        >>> spec = StudySpec("wells", wells, space, (Criterion("f1", limit=0.05),
+        ...                  Criterion("f2", limit=0.9)), trials=128, seed=1,
+        ...                  sampler="sequential")
+        >>> path = os.path.join(tempfile.mkdtemp(), "wells.db")
+        >>> with Study.create(spec, path) as study:
+        ...     s = study.run(executor="inline", budget=3000, population=50)
+        >>> s.converged, s.members, s.evaluations, s.generations
+        (True, 62, 278, 4)
         """
         return run_store(
             self.store,
@@ -350,7 +404,6 @@ def _with_derived(held: StudySpec, given: StudySpec, agreement: Any) -> StudySpe
     the builder's ``prepare`` hook (which also drops them when the file no longer asks)."""
     from dataclasses import replace as _replace
 
-
     if any(analysis_only(given, d.field) for d in agreement.differences):
         return prepare_spec(given)
     stored = {c.name: c for c in held.criteria}
@@ -400,7 +453,6 @@ def _record_accepted(
 ) -> None:
     """Record data-file content changes taken with ``accept_changes`` in the history."""
     import time
-
 
     now = time.time()
     entries = [

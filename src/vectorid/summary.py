@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .errors import plural
 from .problem import FAILED, EvalResult
 
 __all__ = ["FailureGroup", "RunSummary", "group_failures", "reason_key"]
@@ -136,10 +137,35 @@ class RunSummary:
             self.reasons[key] += 1
             self.examples.setdefault(key, (int(start_id + i), msg))
 
+    def to_dict(self) -> dict:
+        """The summary as JSON-ready values (``vectorid run --json``).
+
+        Returns
+        -------
+        dict
+            ``stored``, ``failed``, ``duplicates``, ``total_stored``, ``target`` (trials),
+            ``elapsed_s`` (s), ``trials_per_s``, ``notes``, ``failures`` (count, example,
+            trial per group) and ``model_errors``.
+        """
+        return {
+            "stored": self.stored,
+            "failed": self.failed,
+            "duplicates": self.duplicates,
+            "total_stored": self.total_stored,
+            "target": self.target,
+            "elapsed_s": self.elapsed,
+            "trials_per_s": self.rate if math.isfinite(self.rate) else None,
+            "notes": list(self.notes),
+            "failures": [
+                {"count": g.count, "example": g.message, "trial": g.trial} for g in self.failures
+            ],
+            "model_errors": self.model_errors,
+        }
+
     def describe(self) -> str:
         """Human-readable summary, with failure reasons (real example messages)."""
         lines = [
-            f"{self.stored} trials computed in {self.elapsed:.1f} s "
+            f"{plural(self.stored, 'trial')} computed in {self.elapsed:.1f} s "
             f"({self.rate:.0f} trials/s); the study holds {self.total_stored} of {self.target}"
         ]
         lines += [f"note: {n}" for n in self.notes]
@@ -150,7 +176,7 @@ class RunSummary:
             lines += [f"  {m}" for m in self.model_errors]
         if self.failed:
             share = 100.0 * self.failed / max(self.stored, 1)
-            lines.append(f"{self.failed} of {self.stored} trials failed ({share:.0f} %):")
+            lines.append(f"{self.failed} of {plural(self.stored, 'trial')} failed ({share:.0f} %):")
             for g in self.failures[:10]:
                 lines.append(f"  {g.count:>7} × {g.message} (e.g. trial {g.trial})")
             if len(self.reasons) > 10:
@@ -162,7 +188,10 @@ class RunSummary:
                     "the study"
                 )
         if self.duplicates:
-            lines.append(f"{self.duplicates} trials were computed twice and stored once")
+            lines.append(
+                f"{plural(self.duplicates, 'trial')} {'was' if self.duplicates == 1 else 'were'} "
+                "computed twice and stored once"
+            )
         return "\n".join(lines)
 
 

@@ -54,6 +54,10 @@ def test_parafoil_demo_end_to_end_reduced(tmp_path, capsys):
         "c33 kC_star",  # the parameter legend with units and meanings
         "[  m·s] pure",  # the criteria legend with units
         "app. inertia yaw",  # meanings beside names in the verdict tables
+        "What stage 2's D predicts for a second, planned manoeuvre",
+        "R50 ",  # the landing radii with their bootstrap intervals
+        "R95 ",
+        "gust realisations it lands inside R95 in",
     ):
         assert needle in text, needle
     # no chosen vector shows a value for a gain its verdict does not call identified
@@ -73,9 +77,7 @@ def test_parafoil_demo_end_to_end_reduced(tmp_path, capsys):
     assert ("Stage 3: the reduced set" in text) == ran3 and ("is the fit kept?" in text) == ran3
     assert ("stage 3 not run: nothing to fix or tie" in text) == (not ran3)
     assert ("6-DoF model, the reduced set, the evaluations stage 3 needed" in text) == ran3
-    assert ("6-DoF model, stage 2's 33 gains, the evaluations stage 2 needed" in text) == (
-        not ran3
-    )
+    assert ("6-DoF model, stage 2's 33 gains, the evaluations stage 2 needed" in text) == (not ran3)
     for name in ("stage1", "stage2", "stage3", "6dof"):
         made = ran3 or name != "stage3"
         assert (out / f"parafoil-{name}.db").exists() == made

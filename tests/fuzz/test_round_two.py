@@ -258,7 +258,7 @@ def _values(path: Path) -> tuple[np.ndarray, np.ndarray]:
 
 def _vectorid(*args: object, env: dict | None = None, **kw) -> subprocess.Popen:
     return subprocess.Popen(
-        [sys.executable, "-m", "vectorid", *map(str, args)],
+        [sys.executable, "-m", "vectorid.cli", *map(str, args)],
         env={**os.environ, **(env or {})},
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,

@@ -103,3 +103,29 @@ def test_eth_flights_reach_the_physical_floor_not_a_misfit(tmp_path_factory):
                         .group(1))  # fmt: skip
         assert nearest <= 1.05, line
         assert "pressed against the box" in line and "Cnr" in line, line
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not (DATA / "flight1_states.csv").exists(), reason=f"no data at {DATA}")
+def test_a_held_out_flight_is_predicted_with_the_json_of_vectorid_predict(tmp_path, capsys):
+    """--predict K: identified from the other flights, flight K predicted with its wind drawn
+    from theirs; --json prints exactly the document of vectorid predict on the written files."""
+    import json
+
+    from vectorid.cli import main
+
+    eth = _example("eth_parafoil")
+    code = eth.main([str(DATA), "--predict", "3", "--trials", "256", "--budget", "1500",
+                     "--members", "60", "--json", "--out", str(tmp_path)])  # fmt: skip
+    out = capsys.readouterr().out
+    assert code == 0
+    doc = json.loads(out)
+    (drop,) = doc["drops"]
+    assert drop["name"] == "flight3" and [c["name"] for c in drop["channels"]] == ["position"]
+    assert "drawn at random" in drop["parameters"] and drop["landing"]["kind"] == "end of window"
+    assert isinstance(drop["within"], bool) and drop["verdict"]
+    store = tmp_path / "eth-without-flight3.db"
+    assert main(["predict", str(store), str(tmp_path / "flight3.toml"), "--members", "60",
+                 "--seed", "3", "--json"]) == 0  # fmt: skip
+    again = json.loads(capsys.readouterr().out)
+    assert again["drops"][0]["channels"] == drop["channels"]

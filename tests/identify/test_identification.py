@@ -94,6 +94,23 @@ def test_twin_experiment_recovers_drag_coefficients(tmp_path):
         )
 
 
+def test_simulate_gives_positions_relative_to_the_drops_origin(tmp_path):
+    """What a user sees: the truth's simulated altitude lies on the measured one (0.5 m noise),
+    not ~1300 m away (the origin's altitude above sea level); the model's own frame on demand."""
+    ident = Identification.from_spec(_study(tmp_path))
+    d = ident.drop("drogue")
+    x = np.array([[TRUTH["cd_drogue"], TRUTH["cd_main"]]])
+    res = ident.simulate(x, d)
+    assert res.origin_altitude == ORIGIN
+    meas = d.measured("altitude")[:, 0]
+    assert np.sqrt(np.mean((-res.position[0, :, 2] - meas) ** 2)) < 1.0
+    sea = ident.simulate(x, d, frame="sea level")
+    assert sea.origin_altitude == 0.0
+    np.testing.assert_allclose(sea.position[0, :, 2] + ORIGIN, res.position[0, :, 2])
+    with pytest.raises(StudyDefinitionError, match="frame"):
+        ident.simulate(x, d, frame="ground")
+
+
 def test_problem_from_spec_is_what_the_study_runs(tmp_path):
     spec = _study(tmp_path)
     prob = spec.problem()

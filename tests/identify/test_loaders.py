@@ -261,8 +261,10 @@ def test_stated_units_give_the_numbers_the_old_defaults_gave(tmp_path):
     assert fd["controls"].values[:, 0] == pytest.approx([float(x) for x in cols["left"]])
     assert fd["controls"].unit == "1"
     # and a stated non-SI unit is converted
-    ft = load_csv(write(tmp_path / "d.csv", cols), {**MAPPING, "check_units": False,
-                                                    "altitude": {"column": "h", "unit": "ft"}})
+    ft = load_csv(
+        write(tmp_path / "d.csv", cols),
+        {**MAPPING, "check_units": False, "altitude": {"column": "h", "unit": "ft"}},
+    )
     assert ft["altitude"].values[:, 0] == pytest.approx(fd["altitude"].values[:, 0] * 0.3048)
 
 

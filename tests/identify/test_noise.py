@@ -182,8 +182,12 @@ def test_parse_noise_keys_units_and_errors():
     assert parse_noise("estimate") == "estimate"
     with pytest.raises(StudyDefinitionError, match="position_h"):
         parse_noise({"positon_h": 1.0})
-    with pytest.raises(StudyDefinitionError, match=">= 0"):
-        parse_noise({"velocity": -1.0})
+    with pytest.raises(StudyDefinitionError, match=r"σ >= 0 in m/s, got -1.0"):
+        parse_noise({"velocity": -1.0})  # the error names the unit the σ is stated in
+    with pytest.raises(StudyDefinitionError, match=r"correlation time >= 0 in s"):
+        parse_noise({"altitude": {"sigma": 1.0, "correlation_time": -3}})
+    with pytest.raises(StudyDefinitionError, match=r"σ >= 0 in deg"):
+        parse_noise({"euler_deg": -0.5})
     with pytest.raises(StudyDefinitionError, match="estimate"):
         parse_noise("guess")
     with pytest.raises(StudyDefinitionError, match="correlation_time"):
@@ -281,6 +285,9 @@ def test_joint_quantile_level():
     assert same.quantile_level(["a", "b"]) == pytest.approx(0.95, abs=0.002)
     lim = same.limits(["a"], quantile=0.5)
     assert lim["a"][0] == pytest.approx(0.5, abs=0.01) and "q=0.5" in lim["a"][1]
+    # the note counts its criteria in the right number
+    assert "joint 95% over 1 criterion," in same.limits(["a"])["a"][1]
+    assert "joint 95% over 2 criteria," in same.limits(["a", "b"])["a"][1]
 
 
 def test_discrepancy_allowance_by_criterion_kind():

@@ -266,3 +266,173 @@ def test_a_time_column_in_ms_stated_as_ms_gives_the_numbers_of_the_one_in_s(own)
     _edit(own, r'^time_unit = "s".*$', 'time_unit = "ms"')
     spec_ms = prepare_spec(load_study(own / "study.toml"))
     np.testing.assert_allclose(spec_ms.problem().evaluate(x).criteria, f_s, rtol=1e-12)
+
+
+# -- what the model's functions return is checked before it is used ------------------------
+
+from vectorid.models import Channel, Parameter, SystemModel  # noqa: E402
+from vectorid.problem import ModelOutputError  # noqa: E402
+
+
+class _Osc(SystemModel):
+    """Two states, two outputs; ``bad`` says how rhs or output goes wrong."""
+
+    parameters = (Parameter("k", 4.0, 1.0, 9.0, "1/s^2", "stiffness per mass"),)
+    states = (Channel("x", "m", "position", default=1.0), Channel("v", "m/s", "velocity"))
+    outputs = (Channel("x", "m", "position"), Channel("e", "J/kg", "energy per mass"))
+
+    def __init__(self, bad: str = ""):
+        self.bad = bad
+
+    def rhs(self, t, x, p):
+        good = np.column_stack([x[:, 1], -p[:, 0] * x[:, 0]])
+        return {
+            "rhs (n, 1)": good[:, :1],
+            "rhs scalar": 0.5,
+            "rhs (n, 3)": np.column_stack([good, good[:, :1]]),
+            "rhs transposed": good.T,
+            "rhs list": [good[:, 0], good[:, 1]],
+            "rhs complex": good + 0j,
+            "rhs text": good.astype(str),
+        }.get(self.bad, good)
+
+    def output(self, t, x, p):
+        good = np.column_stack([x[:, 0], 0.5 * x[:, 1] ** 2 + 0.5 * p[:, 0] * x[:, 0] ** 2])
+        return {"output (n, 1)": good[:, :1], "output transposed": good.T}.get(self.bad, good)
+
+
+SHAPE_CASES = [
+    ("rhs (n, 1)", r"_Osc\.rhs returned shape \(N, 1\), expected shape \(N, 2\)"),
+    ("rhs scalar", r"_Osc\.rhs returned a scalar 0\.5 \(shape \(\)\), expected shape \(N, 2\)"),
+    ("rhs (n, 3)", r"_Osc\.rhs returned shape \(N, 3\), expected shape \(N, 2\)"),
+    ("rhs transposed", r"_Osc\.rhs returned shape \(2, N\), expected shape \(N, 2\).*transposed"),
+    ("rhs list", r"_Osc\.rhs returned a list of 2 items.*expected shape \(N, 2\).*column_stack"),
+    ("rhs complex", r"_Osc\.rhs returned complex numbers, expected real numbers of shape"),
+    ("rhs text", r"_Osc\.rhs returned text, expected real numbers of shape"),
+    ("output (n, 1)", r"_Osc\.output returned shape \(N, 1\), expected shape \(N, 2\)"),
+    ("output transposed", r"_Osc\.output returned shape \(2, N\), expected shape \(N, 2\)"),
+]
+
+
+@pytest.mark.parametrize("n", [1, 2, 5])  # 2 trials for 2 states: a transposed result fits
+@pytest.mark.parametrize(("bad", "said"), SHAPE_CASES, ids=[c[0] for c in SHAPE_CASES])
+def test_wrong_shapes_from_rhs_and_output_are_one_line_naming_the_function(bad, said, n):
+    model = _Osc(bad)
+    P = np.linspace(2.0, 6.0, n)[:, None]
+    if bad == "rhs transposed" and n == 1:
+        said = said.replace("transposed", "")
+    with pytest.raises(ModelOutputError, match=said.replace("N", str(n if n != 2 else "[12]"))):
+        model.simulate(P, t_final=1.0, dt=0.01, output_dt=0.1)
+    good = _Osc().simulate(P, t_final=1.0, dt=0.01, output_dt=0.1)
+    assert good.outputs.shape == (n, 11, 2) and good.ok.all()
+
+
+class _Kernel(_Osc):
+    def _simulate(self, X, x0, status, t_fail, *, dt, n_steps, stride):
+        return np.zeros((X.shape[0], n_steps // stride + 1, 1))  # one output, not two
+
+
+def test_a_kernel_of_the_wrong_shape_is_named():
+    with pytest.raises(ModelOutputError, match=r"_Kernel\._simulate returned shape \(3, 11, 1\)"):
+        _Kernel().simulate(np.full((3, 1), 4.0), t_final=1.0, dt=0.01, output_dt=0.1)
+
+
+def _with_rhs(own: Path, body: str) -> None:
+    f = own / "msd" / "dynamics.py"
+    text = f.read_text(encoding="utf-8")
+    good = "return np.column_stack([x[:, 1], self.acceleration(t, x, p)])"
+    assert good in text
+    f.write_text(text.replace(good, body), encoding="utf-8")
+
+
+@pytest.mark.parametrize("limits", ["noise", "numbers"])
+def test_a_wrong_shape_stops_the_study_before_any_trial(own, tmp_path, capsys, limits):
+    """Through the noise floor (computed when the store is created) or through the first
+    batch: exit 2, one line naming the function and both shapes, nothing stored."""
+    from vectorid.cli import main
+
+    _with_rhs(own, "return np.column_stack([x[:, 1]])")
+    if limits == "numbers":
+        _edit(own, r'^limits = "noise".*$', "")
+        _edit(own, r'^name = "x_rms".*$', 'name = "x_rms"\nlimit = 0.01')
+        _edit(own, r'^name = "a_rms".*$', 'name = "a_rms"\nlimit = 1.0')
+    db = tmp_path / "s.db"
+    code = main(["run", str(own / "study.toml"), "--store", str(db), "--trials", "64",
+                 "--quiet", "--executor", "serial"])  # fmt: skip
+    err = capsys.readouterr().err
+    lines = [ln for ln in err.splitlines() if ln.startswith("error:")]
+    assert code == 2 and len(lines) == 1, err
+    assert re.search(
+        r"msd\.dynamics\.MassSpringDamper\.rhs returned shape \(\d+, 1\), expected shape "
+        r"\(\d+, 2\) \(one row per trial, one column per state: x, v\)",
+        lines[0],
+    ), lines[0]
+    assert "Traceback" not in err
+    if db.exists():
+        with Study.open(db) as st:
+            assert st.store.count() == 0
+
+
+def test_only_the_trials_that_misbehave_fail_with_the_reason(own, tmp_path):
+    """rhs returns a column for heavy masses only: those trials fail with the shape named,
+    the others are stored as computed."""
+    _with_rhs(
+        own,
+        "out = np.column_stack([x[:, 1], self.acceleration(t, x, p)])\n"
+        "        return out[:, :1] if np.any(p[:, 0] > 1.4) else out",
+    )
+    spec = load_study(own / "study.toml")
+    with Study.create(spec, tmp_path / "s.db") as st:
+        st.run(trials=64, executor="serial", batch_size=16)
+        t = st.store.load()
+    heavy = t.X[:, 0] > 1.4
+    assert heavy.any() and (~heavy).any()
+    assert np.array_equal(t.status == 1, heavy)
+    msgs = {t.message(i) for i in np.flatnonzero(heavy)}
+    assert msgs == {
+        "ModelOutputError: msd.dynamics.MassSpringDamper.rhs returned shape (1, 1), expected "
+        "shape (1, 2) (one row per trial, one column per state: x, v)"
+    }
+    assert np.isfinite(t.F[~heavy]).all()
+
+
+def test_a_criterion_function_of_the_wrong_shape_is_named(own):
+    (own / "shapecrit.py").write_text(
+        "import numpy as np\n"
+        "def peak(sim, meas, t):\n"
+        "    return np.abs(sim.max(axis=(1, 2)) - meas.max())[:, None]\n",
+        encoding="utf-8",
+    )
+    path = _edit(own, r'^name = "a_rms".*$', 'name = "a_peak"')
+    path.write_text(
+        path.read_text(encoding="utf-8")
+        + '\n[identification.criteria.a_peak]\nchannel = "a"\nuse = "shapecrit:peak"\n',
+        encoding="utf-8",
+    )
+    sys.path.insert(0, str(own))
+    try:
+        said = r"criterion a_peak \(shapecrit:peak\) returned shape \(1, 1\), expected shape \(1,\)"
+        with pytest.raises(ModelOutputError, match=said + r" \(one value per trial"):
+            prepare_spec(load_study(path))
+    finally:
+        sys.path.remove(str(own))
+        sys.modules.pop("shapecrit", None)
+
+
+def test_a_model_whose_output_is_nan_everywhere_is_said_to_be_so(own, capsys):
+    from vectorid.cli import main
+
+    f = own / "msd" / "dynamics.py"
+    text = f.read_text(encoding="utf-8")
+    old = "return np.column_stack([x[:, 0], self.acceleration(t, x, p)])"
+    f.write_text(text.replace(old, "return np.full((len(x), 2), np.nan)"), encoding="utf-8")
+    assert main(["run", str(own / "study.toml"), "--trials", "64", "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "limit: expected a finite number" not in err
+    assert re.search(
+        r"error: identification\.noise: the model's output 'x' is not a finite number at the "
+        r"reference vector \{'m': 1\.2, 'c': 0\.9, 'k': 42\.5\} \(NaN or inf at 601 of 601 "
+        r"times, first at t = 0 s of record 'run1'\), so the noise floor of x_rms cannot be "
+        r"computed — check MassSpringDamper\.output\(t, x, p\)",
+        err,
+    ), err

@@ -1,6 +1,7 @@
 """Model base class: compiling announces itself, once, only when numba's cache is cold."""
 
 import os
+import re
 import subprocess
 import sys
 import textwrap
@@ -54,8 +55,14 @@ def test_first_compile_is_announced_once_and_never_from_the_cache(tmp_path):
     cold = _run(tmp_path, env, "simulate")
     assert cold.returncode == 0, cold.stderr
     assert "cached False" in cold.stdout
-    msg = "compiling the tiny model, first use only, about 3 s (numba; cached on disk afterwards)"
-    assert cold.stderr.count(msg) == 1  # two simulations, one message
+    # what is compiled, and (a log, not a terminal) how long it took at the end
+    msg = (
+        "compiling the tiny model's kernel (tinymodel._kernel) (numba, first use only, cached "
+        "on disk afterwards; about 3 s on 2 quiet cores) ..."
+    )
+    assert cold.stderr.count(msg) == 1, cold.stderr  # two simulations, one message
+    done = r"compiling the tiny model's kernel \(tinymodel\._kernel\): done after \d+\.\d s"
+    assert len(re.findall(done, cold.stderr)) == 1, cold.stderr
     warm = _run(tmp_path, env, "simulate")
     assert "cached True" in warm.stdout and "compiling" not in warm.stderr
     # compile() compiles (with the message) only when the cache is cold
@@ -63,6 +70,7 @@ def test_first_compile_is_announced_once_and_never_from_the_cache(tmp_path):
     env2 = dict(env, NUMBA_CACHE_DIR=str(tmp_path / "cache2"))
     first = _run(tmp_path, env2, "compile")
     assert "compiled True" in first.stdout and first.stderr.count(msg) == 1
+    assert re.search(done, first.stderr)
     again = _run(tmp_path, env2, "compile")
     assert "compiled False" in again.stdout and "compiling" not in again.stderr
     # a changed source makes the cache stale: compiled again, announced again
@@ -71,6 +79,12 @@ def test_first_compile_is_announced_once_and_never_from_the_cache(tmp_path):
     )
     changed = _run(tmp_path, env2, "simulate")
     assert "cached False" in changed.stdout and changed.stderr.count(msg) == 1
+    # --quiet (VECTORID_QUIET) silences it, with the compile still done
+    (tmp_path / "tinymodel.py").write_text(
+        textwrap.dedent(TINY).replace("y[:] = 1.0", "y[:] = 3.0"), encoding="utf-8"
+    )
+    hushed = _run(tmp_path, dict(env2, VECTORID_QUIET="1"), "simulate")
+    assert "cached False" in hushed.stdout and "compiling" not in hushed.stderr
 
 
 def test_models_without_a_compiled_kernel_say_nothing():
@@ -98,3 +112,31 @@ def test_shipped_kernels_can_be_cached(name):
     for kernel in kernels:
         for compiled in kernel.overloads.values():
             assert not compiled.library.has_dynamic_globals
+
+
+def test_compile_models_compiles_several_kernels_in_parallel_processes_once(tmp_path):
+    """Two models' first compiles run in two child processes at once (one notice says which
+    and for how long); a second call finds both cached and does nothing (issue 37)."""
+    for i in (1, 2):
+        body = textwrap.dedent(TINY).replace("y[:] = 1.0", f"y[:] = {i}.0")
+        (tmp_path / f"tiny{i}.py").write_text(body.replace('"tiny"', f'"tiny{i}"'), "utf-8")
+    script = textwrap.dedent(
+        """
+        from vectorid import models
+        models.register("one", "tiny1:Tiny")
+        print("compiled", models.compile_models(["one", "tiny2:Tiny"], workers=2))
+        print("again", models.compile_models(["one", "tiny2:Tiny"], workers=2))
+        print("cached", models.get("one").kernel_cached(), models.get("tiny2:Tiny").kernel_cached())
+        """
+    )
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"), PYTHONPATH=str(tmp_path))
+    env.pop("VECTORID_QUIET", None)
+    r = subprocess.run([sys.executable, "-c", script], cwd=tmp_path, env=env,
+                       capture_output=True, text=True)  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    assert "compiled ['one', 'tiny2:Tiny']" in r.stdout and "again []" in r.stdout
+    assert "cached True True" in r.stdout
+    head = "compiling the kernels of one, tiny2:Tiny in 2 processes"
+    lines = r.stderr.splitlines()
+    assert lines[0] == f"{head} (numba, first use only, cached on disk afterwards) ...", r.stderr
+    assert re.fullmatch(re.escape(head) + r": done after \d+\.\d s", lines[-1]), r.stderr

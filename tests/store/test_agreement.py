@@ -182,4 +182,3 @@ def test_units_newly_stated_are_taken_when_they_are_the_ones_the_trials_were_rea
     assert set(fa) <= set(fb) and all(fa[k] == fb[k] for k in fa)
     assert all(_stated_unit(k, fa.get(k, _MISSING), fb[k]) for k in new), new
     assert not _stated_unit("identification.drops[0].mapping.altitude.unit", _MISSING, "ft")
-

@@ -325,12 +325,12 @@ def test_trial_table_sorts_filters_and_downloads_all_rows(browser, server):
     drv.find_element(By.CSS_SELECTOR, "#tab-set input[value='pareto']").click()
 
 
-def _live_ranges(drv, axis: int):
-    """The brushes plotly.js holds on one axis of the parallel coordinates, [[lo, hi], ...]."""
+def _live_ranges(drv, axis: str):
+    """The brushes the page draws on one axis of the parallel coordinates, [[lo, hi], ...]."""
     return drv.execute_script(
-        "const d = document.querySelector('#par-graph .js-plotly-plot').data[0].dimensions"
-        "[arguments[0]]; let r = d.constraintrange || []; if (r.length && typeof r[0] === "
-        "'number') r = [r]; return r;",
+        "return [...document.querySelectorAll('#par-graph .vid-axis[data-name=\"' + "
+        "arguments[0] + '\"] .vid-brush')].map(b => [Number(b.dataset.lo), "
+        "Number(b.dataset.hi)]);",
         axis,
     )
 
@@ -345,10 +345,10 @@ def _lines(drv) -> dict[str, int]:
     return {k: int(d.get(k, -1)) for k in ("lines", "selected")}
 
 
-def _brush(drv, axis: int, top: float, bottom: float) -> None:
+def _brush(drv, axis: str, top: float, bottom: float) -> None:
     """Drag along axis ``axis`` from ``top`` to ``bottom`` (fractions of its height from
     its top)."""
-    b = drv.find_elements(By.CSS_SELECTOR, "#par-graph .axis-brush rect.background")[axis]
+    b = drv.find_element(By.CSS_SELECTOR, f"#par-graph .vid-hit[data-name='{axis}']")
     h = b.size["height"]
     ActionChains(drv).move_to_element_with_offset(
         b, 0, int(-h / 2 + top * h)
@@ -366,13 +366,13 @@ def test_parallel_brushes_select_and_one_action_makes_a_constraint(browser, serv
     prev = _limit_input(drv, "f1").get_attribute("value")
     nd0 = _text(drv, "#count-nd")
     _tab(drv, "Parallel coordinates & history")
-    _until(drv, lambda d: d.find_elements(By.CSS_SELECTOR, "#par-graph .axis-brush"), "the axes")
+    _until(drv, lambda d: d.find_elements(By.CSS_SELECTOR, "#par-graph .vid-hit"), "the axes")
     _until(drv, lambda d: _lines(d)["lines"] > 0, "the lines drawn")
-    _brush(drv, 0, 0.30, 0.55)  # f1: a band in the middle, neither end of the axis
-    _until(drv, lambda d: len(_live_ranges(d, 0)) == 1, "the first brush")
-    _brush(drv, 0, 0.75, 0.90)  # a second band on the same axis
-    _until(drv, lambda d: len(_live_ranges(d, 0)) == 2, "the second brush")
-    rs = _live_ranges(drv, 0)
+    _brush(drv, "f1", 0.30, 0.55)  # f1: a band in the middle, neither end of the axis
+    _until(drv, lambda d: len(_live_ranges(d, "f1")) == 1, "the first brush")
+    _brush(drv, "f1", 0.75, 0.90)  # a second band on the same axis
+    _until(drv, lambda d: len(_live_ranges(d, "f1")) == 2, "the second brush")
+    rs = _live_ranges(drv, "f1")
     a = _analysis(store)
     f1 = a.trials.F[:, 0]
     sel = np.zeros(a.n, bool)
@@ -384,12 +384,11 @@ def test_parallel_brushes_select_and_one_action_makes_a_constraint(browser, serv
     _until(drv, lambda d: _text(d, "#vid-sel") == want, "the selection's counts")
     assert _text(drv, "#count-nd") == nd0  # a brush is a selection, not a constraint
     # the page draws the lines itself (a 2D canvas, in a Web Worker): every line sent, those
-    # outside the brushes greyed; plotly.js's own WebGL lines are hidden
+    # outside the brushes greyed; no WebGL anywhere in the parallel coordinates
     _until(drv, lambda d: 0 < _lines(d)["selected"] < _lines(d)["lines"], "lines redrawn")
     assert drv.execute_script(
-        "return [...document.querySelectorAll('#par-graph .gl-canvas')]"
-        ".every(c => getComputedStyle(c).visibility === 'hidden');"
-    )
+        "return [...document.querySelectorAll('#par-graph canvas')].map(c => c.className);"
+    ) == ["vid-lines"]
     drv.save_screenshot(str(ARTIFACTS / "ui_parallel.png"))
     # the selection as CSV: every selected trial once, with its D and Pareto flags
     href = drv.find_element(By.ID, "sel-csv").get_attribute("href")
@@ -454,9 +453,15 @@ def test_the_url_holds_the_view_and_opens_it_again(browser, server):
         q = urllib.parse.quote(json.dumps(sel))
         other.get(shared.split("#")[0] + "#sel=" + q + "&tab=parallel&hide=g2&colour=x2")
         _until(other, lambda d: _text(d, "#vid-sel").startswith(f"selected {n:,} trials"), "sel")
-        _until(other, lambda d: d.find_elements(By.CSS_SELECTOR, "#par-graph .axis-brush"), "axes")
-        assert "x2" in _text(other, "#par-colour") and "g2" in _text(other, "#par-hidden")
-        assert _live_ranges(other, 4) == [[1.0, 2.0]]
+        _until(other, lambda d: d.find_elements(By.CSS_SELECTOR, "#par-graph .vid-hit"), "axes")
+        assert "x2" in _text(other, "#par-colour")
+        shown = other.execute_script(
+            "return [...document.querySelectorAll('#par-shown input')]"
+            ".filter(i => i.checked).map(i => i.value);"
+        )
+        assert "g2" not in shown and "g1" in shown
+        assert not other.find_elements(By.CSS_SELECTOR, "#par-graph .vid-axis[data-name='g2']")
+        assert _live_ranges(other, "x1") == [[1.0, 2.0]]
     _tab(drv, "Test tables & plots")
     drv.find_element(By.CSS_SELECTOR, "#vid-role-f2 input[value='pure']").click()
     _type(drv, _limit("f1"), prev)

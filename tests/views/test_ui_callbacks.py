@@ -310,19 +310,23 @@ def test_trial_table_sorts_filters_and_pages_over_all_trials(ctx, bk):
 
 
 def test_parallel_brushes_are_two_sided_selections_made_constraints_on_request(ctx, bk):
-    fig = _fig(cb.parallel_view(ctx, ["40", ""], PURE2))
-    names = list(fig.layout.meta["names"])
-    assert names == ["f1", "f2", "g1", "g2", "x1", "x2"]
-    dims = fig.data[0].dimensions
-    assert [d.name for d in dims] == names
-    assert all(d.constraintrange is None for d in dims)  # constraints are not brushes here
-    # the lines go to the page's own canvas (layout.meta.lines), plotly.js keeps the axes
-    lines = fig.layout.meta["lines"]
-    shown = sum(fig.data[0].meta["shown"].values())
+    p = cb.parallel_view(ctx, ["40", ""], PURE2)
+    names = [ax["name"] for ax in p["axes"]]
+    assert sorted(names) == sorted(["f1", "f2", "g1", "g2", "x1", "x2"])
+    assert names[:4] == ["f1", "f2", "g1", "g2"]  # criteria, functionals, then the gains
+    assert p["ranges"] == {}  # constraints are not brushes here: they are marked as limits
+    by = {ax["name"]: ax for ax in p["axes"]}
+    assert by["f1"]["limit"] == ["<=", 40.0] and by["f2"]["limit"] is None
+    assert by["g1"]["limit"][0] == "in"
+    # every title says its unit (binh-korn gives none: it says so), the hover its kind
+    assert all(ax["title"] == f"{ax['name']} [no unit given]" for ax in p["axes"])
+    assert by["f1"]["tip"].startswith("f1 [no unit given] — criterion (min, pure)")
+    # the lines go to the page's own canvas: float32 per axis, thinned per set
+    lines = p["lines"]
+    shown = sum(p["shown"].values())
     assert set(lines["values"]) == set(names) and lines["mode"] == "set"
     assert all(len(_arr(v)) == shown for v in lines["values"].values())
     assert sorted(set(_arr(lines["color"]).tolist())) <= [0, 1, 2]
-    assert all(len(_arr(d.values)) == 2 for d in dims)
     # two ranges on f2 (both edges kept, not snapped to an end) and one on x1: a selection
     sel = {"kind": "ranges", "ranges": {"f2": [[5.0, 12.0], [20.0, 30.0]], "x1": [[1, 2]]}}
     a = _direct(bk, {"f1": 40.0})
@@ -337,15 +341,13 @@ def test_parallel_brushes_are_two_sided_selections_made_constraints_on_request(c
         int((want & a.pareto).sum()),
     )
     # the brushes are drawn where they were made, on any axis, in the order left by the user
-    fig = _fig(cb.parallel_view(ctx, ["40", ""], PURE2, None, sel, {"order": ["x1", "f2"]}))
-    dims = fig.data[0].dimensions
-    assert [d.name for d in dims][:3] == ["x1", "f2", "f1"]
-    assert [list(r) for r in dims[1].constraintrange] == [[5.0, 12.0], [20.0, 30.0]]
-    fig = _fig(
-        cb.parallel_view(ctx, ["40", ""], PURE2, None, None, None, colour="x2", hidden=["g1"])
-    )
-    dims = {d.name: d for d in fig.data[0].dimensions}
-    assert dims["g1"].visible is False and fig.data[0].line.showscale
+    p = cb.parallel_view(ctx, ["40", ""], PURE2, None, sel, {"order": ["x1", "f2"]})
+    assert [ax["name"] for ax in p["axes"]][:3] == ["x1", "f2", "f1"]
+    assert p["ranges"]["f2"] == [[5.0, 12.0], [20.0, 30.0]]
+    p = cb.parallel_view(ctx, ["40", ""], PURE2, None, None, None, colour="x2", hidden=["g1"])
+    by = {ax["name"]: ax for ax in p["axes"]}
+    assert by["g1"]["hidden"] and not by["f1"]["hidden"]
+    assert p["lines"]["mode"] == "column" and p["colour"]["name"] == "x2"
     # one explicit action makes them constraints: f2 (min) gets the upper edge of its
     # brushes, a functional both edges; a parameter stays a selection
     sel["ranges"]["g1"] = [[0.0, 10.0]]
@@ -881,7 +883,7 @@ def test_verdicts_follow_the_constraints_in_force(tmp_path):
 
 def test_chosen_text_shows_a_value_only_where_identified():
     from vectorid.analysis.identifiability import ParameterVerdict
-    from vectorid.views.ui.verdicts import chosen_text, verdict_line
+    from vectorid.views.ui.verdicts import chosen_text, verdict_groups, verdict_line
 
     ok = ParameterVerdict("x6", "identified", (0.47705, 0.61797), (0.5, 0.6), (0.2, 1.0))
     weak = ParameterVerdict("x8", "weak", (0.8, 1.2), None, (0.75, 1.5), unit="m")
@@ -892,8 +894,12 @@ def test_chosen_text_shows_a_value_only_where_identified():
     )
     assert chosen_text(empty, None) == "box [0, 1] (not identified)"
     assert verdict_line([ok, weak, empty]) == (
-        "identified: x6 [0.47705, 0.61797]; weak: x8; not identified: x9"
+        "identified: x6 [0.47705, 0.61797]; weak: x8 [0.8, 1.2]; not identified: x9 [0, 1]"
     )
+    groups = verdict_groups([ok, weak, empty])
+    assert [g["verdict"] for g in groups] == ["identified", "weak", "not identified"]
+    assert groups[1]["items"][0]["range"] == "[0.8, 1.2]" and groups[1]["items"][0]["unit"] == "m"
+    assert groups[2]["items"][0]["range"] == "none in D (box [0, 1])"
     thin = ParameterVerdict("x8", "weak", (0.8, 1.2), None, (0.75, 1.5), n_feasible=6,
                             thin=True, n_needed=20)  # fmt: skip
     assert verdict_line([thin]).endswith(

@@ -1,9 +1,9 @@
 """Identifiability verdicts and the limits' sources in the browser UI, on the G-12 demo
 (reduced: 128 trials per step), driven in a real headless Chromium through stable ids:
-``vid-verdicts`` (the explorer's verdict line), ``vid-source-<criterion>`` (where each limit
-came from), ``vid-verdict-<parameter>`` (the refine view's rows), ``vid-trial-param-<parameter>``
-(the chosen trial's parameters), ``vid-force-<criterion>`` and ``par-verdicts`` (beside the
-parallel coordinates).
+``vid-verdicts`` (the explorer's verdict panel, one chip per variable),
+``vid-source-<criterion>`` (where each limit came from), ``vid-verdict-<parameter>`` (the
+refine view's rows), ``vid-trial-param-<parameter>`` (the chosen trial's parameters),
+``vid-force-<criterion>`` and ``par-verdicts`` (beside the parallel coordinates).
 
 Checked against :func:`vectorid.analysis.identifiability.identifiability` on the store: the
 verdicts are shown, a parameter that is not identified is shown as its range with its
@@ -76,13 +76,25 @@ def _check_rows(d, prefix: str, vs) -> None:
         until(d, lambda d, v=v: shown(d, v), f"{v.name}: {v.verdict}, {span(v.feasible)}")
 
 
+def _panel_shows(d, vs) -> bool:
+    """The explorer's verdict panel: one chip per variable, under its verdict, holding the
+    range of D (never a lone value)."""
+    for v in vs:
+        chip = d.find_elements(By.ID, f"vid-vchip-{v.name}")
+        if not chip or chip[0].get_attribute("data-verdict") != v.verdict:
+            return False
+        if v.feasible is not None and span(v.feasible) not in chip[0].text:
+            return False
+    return True
+
+
 def test_verdicts_ranges_and_sources(demo_server, drv):
     url, store = demo_server
     a, vs = _verdicts(store)
     by = {v.verdict for v in vs}
     assert "identified" in by and "not identified" in by  # the demo shows both kinds
     # -- the explorer: the verdict line, and each limit's source on its card --------------------
-    until(drv, lambda d: text_of(d, "#vid-verdicts") == verdict_line(vs), "the verdict line")
+    until(drv, lambda d: _panel_shows(d, vs), "the verdict panel")
     with Study.open(store) as st:
         crit = st.spec.criteria
     for c in crit:
@@ -137,7 +149,7 @@ def test_tightened_limit_changes_verdicts_and_its_source_survives_a_save(demo_se
     tab(drv, "Test tables & plots")
     type_into(drv, lambda d: d.find_element(By.ID, f"vid-limit-{name}"), text)
     until(drv, lambda d: text_of(d, "#count-nd") == str(a2.n_feasible), "ND under the limit")
-    until(drv, lambda d: text_of(d, "#vid-verdicts") == verdict_line(vs2), "the new verdicts")
+    until(drv, lambda d: _panel_shows(d, vs2), "the new verdicts")
     with Study.open(store) as st:
         saved = {c.name: c for c in st.spec.criteria}[name]
     want = f"this session: replaces the saved <= {saved.limit:.5g} (noise floor)"
@@ -178,4 +190,4 @@ def test_tightened_limit_changes_verdicts_and_its_source_survives_a_save(demo_se
         "the saved source after a reload",
     )
     assert _attr(drv, f"vid-source-{others[0]}", "textContent").startswith("noise floor q=")
-    until(drv, lambda d: text_of(d, "#vid-verdicts") == verdict_line(vs2), "verdicts after reload")
+    until(drv, lambda d: _panel_shows(d, vs2), "verdicts after reload")

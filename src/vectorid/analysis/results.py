@@ -34,6 +34,7 @@ if TYPE_CHECKING:  # pragma: no cover
 
 __all__ = ["Analysis", "Bound", "EmptyDiagnosis", "TestTable", "parse_limit", "parse_limits"]
 
+
 @dataclass
 class TestTable:
     """One criterion's column of the test table (seed 000 Fig. 6): trials sorted best first.
@@ -205,6 +206,35 @@ class Analysis:
         The bounds in force (the study's, under ``limits``).
     weighting : Weighting or None
         As given.
+
+    Examples
+    --------
+    Two criteria (m²) of two lengths (m), 256 Sobol trials in a store, analysed under the
+    study's limit f1 <= 0.5 m², then under limits chosen now (no model is re-run):
+
+    >>> import os, tempfile
+    >>> import numpy as np
+    >>> from vectorid import Continuous, Criterion, Space, Study, StudySpec
+    >>> def wells(X):
+    ...     F = np.column_stack([X[:, 0] ** 2 + X[:, 1] ** 2, (X[:, 0] - 1) ** 2 + X[:, 1] ** 2])
+    ...     return F, np.empty((len(X), 0))
+    >>> space = Space([Continuous("x1", 0.0, 1.0, unit="m"), Continuous("x2", 0.0, 1.0, unit="m")])
+    >>> spec = StudySpec("wells", wells, space, (Criterion("f1", limit=0.5, unit="m2"),
+    ...                  Criterion("f2", unit="m2")), trials=256, seed=1)
+    >>> with Study.create(spec, os.path.join(tempfile.mkdtemp(), "wells.db")) as study:
+    ...     _ = study.run(executor="inline")
+    ...     a = study.analysis()
+    ...     b = study.analysis(limits={"f1": 0.25, "f2": 0.5})
+    >>> a.n, a.n_feasible, a.n_pareto  # N, ND, NP
+    (256, 99, 20)
+    >>> [str(bound) for bound in b.active_bounds()], b.n_feasible
+    (['f1 <= 0.25', 'f2 <= 0.5'], 11)
+    >>> a.trials.X[a.pareto][:2]  # Pareto vectors, in m (a.feasible, a.pareto: row masks)
+    array([[0.625  , 0.125  ],
+           [0.53125, 0.03125]])
+    >>> t = a.test_tables()[0]  # f1's test table: trial ids, best first
+    >>> t.name, t.ids[:3].tolist()
+    ('f1', [160, 240, 96])
     """
 
     def __init__(

@@ -6,7 +6,8 @@
     vectorid refine STORE [--limit ...] [--pareto] [--quantile Q] [--margin F]
                           [--bound NAME=LO:HI ...] [--apply] [--out FIG.html] [--json]
     vectorid robustness STORE --trial ID [--trial ID ...] [--radius R] [--points N] [--seed S]
-    vectorid report STORE [--limit ...] [--chosen ID ...] [--max-points N] --out report.html
+    vectorid report STORE [OTHER] [--limit ...] [--chosen ID ...] [--max-points N]
+                          [--predict DROP.toml] --out report.html
     vectorid correlation STORE [--limit ...] [--set pareto|feasible] [--method pearson|spearman]
     vectorid sensitivity STORE [--limit ...]
     vectorid hist STORE [--limit ...] [--param NAME ...] [--bins N] [--by-stage] [--out FIG.html]
@@ -30,10 +31,15 @@ import numpy as np
 from .._hints import install_hint
 from ..builders import variable_meanings
 from ..errors import StudyDefinitionError
-from .main import add_limit_options, parse_limits_for, positive_int
+from .main import (
+    add_json_option,
+    add_limit_options,
+    add_store_argument,
+    parse_limits_for,
+    positive_int,
+)
 
 __all__ = ["COMMANDS", "add_parsers"]
-
 
 
 def _sampler_note(study: Any, a: Any) -> str | None:
@@ -42,93 +48,142 @@ def _sampler_note(study: Any, a: Any) -> str | None:
 
     return sampler_for(study.spec).describe(study.store, a.limits, a.trials)
 
+
 def add_parsers(sub: Any) -> None:
     """Add the analysis verbs to the ``vectorid`` sub-parsers."""
     s = sub.add_parser("section", help="criteria along one parameter through a trial (type II)")
-    s.add_argument("store")
+    add_store_argument(s)
     s.add_argument("--trial", type=int, required=True, help="id of the trial to pass through")
     s.add_argument("--param", required=True, help="variable to vary")
     s.add_argument("--points", type=positive_int, default=21, help="grid points (default 21)")
-    s.add_argument("--range", nargs=2, type=float, metavar=("LO", "HI"), help="range of PARAM")
+    s.add_argument(
+        "--range", nargs=2, type=float, metavar=("LO", "HI"),
+        help="range of PARAM, in its unit (default: its box)",
+    )  # fmt: skip
     add_limit_options(s)
     s.add_argument("--out", help="write the section figure to this .html file")
-    s.add_argument("--json", action="store_true")
+    add_json_option(s)
 
     r = sub.add_parser("refine", help="double tuning: propose (and --apply) a narrowed box")
-    r.add_argument("store")
+    add_store_argument(r)
     add_limit_options(r)
     r.add_argument("--pareto", action="store_true", help="envelope of the Pareto set, not of D")
-    r.add_argument("--quantile", type=float, default=0.05, help="envelope quantile (0.05)")
-    r.add_argument("--margin", type=float, default=0.1, help="margin, share of width (0.1)")
+    r.add_argument(
+        "--quantile", type=float, default=0.05,
+        help="envelope quantile, a share of the set's trials on each side (default 0.05)",
+    )  # fmt: skip
+    r.add_argument(
+        "--margin", type=float, default=0.1,
+        help="margin added on each side, a share of the envelope's width (default 0.1)",
+    )  # fmt: skip
     r.add_argument(
         "--bound",
         action="append",
         default=[],
         metavar="NAME=LO:HI",
-        help="set a variable's new bounds explicitly (repeatable)",
+        help="set a variable's new bounds explicitly, in its unit (repeatable)",
     )
     r.add_argument("--apply", action="store_true", help="add the box as a new sample stage")
     r.add_argument("--out", help="write the old-vs-new box figure to this .html file")
-    r.add_argument("--json", action="store_true")
+    add_json_option(r)
 
     b = sub.add_parser("robustness", help="criteria in a small neighbourhood of chosen trials")
-    b.add_argument("store")
-    b.add_argument("--trial", type=int, action="append", required=True, help="repeatable")
-    b.add_argument("--radius", type=float, default=0.02, help="share of each box width (0.02)")
+    add_store_argument(b)
+    b.add_argument(
+        "--trial", type=int, action="append", required=True,
+        help="id of a chosen trial (repeatable)",
+    )  # fmt: skip
+    b.add_argument(
+        "--radius", type=float, default=0.02,
+        help="neighbourhood half-width, a share of each box width (default 0.02)",
+    )  # fmt: skip
     b.add_argument("--points", type=positive_int, help="neighbours, multiple of 4 (default 32)")
-    b.add_argument("--seed", type=int, default=0)
+    b.add_argument("--seed", type=int, default=0, help="seed of the neighbours' draw (default 0)")
     add_limit_options(b)
     b.add_argument("--out", help="write the robustness figure to this .html file")
-    b.add_argument("--json", action="store_true")
+    add_json_option(b)
 
-    p = sub.add_parser("report", help="self-contained HTML report of the study")
-    p.add_argument("store")
+    p = sub.add_parser(
+        "report", help="self-contained HTML report of the study (or two models compared)"
+    )
+    add_store_argument(p)
+    p.add_argument(
+        "other",
+        nargs="?",
+        help="a second store: write the comparison of the two models instead (the same "
+        "criteria on the same data: N/ND/NP, limits met, best values, spectral peaks)",
+    )
     add_limit_options(p)
     p.add_argument("--out", required=True, help="the .html file to write")
-    p.add_argument("--chosen", type=int, action="append", default=[], help="chosen trial id")
+    p.add_argument(
+        "--chosen", type=int, action="append", default=[],
+        help="id of a chosen trial to show (repeatable)",
+    )  # fmt: skip
     p.add_argument(
         "--max-points",
         type=positive_int,
         default=3_000,
         help="points per set in each point cloud (default 3000)",
     )
-    p.add_argument("--top", type=positive_int, default=10, help="test table rows (10)")
+    p.add_argument("--top", type=positive_int, default=10, help="test table rows (default 10)")
+    p.add_argument(
+        "--predict",
+        action="append",
+        default=[],
+        metavar="DROP.toml",
+        help="add what D predicts for these drops (vectorid predict; repeatable)",
+    )
+    p.add_argument(
+        "--members", type=positive_int, help="members flown for --predict (default: all)"
+    )
 
     c = sub.add_parser("correlation", help="parameter correlation among near-optimal vectors")
-    c.add_argument("store")
+    add_store_argument(c)
     add_limit_options(c)
-    c.add_argument("--set", choices=["pareto", "feasible"], default="pareto")
-    c.add_argument("--method", choices=["pearson", "spearman"], default="pearson")
-    c.add_argument("--threshold", type=float, default=0.8, help="strong |r| (0.8)")
+    c.add_argument(
+        "--set", choices=["pareto", "feasible"], default="pareto",
+        help="the trials correlated: the Pareto set (default) or the feasible set D",
+    )  # fmt: skip
+    c.add_argument(
+        "--method", choices=["pearson", "spearman"], default="pearson",
+        help="correlation coefficient (default pearson)",
+    )  # fmt: skip
+    c.add_argument("--threshold", type=float, default=0.8, help="|r| called strong (default 0.8)")
     c.add_argument("--out", help="write the heatmap to this .html file")
-    c.add_argument("--json", action="store_true")
+    add_json_option(c)
 
     e = sub.add_parser("sensitivity", help="rank correlation and KS filtering per parameter")
-    e.add_argument("store")
+    add_store_argument(e)
     add_limit_options(e)
     e.add_argument("--out", help="write the figure to this .html file")
-    e.add_argument("--json", action="store_true")
+    add_json_option(e)
 
     h = sub.add_parser("hist", help="histograms of feasible and Pareto trials per parameter")
-    h.add_argument("store")
+    add_store_argument(h)
     add_limit_options(h)
     h.add_argument("--param", action="append", help="variable (repeatable; default all)")
-    h.add_argument("--bins", type=positive_int)
+    h.add_argument("--bins", type=positive_int, help="bins per histogram (default: automatic)")
     h.add_argument("--by-stage", action="store_true", help="one histogram per sample stage")
     h.add_argument("--out", help="write the figure to this .html file")
-    h.add_argument("--json", action="store_true")
+    add_json_option(h)
 
     i = sub.add_parser(
         "identifiability", help="which variables the data determine, and within what range"
     )
-    i.add_argument("store")
+    add_store_argument(i)
     add_limit_options(i)
-    i.add_argument("--identified", type=float, default=0.25, help="width share (0.25)")
-    i.add_argument("--weak", type=float, default=0.6, help="width share (0.6)")
-    i.add_argument("--json", action="store_true")
+    i.add_argument(
+        "--identified", type=float, default=0.25,
+        help="identified: D spans at most this share of the box's width (default 0.25)",
+    )  # fmt: skip
+    i.add_argument(
+        "--weak", type=float, default=0.6,
+        help="not identified: D spans more than this share of the box's width (default 0.6)",
+    )  # fmt: skip
+    add_json_option(i)
 
     g = sub.add_parser("plot", help="write one figure: pair, matrix, vs-params or spread")
-    g.add_argument("store")
+    add_store_argument(g)
     add_limit_options(g)
     g.add_argument("--x", help="criterion/parameter on x (with --y)")
     g.add_argument("--y", help="criterion/parameter on y (with --x)")
@@ -355,8 +410,24 @@ def _cmd_report(args: argparse.Namespace) -> int:
         raise StudyDefinitionError(
             "report", f"the report needs plotly ({exc})", install_hint("plot")
         ) from None
+    if args.other:
+        from ..views.compare import write_comparison
+
+        for path in (args.store, args.other):
+            _open(path).close()  # one-line errors for a missing or damaged store
+        res = write_comparison(args.store, args.other, args.out)
+        print(f"comparison written to {res.path} ({res.size / 1e6:.1f} MB, {res.seconds:.1f} s)")
+        for n in res.notes:
+            print(f"  spectral peaks: {n}")
+        return 0
     study = _open(args.store)
     with study:
+        prediction = None
+        if args.predict:
+            from ..workflows.predict import predict
+
+            limits = parse_limits_for(study.spec, args.limit)
+            prediction = predict(study, args.predict, members=args.members, limits=limits or None)
         res = write_report(
             study.store,
             args.out,
@@ -365,6 +436,7 @@ def _cmd_report(args: argparse.Namespace) -> int:
             chosen=args.chosen,
             max_points=args.max_points,
             top=args.top,
+            prediction=prediction,
         )
         a = _analysis(study, args)
         note = _sampler_note(study, a)

@@ -27,7 +27,7 @@ import math
 import sys
 from typing import Any
 
-from .main import positive_int
+from .main import add_json_option, positive_int
 
 __all__ = ["COMMANDS", "add_parsers"]
 
@@ -156,8 +156,14 @@ def add_parsers(sub: Any) -> None:
             help=f"the {c} phase's window: times in s or events (apogee, touchdown, main, "
             "main_trigger, the log's) with +/- offsets, e.g. 40 touchdown-1",
         )
-    d.add_argument("--drogue-settle", type=_number, default=5.0, metavar="S")
-    d.add_argument("--main-settle", type=_number, default=6.0, metavar="S")
+    for c, settle, after in (
+        ("drogue", 5.0, "the descent's start"),
+        ("main", 6.0, "the main opens"),
+    ):
+        d.add_argument(
+            f"--{c}-settle", type=_number, default=settle, metavar="S",
+            help=f"seconds left out after {after}: deployment transients (default {settle:g})",
+        )  # fmt: skip
     d.add_argument(
         "--allowance",
         type=_number,
@@ -209,9 +215,9 @@ def add_parsers(sub: Any) -> None:
         "descent rate implies (default 1.5)",
     )
     d.add_argument("--trials", type=positive_int, default=1024, help="trials per phase")
-    d.add_argument("--seed", type=int, default=1)
+    d.add_argument("--seed", type=int, default=1, help="seed of the Sobol trials (default 1)")
     d.add_argument("--out", default="vectorid-descent", help="folder of the phases' stores")
-    d.add_argument("--json", action="store_true")
+    add_json_option(d)
 
 
 def _canopy(args: argparse.Namespace, c: str):

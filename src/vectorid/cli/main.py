@@ -14,6 +14,7 @@ Verbs (a contract; more may be added)::
     vectorid init PROBLEM [--out FILE] [--trials N]
     vectorid demo [g12|parafoil] [--out DIR] [--trials N] [--analytic]
     vectorid descent LOG --mass KG [--columns time=COL,altitude=COL] [...] [--json]
+    vectorid predict STORE DROP.toml... [--members N] [--seed S] [--json] [--out DIR]
 
 Errors in user input print one line saying what was expected, what came and how to fix it,
 and exit with status 2 (never a traceback: a damaged store, a file that cannot be read or
@@ -38,7 +39,8 @@ from typing import Any
 import numpy as np
 
 from .._version import __version__
-from ..errors import StoreError, StoreLockedError, VectoridError
+from ..errors import StoreError, StoreLockedError, VectoridError, plural
+from ..limits import Limits, parse_user_limits
 from ..sampler_kinds import sampler_names
 
 __all__ = ["main"]
@@ -68,23 +70,105 @@ def positive_float(text: str) -> float:
     return value
 
 
-def add_limit_options(sp: argparse.ArgumentParser) -> None:
-    """Add ``--limit`` and ``--role`` (shared by every analysis verb)."""
+#: Help of the options several verbs take: one meaning, word for word, on every verb
+#: (tests/cli/test_consistency.py checks it). A verb adds them with the helpers below, so a
+#: new verb inherits them.
+QUIET_HELP = (
+    "no progress on standard error (no bar, no per-generation lines, no compile notices); "
+    "the results still print"
+)
+JSON_HELP = (
+    "print the result as one JSON document on standard output (notes and warnings stay on "
+    "standard error)"
+)
+SAVE_HELP = (
+    "save the constraints in force (the study's, changed by --limit) in the study, so that "
+    "later analyses use them"
+)
+EXECUTOR_HELP = (
+    "where the model runs: processes (one worker per core), serial (one model process), "
+    "dask (a cluster), inline (this process, no protection); default: the study's, else "
+    "processes"
+)
+WORKERS_HELP = "worker processes (default: all cores; processes and dask only)"
+SCHEDULER_HELP = "Dask scheduler to run on (implies --executor dask; default: a local cluster)"
+TIMEOUT_HELP = (
+    "most seconds one trial may take (default: the study's, else no limit): a batch of N "
+    "trials may run N x SECONDS; one that runs longer is stopped and re-run one trial at a "
+    "time, and a trial that takes more than SECONDS is stored as failed, 'timed out after X s'"
+)
+STORE_HELP = "the study store (.db) a run wrote"
+#: The executors a verb that runs a model may name (``--executor``).
+EXECUTOR_CHOICES = ("processes", "serial", "dask", "inline")
+
+
+def add_store_argument(sp: argparse.ArgumentParser) -> None:
+    """Add the positional ``store`` (the study store a verb reads)."""
+    sp.add_argument("store", help=STORE_HELP)
+
+
+def add_quiet_option(sp: argparse.ArgumentParser) -> None:
+    """Add ``--quiet`` (every verb that shows progress while it runs a model)."""
+    sp.add_argument("--quiet", action="store_true", help=QUIET_HELP)
+
+
+def add_json_option(sp: argparse.ArgumentParser) -> None:
+    """Add ``--json`` (every verb whose result is data)."""
+    sp.add_argument("--json", action="store_true", help=JSON_HELP)
+
+
+def add_save_option(sp: argparse.ArgumentParser) -> None:
+    """Add ``--save``: :func:`main` saves the limits in force before the verb runs, the same
+    way for every verb that has it (see :func:`save_limits`)."""
+    sp.add_argument("--save", action="store_true", help=SAVE_HELP)
+
+
+def add_executor_options(
+    sp: argparse.ArgumentParser, *, scheduler: bool = True, timeout: bool = True
+) -> None:
+    """Add ``--executor`` and ``--workers`` (and ``--scheduler``, ``--timeout``): every verb
+    that evaluates a model's trials. The command passes them to the run as
+    ``executor_options(scheduler=..., timeout=...)`` and ``executor=``/``workers=``
+    (:func:`executor_of` gives the executor)."""
+    sp.add_argument("--executor", choices=EXECUTOR_CHOICES, help=EXECUTOR_HELP)
+    sp.add_argument("--workers", type=positive_int, help=WORKERS_HELP)
+    if scheduler:
+        sp.add_argument("--scheduler", metavar="tcp://HOST:PORT", help=SCHEDULER_HELP)
+    if timeout:
+        sp.add_argument("--timeout", type=positive_float, metavar="SECONDS", help=TIMEOUT_HELP)
+
+
+def executor_of(args: argparse.Namespace) -> str | None:
+    """The executor the options name: ``--executor``, else dask with ``--scheduler``."""
+    executor = getattr(args, "executor", None)
+    if executor is None and getattr(args, "scheduler", None):
+        return "dask"
+    return executor
+
+
+def add_limit_options(
+    sp: argparse.ArgumentParser, *, save: bool = True, role: bool = True
+) -> None:
+    """Add ``--limit`` and ``--role`` (shared by every analysis verb), and ``--save``
+    (``role=False``: a verb that reads only D, which roles do not change)."""
     sp.add_argument(
         "--limit",
         action="append",
         default=[],
         metavar="'NAME<=VALUE'",
-        help="criteria or functional constraint, e.g. 'f1<=40' or 'f2>=0.5' "
-        "(repeatable; 'f1<=inf' removes a limit)",
+        help="criteria or functional constraint, in the quantity's unit, e.g. 'f1<=40' or "
+        "'f2>=0.5' (repeatable; 'f1<=inf' removes a limit)",
     )
-    sp.add_argument(
-        "--role",
-        action="append",
-        default=[],
-        metavar="NAME=pure|pseudo",
-        help="override a criterion's role for this analysis",
-    )
+    if role:
+        sp.add_argument(
+            "--role",
+            action="append",
+            default=[],
+            metavar="NAME=pure|pseudo",
+            help="override a criterion's role for this analysis",
+        )
+    if save:
+        add_save_option(sp)
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -101,26 +185,7 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("study", help="study file (.toml) or an existing store (.db) to resume/extend")
     r.add_argument("--trials", type=positive_int, help="total number of trials the study holds")
     r.add_argument("--store", help="store path (default: the study's, else STUDY.db)")
-    r.add_argument(
-        "--executor",
-        choices=["serial", "processes", "dask", "inline"],
-        help="default: the study's, else processes (dask with --scheduler)",
-    )
-    r.add_argument("--workers", type=positive_int, help="worker processes (default: all cores)")
-    r.add_argument(
-        "--scheduler",
-        metavar="tcp://HOST:PORT",
-        help="Dask scheduler to run on (implies --executor dask; default: a local cluster)",
-    )
-    r.add_argument(
-        "--timeout",
-        type=positive_float,
-        metavar="SECONDS",
-        help="most seconds one trial may take (default: the study's, else no limit): a "
-        "batch of N trials may run N x SECONDS; one that runs longer is stopped and re-run "
-        "one trial at a time, and a trial that takes more than SECONDS is stored as failed, "
-        "'timed out after X s'",
-    )
+    add_executor_options(r)
     r.add_argument("--batch-size", type=positive_int, help="trials per batch (default: auto)")
     r.add_argument(
         "--accept-changes",
@@ -135,7 +200,8 @@ def _parser() -> argparse.ArgumentParser:
         help="store the first batches even when every one of their trials failed "
         "(default: stop with the reason and store none)",
     )
-    r.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_quiet_option(r)
+    add_json_option(r)
     r.add_argument(
         "--sampler",
         choices=sampler_names(),
@@ -153,47 +219,46 @@ def _parser() -> argparse.ArgumentParser:
     )
 
     v = sub.add_parser("verify", help="check a store: SQLite pages and every batch's checksum")
-    v.add_argument("store")
-    v.add_argument("--json", action="store_true")
+    add_store_argument(v)
+    add_json_option(v)
 
     rp = sub.add_parser(
         "repair", help="drop the damaged batches of a store and recompute them (see verify)"
     )
-    rp.add_argument("store")
-    rp.add_argument(
-        "--executor",
-        choices=["serial", "processes", "dask", "inline"],
-        help="how to recompute (default: the study's, else processes)",
-    )
-    rp.add_argument("--workers", type=positive_int, help="worker processes (default: all cores)")
+    add_store_argument(rp)
+    add_executor_options(rp)
     rp.add_argument(
         "--study",
         metavar="STUDY.toml",
         help="write the study definition back from this file (when the stored one is damaged)",
     )
-    rp.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_quiet_option(rp)
+    add_json_option(rp)
 
     i = sub.add_parser("info", help="study definition, stages, counts, failures, runs")
-    i.add_argument("store")
-    i.add_argument("--json", action="store_true")
+    add_store_argument(i)
+    add_json_option(i)
 
     t = sub.add_parser("table", help="test tables: each criterion's trials, best first")
-    t.add_argument("store")
+    add_store_argument(t)
     add_limit_options(t)
-    t.add_argument("--save", action="store_true", help="save the constraints in the study")
     t.add_argument("--top", type=positive_int, default=10, help="rows per criterion (default 10)")
     t.add_argument("--feasible", action="store_true", help="only trials in the feasible set D")
-    t.add_argument("--json", action="store_true")
+    add_json_option(t)
 
     pa = sub.add_parser("pareto", help="feasible set D and Edgeworth–Pareto set")
-    pa.add_argument("store")
+    add_store_argument(pa)
     add_limit_options(pa)
-    pa.add_argument("--save", action="store_true", help="save the constraints in the study")
-    pa.add_argument("--json", action="store_true")
+    add_json_option(pa)
 
     e = sub.add_parser("export", help="every trial, one row each, with its D and Pareto flags")
-    e.add_argument("store")
-    e.add_argument("--format", choices=["csv", "json", "parquet"], default="csv")
+    add_store_argument(e)
+    e.add_argument(
+        "--format",
+        choices=["csv", "json", "parquet"],
+        default=None,
+        help="file format (default csv; json with --json)",
+    )
     e.add_argument("--out", help="output file (default: standard output; required for parquet)")
     add_limit_options(e)
     e.add_argument(
@@ -201,6 +266,7 @@ def _parser() -> argparse.ArgumentParser:
         action="store_true",
         help="write the constraints in force instead (bound, unit, source of each limit)",
     )
+    add_json_option(e)
 
     n = sub.add_parser(
         "init",
@@ -239,7 +305,8 @@ def _parser() -> argparse.ArgumentParser:
         "stage 2's first generation of Sobol trials, default 4096)",
     )
     d.add_argument("--analytic", action="store_true", help="the analytic Binh–Korn demo instead")
-    d.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_quiet_option(d)
+    add_executor_options(d, scheduler=False, timeout=False)
     d.add_argument(
         "--budget", type=positive_int, default=40_000,
         help="parafoil: stage 2's sequential sampler, most model evaluations (default 40000, "
@@ -263,7 +330,7 @@ VERB_GROUPS = (
     ("run", ("run", "info", "verify", "repair")),
     ("analyse", ("table", "pareto", "section", "refine", "robustness", "correlation",
                  "sensitivity", "export")),
-    ("identify from flight data", ("identifiability", "step", "descent")),
+    ("identify from flight data", ("identifiability", "step", "descent", "predict")),
     ("view", ("hist", "plot", "report", "ui")),
 )  # fmt: skip
 
@@ -303,6 +370,7 @@ _EXTENSION_MODULES = (
     "vectorid.cli.ui",
     "vectorid.cli.descent",
     "vectorid.cli.step",
+    "vectorid.cli.predict",
 )
 
 
@@ -363,12 +431,17 @@ def main(argv: Sequence[str] | None = None) -> int:
             except OSError:
                 pass
 
-    with warnings.catch_warnings():
+    from .._hints import quiet_notices
+
+    # --quiet: no progress and no waiting notices, here and in the workers the verb starts
+    with warnings.catch_warnings(), quiet_notices(bool(getattr(args, "quiet", False))):
         from ..errors import VectoridWarning
 
         warnings.simplefilter("always", VectoridWarning)
         warnings.showwarning = _show_warning
         try:
+            if getattr(args, "save", False):
+                save_limits(args)
             return commands[args.command](args)
         except StoreLockedError as exc:
             print(f"error: {exc}", file=sys.stderr)
@@ -445,7 +518,6 @@ def open_study(path: str, write: bool = False):
 
 def parse_limits_for(spec: Any, texts: Sequence[str]) -> list[Any]:
     """Parse ``--limit`` options (:func:`vectorid.limits.parse_user_limits`)."""
-    from ..limits import parse_user_limits
 
     return parse_user_limits(spec, texts)
 
@@ -483,16 +555,17 @@ def _sampler_note(args: argparse.Namespace, a: Any) -> str | None:
     return f"{note}\n  N, ND, NP count trials (unweighted); densities of D use the weights"
 
 
-def _save_limits(args: argparse.Namespace, a: Any) -> None:
-    """Save the constraints in force (``--save``) into the study held by the store."""
-    criteria, constraints = a.limits.for_saving()
+def save_limits(args: argparse.Namespace) -> None:
+    """``--save``: save the constraints in force (the study's, changed by ``--limit``) into
+    the study held by ``args.store``, before the verb runs (so the verb reads them back). The
+    same for every verb that takes ``--save`` (:func:`add_save_option`)."""
     study = open_study(args.store, write=True)
     with study:
+        limits = Limits(study.spec, parse_limits_for(study.spec, args.limit))
+        criteria, constraints = limits.for_saving()
         study.store.set_limits(criteria, constraints)
-    print(
-        f"saved in {args.store}: " + (", ".join(str(b) for b in a.active_bounds()) or "no limits"),
-        file=sys.stderr,
-    )
+        shown = ", ".join(str(b) for b in limits.active())
+    print(f"saved in {args.store}: {shown or 'no limits'}", file=sys.stderr)
 
 
 def _fmt(v: float) -> str:
@@ -548,9 +621,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         study = Study.create_or_open(
             spec, store, study_file=src, accept_changes=args.accept_changes
         )
-    executor = args.executor
-    if args.scheduler and executor is None:
-        executor = "dask"
+    executor = executor_of(args)
     with study:
         print(f"study {study.spec.name!r} -> {study.store.path}", file=sys.stderr)
         _warn_damage(study.store)
@@ -571,7 +642,10 @@ def _cmd_run(args: argparse.Namespace) -> int:
             print(f"\n{exc}", file=sys.stderr)
             print(exc.summary.describe(), file=sys.stderr)
             return EXIT_INTERRUPTED
-        print(summary.describe())
+        if args.json:
+            print_json(summary.to_dict())
+        else:
+            print(summary.describe())
     return 0
 
 
@@ -678,8 +752,8 @@ def _cmd_info(args: argparse.Namespace) -> int:
         if trials.damaged:
             lost = sum(d.n for d in trials.damaged)
             print(
-                f"DAMAGED    {len(trials.damaged)} batches ({lost} trials) left out of the "
-                f"counts below; `vectorid repair {st.path}` recomputes them:"
+                f"DAMAGED    {plural(len(trials.damaged), 'batch')} ({plural(lost, 'trial')}) "
+                f"left out of the counts below; `vectorid repair {st.path}` recomputes them:"
             )
             for d in trials.damaged:
                 print(f"  {d.describe()}")
@@ -792,23 +866,26 @@ def _cmd_verify(args: argparse.Namespace) -> int:
 
 
 def _cmd_repair(args: argparse.Namespace) -> int:
+    from ..run.executors import executor_options
     from ..run.repair import repair_store
 
-    report = repair_store(
-        Path(args.store),
-        executor=args.executor,
-        workers=args.workers,
-        progress=not args.quiet,
-        study=args.study,
-    )
-    print(report.describe())
+    with executor_options(scheduler=args.scheduler, timeout=args.timeout):
+        report = repair_store(
+            Path(args.store),
+            executor=executor_of(args),
+            workers=args.workers,
+            progress=not args.quiet,
+            study=args.study,
+        )
+    if args.json:
+        print_json(report.to_dict())
+    else:
+        print(report.describe())
     return 0
 
 
 def _cmd_table(args: argparse.Namespace) -> int:
     a = _analysis(args)
-    if args.save:
-        _save_limits(args, a)
     tables = a.test_tables(feasible_only=args.feasible)
     if args.json:
         out = a.summary()
@@ -865,8 +942,6 @@ def _source(c: Any, value: float) -> str:
 
 def _cmd_pareto(args: argparse.Namespace) -> int:
     a = _analysis(args)
-    if args.save:
-        _save_limits(args, a)
     if args.json:
         print_json(a.pareto_json())
         return 0
@@ -896,13 +971,17 @@ def _cmd_pareto(args: argparse.Namespace) -> int:
 
 def _cmd_export(args: argparse.Namespace) -> int:
     from ..analysis.export import write_analysis
+    from ..errors import StudyDefinitionError
 
-    if args.format == "parquet" and not args.out:
-        from ..errors import StudyDefinitionError
-
+    fmt = args.format or ("json" if args.json else "csv")
+    if args.json and fmt != "json":
+        raise StudyDefinitionError(
+            "--json", f"--json asks for JSON, --format for {fmt}", "give one of the two"
+        )
+    if fmt == "parquet" and not args.out:
         raise StudyDefinitionError("--out", "parquet needs a file", "add --out trials.parquet")
     a = _analysis(args)  # the flags follow --limit/--role, as in table and pareto
-    n = write_analysis(a, args.format, args.out or sys.stdout, constraints=args.constraints)
+    n = write_analysis(a, fmt, args.out or sys.stdout, constraints=args.constraints)
     if args.out:
         what = "constraints" if args.constraints else "trials"
         print(f"{n} {what} written to {args.out}", file=sys.stderr)
@@ -959,11 +1038,13 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 
         return run_parafoil_demo(
             Path(args.out), trials=args.trials or 4096, progress=not args.quiet,
-            budget=args.budget, population=args.population,
+            budget=args.budget, population=args.population, executor=args.executor,
+            workers=args.workers,
         )  # fmt: skip
     return run_demo(
-        Path(args.out), trials=args.trials or 2048, progress=not args.quiet, analytic=args.analytic
-    )
+        Path(args.out), trials=args.trials or 2048, progress=not args.quiet,
+        analytic=args.analytic, executor=args.executor, workers=args.workers,
+    )  # fmt: skip
 
 
 _COMMANDS = {

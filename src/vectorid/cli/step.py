@@ -20,7 +20,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from .main import positive_int
+from .main import add_json_option, positive_int
 
 __all__ = ["COMMANDS", "add_parsers"]
 
@@ -36,7 +36,7 @@ def add_parsers(sub: Any) -> None:
     )
     s.add_argument("--trials", type=positive_int, default=16, help="Sobol vectors of the box (16)")
     s.add_argument("--seed", type=int, default=0, help="seed of the Sobol sample (0)")
-    s.add_argument("--json", action="store_true")
+    add_json_option(s)
 
 
 def _cmd_step(args: argparse.Namespace) -> int:
@@ -107,8 +107,7 @@ def _cmd_step(args: argparse.Namespace) -> int:
     else:
         own = max(e for e in mine if e is not None)
         print(
-            f"the study's dt = {ident.dt:g} s: largest position error {own:.3g} m over every "
-            "drop"
+            f"the study's dt = {ident.dt:g} s: largest position error {own:.3g} m over every drop"
         )
     if overall is None:
         print(f"no candidate step is within {args.tolerance:g} m for every drop")

@@ -1,9 +1,10 @@
 """The ``vectorid ui`` verb (loaded by :mod:`vectorid.cli`)::
 
-    vectorid ui STORE [--host 127.0.0.1] [--port 8050] [--executor serial|processes]
-                      [--workers N] [--max-points N]
+    vectorid ui STORE [OTHER] [--host 127.0.0.1] [--port 8050]
+                      [--executor serial|processes] [--workers N] [--max-points N]
 
-Serves the browser UI of a study store; needs the ``ui`` extra (dash).
+Serves the browser UI of a study store; needs the ``ui`` extra (dash). With a second store,
+a *Compare* tab shows the two models side by side (the same criteria on the same data).
 """
 
 from __future__ import annotations
@@ -12,7 +13,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from .main import positive_int
+from .main import add_executor_options, add_store_argument, positive_int
 
 __all__ = ["COMMANDS", "add_parsers"]
 
@@ -30,19 +31,19 @@ def _port(text: str) -> int:
 def add_parsers(sub: Any) -> None:
     """Add ``ui`` to the ``vectorid`` sub-parsers."""
     u = sub.add_parser("ui", help="serve the interactive browser UI of a study store")
-    u.add_argument("store", help="the study store (.db)")
+    add_store_argument(u)
+    u.add_argument(
+        "other",
+        nargs="?",
+        help="a second store to compare with (two models of the same data: a Compare tab)",
+    )
     u.add_argument(
         "--host",
         default="127.0.0.1",
         help="interface to bind (default 127.0.0.1; anything else is reachable by others)",
     )
     u.add_argument("--port", type=_port, default=8050, help="port (default 8050)")
-    u.add_argument(
-        "--executor",
-        choices=["serial", "processes"],
-        help="for new stages started from the UI (default: the study's, else processes)",
-    )
-    u.add_argument("--workers", type=positive_int, help="worker processes for new stages")
+    add_executor_options(u, scheduler=False, timeout=False)  # for the runs started from the UI
     u.add_argument(
         "--max-points",
         type=positive_int,
@@ -55,10 +56,17 @@ def _cmd_ui(args: argparse.Namespace) -> int:
     from ..errors import StoreError
 
     path = Path(args.store)
-    if not path.is_file():
-        raise StoreError(
-            f"no store at {path}; run a study first (`vectorid demo`, `vectorid run STUDY.toml`)"
-        )
+    for p in (path, Path(args.other)) if args.other else (path,):
+        if p.is_dir():
+            stores = sorted(q.name for q in p.glob("*.db"))[:5]
+            raise StoreError(
+                f"{p} is a folder, not a study store; point to the .db file"
+                + (f" (this folder holds {', '.join(stores)})" if stores else " (it holds none)")
+            )
+        if not p.is_file():
+            raise StoreError(
+                f"no store at {p}; run a study first (`vectorid demo`, `vectorid run STUDY.toml`)"
+            )
     import importlib.util
 
     from .._hints import install_hint
@@ -81,6 +89,7 @@ def _cmd_ui(args: argparse.Namespace) -> int:
             executor=args.executor,
             workers=args.workers,
             max_points=args.max_points,
+            compare=args.other,
         )
     except ImportError as exc:  # pragma: no cover - a broken dash installation only
         raise StudyDefinitionError("ui", str(exc)) from None

@@ -23,10 +23,19 @@ import numpy as np
 
 from .. import analytic
 from .._toml import toml_value
+from ..run.executors import executor_options
 
-__all__ = ["DEMO_PROBLEM", "run_analytic_demo", "run_demo", "study_toml"]
+__all__ = ["DEMO_EXECUTOR", "DEMO_PROBLEM", "run_analytic_demo", "run_demo", "study_toml"]
 
 DEMO_PROBLEM = "binh-korn"
+#: Where the demos' trials run unless ``--executor`` says otherwise: ``"serial"``, one model
+#: process whose compiled kernel (numba, parallel over a batch's trials) keeps every core busy
+#: for the ~85 % of a flight model's time it spends there. ``"processes"`` gains only the rest
+#: (its criteria in Python) and pays each worker's start-up (a fresh interpreter that loads
+#: the model, about 2 CPU-s per worker and stage): the same wall time on 2 cores, measured in
+#: docs/performance.md ("Demos on every core"). A model of your own that runs in Python gains
+#: from ``processes``, which ``vectorid run`` uses by default.
+DEMO_EXECUTOR = "serial"
 
 
 def _num(v: float) -> str:
@@ -81,7 +90,14 @@ def study_toml(
     return "\n".join(lines)
 
 
-def run_analytic_demo(out: Path, *, trials: int = 2048, progress: bool = True) -> int:
+def run_analytic_demo(
+    out: Path,
+    *,
+    trials: int = 2048,
+    progress: bool = True,
+    executor: str | None = None,
+    workers: int | None = None,
+) -> int:
     """Run the analytic (Binh–Korn) demo into folder ``out`` and print its results.
 
     Returns an exit code. This was the demo before the identification demo; it stays
@@ -102,7 +118,9 @@ def run_analytic_demo(out: Path, *, trials: int = 2048, progress: bool = True) -
     print(f"  study file  {study_file}")
     print(f"  store       {store}")
     with Study.create_or_open(spec, store) as study:
-        summary = study.run(trials=trials, executor="serial", progress=progress)
+        summary = study.run(
+            trials=trials, executor=executor or "serial", workers=workers, progress=progress
+        )
         print(f"  {summary.describe()}")
         a = study.analysis()
         print()
@@ -158,6 +176,8 @@ def run_demo(
     progress: bool = True,
     analytic: bool = False,
     report: bool = True,
+    executor: str | None = None,
+    workers: int | None = None,
 ) -> int:
     """Run the identification demo (or, with ``analytic``, the Binh–Korn demo) into ``out``.
 
@@ -174,6 +194,10 @@ def run_demo(
         Run the analytic demo instead.
     report : bool
         Write the HTML reports (needs plotly; skipped with a note when it is missing).
+    executor, workers : optional
+        Where the trials run (default ``"serial"``: one model process, whose compiled kernel
+        runs a batch's trials on every core, see :data:`DEMO_EXECUTOR`) and how many worker
+        processes (``"processes"``, ``"dask"``).
 
     Returns
     -------
@@ -181,10 +205,13 @@ def run_demo(
         Exit code.
     """
     if analytic:
-        return run_analytic_demo(out, trials=trials, progress=progress)
+        return run_analytic_demo(
+            out, trials=trials, progress=progress, executor=executor, workers=workers
+        )
     return run_identification_demo(
-        out, trials=trials, coarse=coarse, progress=progress, report=report
-    )
+        out, trials=trials, coarse=coarse, progress=progress, report=report,
+        executor=executor, workers=workers,
+    )  # fmt: skip
 
 
 # -- the identification demo ---------------------------------------------------------------------
@@ -290,7 +317,7 @@ def identification_toml(step: int, *, trials: int, truth: dict, seed: int = 1) -
         'model = "parachute6dof"',
         f"trials = {int(trials)}",
         f"seed = {int(seed)}",
-        'executor = "serial"',
+        f'executor = "{DEMO_EXECUTOR}"  # one model process: its kernel runs a batch on all cores',
         "",
     ]
     for name, lo, hi in variables:
@@ -347,9 +374,8 @@ def _copy_data(out: Path) -> dict:
 def _rms_errors(ident, x: np.ndarray) -> tuple[float, float]:
     """RMS horizontal and vertical position errors (m) of one design vector on ident's drop."""
     d = ident.drops[0]
-    res = ident.simulate(x[None, :], d)
+    res = ident.simulate(x[None, :], d)  # positions relative to the drop's origin
     pos = np.array(res.position[0])
-    pos[:, 2] += d.origin_altitude
     meas = d.measured("position")
     e = pos - meas
     return float(np.sqrt(np.mean(e[:, 0] ** 2 + e[:, 1] ** 2))), float(
@@ -518,8 +544,12 @@ def run_identification_demo(
     coarse: int | None = None,
     progress: bool = True,
     report: bool = True,
+    executor: str | None = None,
+    workers: int | None = None,
 ) -> int:
-    """The two-step identification demo (see the module docstring). Returns an exit code."""
+    """The two-step identification demo (see the module docstring). Returns an exit code.
+
+    ``executor`` and ``workers``: see :func:`run_demo`."""
     from ..identify import Identification
     from ..spec import load_study
     from ..workflows.twostep import control_contribution, run_two_step
@@ -559,18 +589,20 @@ def run_identification_demo(
     from ..models import get as get_model
 
     get_model("parachute6dof").compile()  # says so if it compiles: not inside a progress bar
-    res = run_two_step(
-        spec1,
-        spec2,
-        out,
-        trials=trials,
-        coarse=coarse,
-        progress=progress,
-        control_step=True,
-        control_box=False,
-        auto_quantile=None,
-        hints=DEMO_HINTS,
-    )
+    with executor_options(workers=workers):
+        res = run_two_step(
+            spec1,
+            spec2,
+            out,
+            trials=trials,
+            coarse=coarse,
+            executor=executor or DEMO_EXECUTOR,
+            progress=progress,
+            control_step=True,
+            control_box=False,
+            auto_quantile=None,
+            hints=DEMO_HINTS,
+        )
     true = truth["parameters"]
     nominal = truth["model_nominal"]
     for r, spec in ((res.step1, spec1), (res.step2, res.step2_spec)):

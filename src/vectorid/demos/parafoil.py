@@ -70,9 +70,11 @@ from ..analysis.identifiability import VERDICTS
 from ..analysis.relaxation import MIN_D
 from ..analysis.sections import sections_through
 from ..identify.spectral import rate_peaks
+from ..run.executors import executor_options
 from ..workflows.reduction import propose_reduction
 from ..workflows.stages import IdentificationStage, print_stage_limits, print_verdicts, run_stage
 from ..workflows.truth import check_truth
+from .g12 import DEMO_EXECUTOR
 
 __all__ = ["DEMO_DATA", "DEMO_DISCREPANCY", "run_parafoil_demo", "stage_toml"]
 
@@ -137,6 +139,19 @@ MECHANISMS = {
 WINDOW = 150.0  # s of the drop compared, from the event glide_start
 OUTPUT_DT = 0.2  # s, comparison grid (5 Hz: spectra up to 2.5 Hz)
 DT = 0.05  # s, integration step (RK4; the results agree with dt = 0.02 s to 1e-5)
+#: The second, planned manoeuvre stage 2's D is asked to predict (never flown by the data):
+#: released 1000 m above the landing zone heading south-west, a right turn (right flap 50 %,
+#: 20-40 s), a left turn (left flap 40 %, 70-85 s), both flaps 30 % (110-120 s), then a glide
+#: to the ground, in the dropsonde's wind. Knots (s, left, right) held with 1-s ramps.
+PLANNED_PROGRAM = (
+    (0.0, 0.0, 0.0), (20.0, 0.0, 0.5), (40.0, 0.0, 0.0), (70.0, 0.4, 0.0), (85.0, 0.0, 0.0),
+    (110.0, 0.3, 0.3), (120.0, 0.0, 0.0),
+)  # fmt: skip
+PLANNED_HEIGHT = 1000.0  # m above the landing zone (the origin)
+PLANNED_YAW_DEG = 220.0  # initial heading, deg from north
+PLANNED_DURATION = 320.0  # s simulated: every member lands before
+PLANNED_MEMBERS = 400  # members of D flown (drawn keeping their weights)
+PLANNED_GUSTS = 20  # gust realisations the generator's truth is flown in
 
 
 # -- study files --------------------------------------------------------------------------------
@@ -222,7 +237,7 @@ def stage_toml(
         f'model = "{model}"',
         f"trials = {int(trials)}",
         "seed = 1",
-        'executor = "serial"',
+        f'executor = "{DEMO_EXECUTOR}"  # one model process: its kernel runs a batch on all cores',
         "",
     ]
     for vname, lo, hi in variables:
@@ -431,11 +446,10 @@ def _allowance_text() -> str:
 def _rms(ident, x: np.ndarray) -> tuple[float, float]:
     """RMS horizontal and vertical position errors (m) of one design vector on the drop."""
     d = ident.drops[0]
-    res = ident.simulate(np.atleast_2d(x), d)
+    res = ident.simulate(np.atleast_2d(x), d)  # positions relative to the drop's origin
     if res.status[0] != 0:
         return np.nan, np.nan
     pos = np.array(res.position[0])
-    pos[:, 2] += d.origin_altitude
     e = pos - d.measured("position")
     return float(np.sqrt(np.mean(e[:, 0] ** 2 + e[:, 1] ** 2))), float(
         np.sqrt(np.mean(e[:, 2] ** 2))
@@ -596,6 +610,164 @@ def _sections(ident, true: Mapping[str, float], limits, boxes) -> dict:
     return sections_through(ident.evaluate, x, names, crit, limits, boxes)
 
 
+def _knots(program, step: float = 1.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Flap knots (t, left, right) of a program held between its times with ``step``-s ramps."""
+    kt, kl, kr = [0.0], [program[0][1]], [program[0][2]]
+    for t0, left, right in program[1:]:
+        kt += [t0, t0 + step]
+        kl += [kl[-1], left]
+        kr += [kr[-1], right]
+    return np.array(kt), np.array(kl), np.array(kr)
+
+
+def _lagged(t: np.ndarray, u: np.ndarray, tau: float) -> np.ndarray:
+    """First-order lag ``tau dy/dt = u - y`` of a signal linear between samples (the
+    generator's flap actuator, scripts/make_parafoil_demo_data.py)."""
+    y = np.empty_like(u)
+    y[0] = u[0]
+    a = np.exp(-np.diff(t) / tau)
+    for k in range(1, u.size):
+        slope = (u[k] - u[k - 1]) / (t[k] - t[k - 1])
+        y[k] = u[k] - tau * slope + a[k - 1] * (y[k - 1] - u[k - 1] + tau * slope)
+    return y
+
+
+def planned_manoeuvre_toml(truth: Mapping[str, Any]) -> str:
+    """The drop file (:mod:`vectorid.identify.planned`) of the planned manoeuvre, for
+    ``vectorid predict`` in the demo's folder."""
+    kt, kl, kr = _knots(PLANNED_PROGRAM)
+    origin = float(truth["origin_altitude_m"])
+    yaw = math.radians(PLANNED_YAW_DEG)
+    return "\n".join([
+        "# vectorid demo parafoil: a second, planned manoeuvre (no data) for stage 2's D",
+        "[identification]",
+        'model = "parafoil8dof"',
+        "",
+        "[[identification.drops]]",
+        'name = "planned-manoeuvre"',
+        f"initial = {{ altitude = {origin + PLANNED_HEIGHT!r}, euler = [0.0, 0.0, {yaw!r}] }}",
+        f"origin = [32.85, -114.39, {origin!r}]   # the landing zone: the ground",
+        f"duration = {PLANNED_DURATION!r}",
+        "channels = { position = 1.0, velocity = 1.0 }",
+        'wind = "data/wind.csv"',
+        'wind_format = "dropsonde"',
+        'wind_options = { altitude = "altitude_m", u = "u_ms", v = "v_ms" }',
+        f"controls = {{ time = {toml_value(kt.tolist())}, flap_left = {toml_value(kl.tolist())}, "
+        f"flap_right = {toml_value(kr.tolist())} }}",
+        "interpolation = \"linear\"",
+        f"noise = {toml_value(truth['sensor_noise'])}",
+        "",
+    ])  # fmt: skip
+
+
+def _truth_landings(truth: Mapping[str, Any], seeds: Sequence[int]) -> np.ndarray:
+    """Where the generator's truth lands on the planned manoeuvre (north, east m of the landing
+    zone), one row per gust realisation: its gains, flap lag, payload joint and Dryden gusts
+    (the generator's, scripts/make_parafoil_demo_data.py), in the dropsonde's mean wind."""
+    from ..identify import load_dropsonde_csv
+    from ..identify.twins import ZeroMeanUpdraft
+    from ..models import InitialState, Wind, flap_deflections
+    from ..models import get as get_model
+
+    m = get_model("parafoil8dof", attitude="payload",
+                  joint_stiffness=tuple(truth["joint_stiffness_Nm_rad"]),
+                  joint_damping=tuple(truth["joint_damping_Nms_rad"]))  # fmt: skip
+    x = m.nominal.copy()
+    for name, value in truth["parameters"].items():
+        x[m.parameter_names.index(name)] = value
+    kt, kl, kr = _knots(PLANNED_PROGRAM)
+    t = np.arange(0.0, PLANNED_DURATION + 1e-9, 0.05)
+    lag = float(truth["actuator_lag_s"])
+    inputs = flap_deflections(t, _lagged(t, np.interp(t, kt, kl), lag),
+                              _lagged(t, np.interp(t, kt, kr), lag))  # fmt: skip
+    origin = float(truth["origin_altitude_m"])
+    sonde = load_dropsonde_csv(DEMO_DATA / "wind.csv", altitude="altitude_m", u="u_ms", v="v_ms")
+    ini = InitialState(altitude=origin + PLANNED_HEIGHT,
+                       euler=(0.0, 0.0, math.radians(PLANNED_YAW_DEG)))  # fmt: skip
+    out = np.full((len(seeds), 2), np.nan)
+    for i, seed in enumerate(seeds):
+        turb = ZeroMeanUpdraft(w20=float(truth["w20_ms"]), seed=np.random.default_rng(seed),
+                               v_ref=15.0, dt=0.05, ground_altitude=origin)  # fmt: skip
+        res = m.simulate(x[None, :], t_final=PLANNED_DURATION, dt=DT, inputs=inputs,
+                         wind=Wind(sonde, turb), output_dt=0.5, initial=ini)  # fmt: skip
+        if res.status[0] != 0:
+            continue
+        h = -res.position[0, :, 2] - origin
+        k = int(np.argmax(h <= 0))
+        if k == 0:
+            continue
+        f = h[k - 1] / (h[k - 1] - h[k])
+        p = res.position[0]
+        out[i] = p[k - 1, :2] + f * (p[k, :2] - p[k - 1, :2])
+    return out
+
+
+def _planned_manoeuvre(out: Path, truth: Mapping[str, Any], st: IdentificationStage) -> None:
+    """What stage 2's D predicts for the planned manoeuvre: the landing R50/R90/R95, and
+    whether the generator's truth lands inside R95."""
+    from ..workflows.predict import EmptySetError, predict
+
+    r = st.result
+    f = out / "planned-manoeuvre.toml"
+    f.write_text(planned_manoeuvre_toml(truth), encoding="utf-8")
+    print()
+    print(
+        f"What stage 2's D predicts for a second, planned manoeuvre ({f.name}: released "
+        f"{PLANNED_HEIGHT:g} m above the landing\n  zone heading {PLANNED_YAW_DEG:g} deg, right "
+        "turn 20-40 s, left turn 70-85 s, brakes 110-120 s, in the dropsonde's wind;\n  "
+        f"vectorid predict {r.store} {f})"
+    )
+    # D at the stated limits wherever it holds a member; else the stage's last resort, named
+    stated = st.n_noise_feasible > 0
+    limits = None if stated else r.analysis.limits
+    which = "D" if stated else f"the last resort's set (limits relaxed x{st.factor:g}), not D"
+    try:
+        p = predict(r.store, f, members=PLANNED_MEMBERS, seed=1, limits=limits,
+                    relaxed_by=None if stated else st.factor)  # fmt: skip
+    except EmptySetError as exc:
+        print(f"  no prediction: {exc}")
+        return
+    d = p.drops[0]
+    disp = d.dispersion
+    print(f"  {len(p.members)} members of {which} flown ({p.members.chosen})")
+    if disp is None or disp.kind != "landing":
+        print(f"  no landing to read: {'; '.join(d.notes) or 'too few members flew it'}")
+        return
+    iv = disp.intervals
+    print(
+        f"  landing at {disp.time_s:.0f} s, centre {disp.centre[0]:.0f} m north, "
+        f"{disp.centre[1]:.0f} m east of the landing zone; R50 {disp.radii['r50']:.1f} m "
+        f"[{iv['r50'][0]:.1f}, {iv['r50'][1]:.1f}], R90 {disp.radii['r90']:.1f} m "
+        f"[{iv['r90'][0]:.1f}, {iv['r90'][1]:.1f}], R95 {disp.radii['r95']:.1f} m "
+        f"[{iv['r95'][0]:.1f}, {iv['r95'][1]:.1f}] (bootstrap 5-95 %)"
+    )
+    for n in d.notes:
+        print(f"  note: {n}")
+    seeds = [int(truth["seed"]) + 1 + k for k in range(PLANNED_GUSTS)]
+    land = _truth_landings(truth, seeds)
+    dist = np.linalg.norm(land - disp.centre, axis=1)
+    r95 = disp.radii["r95"]
+    first = (
+        f"{dist[0]:.1f} m from the centre: {'inside' if dist[0] <= r95 else 'OUTSIDE'} R95"
+        if np.isfinite(dist[0])
+        else "no landing (its flight failed)"
+    )
+    ok = np.isfinite(dist)
+    inside = int(np.sum(dist[ok] <= r95))
+    why = (
+        ""
+        if inside >= 0.9 * ok.sum()
+        else ": D's spread holds the gains the data leave open, not the gusts the model does "
+        "not fly"
+    )
+    print(
+        f"  the generator's truth (its gains, {truth['actuator_lag_s']:g}-s flap lag, payload "
+        f"joint stiffness, Dryden gusts W20 = {truth['w20_ms']:g} m/s, seed {seeds[0]}) lands "
+        f"{first};\n  over {int(ok.sum())} gust realisations it lands inside R95 in {inside} "
+        f"(median distance from the centre {np.median(dist[ok]):.1f} m){why}"
+    )
+
+
 def run_parafoil_demo(
     out: Path,
     *,
@@ -606,6 +778,8 @@ def run_parafoil_demo(
     budget: int = 40_000,
     population: int = 200,
     report: bool = True,
+    executor: str | None = None,
+    workers: int | None = None,
 ) -> int:
     """Run the parafoil demo into folder ``out`` and print its results (module docstring).
 
@@ -629,12 +803,35 @@ def run_parafoil_demo(
         what stage 3 used, or stage 2 where stage 3 is not run: nothing fixed or tied).
     population : int
         Members of D wanted per stage (with an effective sample size as large).
+    executor, workers : optional
+        Where every stage's trials run (default ``"serial"``, see
+        :data:`vectorid.demos.g12.DEMO_EXECUTOR`) and how many worker processes.
 
     Returns
     -------
     int
         Exit code.
     """
+    with executor_options(workers=workers):
+        return _run_parafoil_demo(
+            Path(out), trials=trials, stage1_trials=stage1_trials, stage3_trials=stage3_trials,
+            progress=progress, budget=budget, population=population, report=report,
+            executor=executor or DEMO_EXECUTOR,
+        )  # fmt: skip
+
+
+def _run_parafoil_demo(
+    out: Path,
+    *,
+    trials: int,
+    stage1_trials: int | None,
+    stage3_trials: int | None,
+    progress: bool,
+    budget: int,
+    population: int,
+    report: bool,
+    executor: str,
+) -> int:
     from .. import models
     from ..identify import Identification
     from ..spec import load_study
@@ -648,7 +845,7 @@ def run_parafoil_demo(
         stage1_trials = min(2048, max(64, trials // 8))
     stage3_trials = max(64, trials // 4) if stage3_trials is None else int(stage3_trials)
     budget1, budget3 = max(stage1_trials, budget // 10), max(stage3_trials, budget // 2)
-    seq = {"sampler": "sequential", "population": population}
+    seq = {"sampler": "sequential", "population": population, "executor": executor}
     model = models.get("parafoil8dof", **MODEL_OPTIONS)
     names = list(model.parameter_names)
     full_boxes = {n: _box(model, n) for n in names}
@@ -679,7 +876,9 @@ def run_parafoil_demo(
     print()
     _criteria_legend()
     sys.stdout.flush()
-    model.compile()  # says so if it compiles (first use): not inside a progress bar
+    # both models' kernels (the 6-DoF's for the last comparison) compile at once, one per
+    # core, on first use only; said before any progress bar
+    models.compile_models(["parafoil8dof", "parafoil6dof"])
 
     # ---- stage 1 -------------------------------------------------------------------------
     v1 = [(n, *_box(model, n)) for n in STAGE1]
@@ -732,8 +931,10 @@ def run_parafoil_demo(
     ins = s2["inside"]
     n_in = sum(bool(v) for v in ins.values())
     misses = [k for k, v in ins.items() if not v]
-    print(f"  truth inside the feasible range of {n_in} of {len(ins)} gains"
-          + (f" (misses: {', '.join(misses)})" if misses else ""))
+    print(
+        f"  truth inside the feasible range of {n_in} of {len(ins)} gains"
+        + (f" (misses: {', '.join(misses)})" if misses else "")
+    )
     sec = _sections(ident8, true, st2.noise_limits, full_boxes)
     _print_sections(sec, full_boxes)
     pure = a2.pure
@@ -781,6 +982,10 @@ def run_parafoil_demo(
             f"({', '.join(twofold[:12])}{', ...' if len(twofold) > 12 else ''})"
         )
     _report(r2, report)
+    sys.stdout.flush()
+
+    # ---- what stage 2's D predicts for a planned manoeuvre ------------------------------
+    _planned_manoeuvre(out, truth, st2)
     sys.stdout.flush()
 
     # ---- Figure 14 -> tie / fix proposal -> stage 3 --------------------------------------

@@ -414,7 +414,7 @@ def _safe(name: str) -> str:
 def _sim_alt(ident, d, x) -> tuple[np.ndarray, np.ndarray]:
     res = ident.simulate(np.atleast_2d(x), d)
     n = min(len(d.grid), res.position.shape[1])
-    sim = -res.position[0, :n, 2] - d.origin_altitude
+    sim = -res.position[0, :n, 2]  # relative to the drop's origin, as the data
     meas = d.measured("altitude")[:n, 0]
     return sim, meas
 

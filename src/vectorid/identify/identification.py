@@ -222,11 +222,14 @@ class DropoutDef:
 
 def sim_channel(res: SimulationResult, channel: str, origin_alt: float) -> NDArray[np.float64]:
     """Simulated channel (n, T, m) in the data's conventions (NED relative to the origin): the
-    arrays the criteria compare with the measured channel (``position`` with the origin's
-    altitude added back, ``altitude`` above the origin, other channels as simulated)."""
+    arrays the criteria compare with the measured channel (``position`` relative to the origin
+    at ``origin_alt`` m above sea level, ``altitude`` above it, other channels as simulated).
+    ``res`` may be in the model's frame (``res.origin_altitude`` 0: down = -altitude above sea
+    level) or already relative to an origin (:meth:`Identification.simulate`)."""
+    shift = origin_alt - float(getattr(res, "origin_altitude", 0.0))
     if channel == "position":
         pos = np.array(res.position)
-        pos[..., 2] += origin_alt
+        pos[..., 2] += shift
         return pos
     if channel == "velocity":
         return res.velocity
@@ -235,7 +238,7 @@ def sim_channel(res: SimulationResult, channel: str, origin_alt: float) -> NDArr
     if channel == "rates":
         return res.rates
     if channel == "altitude":
-        return (-res.position[..., 2] - origin_alt)[..., None]
+        return (-res.position[..., 2] - shift)[..., None]
     if channel in res.channels:
         return res[channel][..., None]
     raise KeyError(channel)
@@ -470,15 +473,43 @@ class Identification:
         return k, t0, steps, valid
 
     def simulate(
-        self, X: NDArray, drop: str | Drop, wind: WindProfile | str | None = "measured"
+        self,
+        X: NDArray,
+        drop: str | Drop,
+        wind: WindProfile | str | None = "measured",
+        *,
+        frame: str = "origin",
     ) -> SimulationResult:
         """Simulate design vectors X (n, p) over one drop's window.
 
-        ``wind``: ``"measured"`` (the drop's profile), a profile, or None (calm).
+        Parameters
+        ----------
+        X : (n, p) float
+            Design vectors, columns as the study's variables.
+        drop : str or Drop
+            The drop (or its name).
+        wind : ``"measured"``, WindProfile or None
+            The drop's measured profile (default), another profile, or calm air (None).
+        frame : {"origin", "sea level"}
+            ``"origin"`` (default): ``position`` is north, east, down relative to the drop's
+            origin, in the frame of its data (``res.origin_altitude`` is the origin's
+            altitude), so ``res.position`` compares with ``drop.measured("position")``
+            directly. ``"sea level"``: the model's own frame (down = -altitude above sea
+            level, ``res.origin_altitude`` 0), as this method returned before.
+
+        Returns
+        -------
+        SimulationResult
+            On the output grid ``t = 0, output_dt, ...`` s from the window start.
         """
+        if frame not in ("origin", "sea level"):
+            raise _err(
+                "simulate", f"expected frame 'origin' or 'sea level', got {frame!r}",
+                "use 'origin' to compare with the drop's data",
+            )  # fmt: skip
         d = self.drop(drop) if isinstance(drop, str) else drop
         w = d.wind if isinstance(wind, str) and wind == "measured" else wind
-        return self.model.simulate(
+        res = self.model.simulate(
             self.parameters(X),
             t_final=d.duration,
             dt=self.dt,
@@ -488,6 +519,10 @@ class Identification:
             initial=d.initial,
             atmosphere=self.atmosphere,
         )
+        if frame == "origin":
+            res.outputs[:, :, 2] += d.origin_altitude  # position (a view) follows
+            res.origin_altitude = float(d.origin_altitude)
+        return res
 
     def drop(self, name: str) -> Drop:
         for d in self.drops:

@@ -75,7 +75,8 @@ import csv
 import importlib
 import math
 import sys
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -85,14 +86,23 @@ from numpy.typing import NDArray
 
 import vectorid.identify.criteria as lib
 from vectorid import models
-from vectorid.errors import StudyDefinitionError, suggest
+from vectorid.errors import StudyDefinitionError, VectoridError, suggest
 from vectorid.identify.loaders.common import UNITS
 from vectorid.identify.noise.statements import parse_component
 from vectorid.models.base import validate_time
 from vectorid.models.system import SystemModel, SystemResult
-from vectorid.problem import Criterion, Problem
+from vectorid.problem import Criterion, Problem, checked_output, describe_exception
 
-__all__ = ["KINDS", "Record", "SystemIdentification", "convert_unit", "read_record"]
+__all__ = [
+    "KINDS",
+    "Record",
+    "SystemIdentification",
+    "at_reference",
+    "check_record_scales",
+    "code_modules",
+    "convert_unit",
+    "read_record",
+]
 
 #: Table keys of ``[identification]`` for an own model (the flight keys do not apply).
 _TABLE_KEYS = {
@@ -306,6 +316,16 @@ class _Crit:
     data: tuple[str, ...] | None
     builtin: bool
 
+    def value(self, out: Any, n: int) -> NDArray[np.float64]:
+        """What the criterion's function returned for ``n`` trials, checked: (n,) real
+        numbers, one per trial (an (n, 1) column or a scalar is never broadcast)."""
+        return checked_output(
+            f"criterion {self.name} ({self.use})",
+            out,
+            (n,),
+            "one value per trial: f(sim (n, T, 1), meas (T, 1), t (T,)) -> (n,)",
+        )
+
 
 def _kind_fn(kind: str) -> Callable[[NDArray, NDArray, NDArray], NDArray]:
     def fn(sim: NDArray, meas: NDArray, t: NDArray) -> NDArray:
@@ -438,7 +458,8 @@ class SystemIdentification:
                 sim = res[c.channel][:, :, None]
                 v = np.full(n, np.nan)
                 if ok.any():
-                    v[ok] = np.asarray(c.fn(sim[ok], r.measured(c.channel), r.grid), dtype=float)
+                    m = int(ok.sum())
+                    v[ok] = c.value(c.fn(sim[ok], r.measured(c.channel), r.grid), m)
                 F[:, j] += r.weight * v
                 W[j] += r.weight
         return F / W, np.empty((n, 0))
@@ -546,7 +567,7 @@ def parse_record_noise(value: Any, model: SystemModel, where: str) -> dict[str, 
                 f"(outputs: {', '.join(model.output_names)})",
                 suggest(ch, model.output_names),
             )
-        out[ch] = parse_component(f"{where}.{ch}", v, 1.0)
+        out[ch] = parse_component(f"{where}.{ch}", v, 1.0, model.unit_of(ch))
     return out
 
 
@@ -595,7 +616,9 @@ def _build_record(
             f"{suggest(str(time_unit), list(UNITS['time']))} (one of {', '.join(UNITS['time'])})",
         )
     tt, vals = read_record(path, time_col, cols, where)
+    raw_step = float(np.median(np.diff(tt)))
     tt = tt * UNITS["time"][str(time_unit)]
+    _check_time_step(where, path.name, time_col, str(time_unit), raw_step, output_dt)
     for ch, u in units.items():
         f = convert_unit(str(u), model.unit_of(ch))
         if f is None:
@@ -659,6 +682,132 @@ def _build_record(
         {k: float(v) for k, v in initial.items()},
         weight,
     )
+
+
+@contextmanager
+def at_reference(what: str, ref: Mapping[str, float]) -> Iterator[None]:
+    """Run the user's model (or criterion) once at the reference vector ``ref`` before any
+    trial (scales of the records, noise floors): what it raises is one line naming it, never
+    a traceback; vectorid's own errors (a wrong shape) pass as they are."""
+    try:
+        yield
+    except VectoridError:
+        raise
+    except Exception as exc:
+        raise _err(
+            "model",
+            f"{what} raised at the reference vector {dict(ref)}: {describe_exception(exc)}",
+            "fix it (vectorid runs it once there, before any trial, for the noise floors and "
+            "the records' scales), or give the variables nominal values where it runs",
+        ) from None
+
+
+#: A record sampled this many comparison steps apart or more is read in the wrong time unit,
+#: or compared on a grid its samples cannot fill (see :func:`_check_time_step`).
+COARSE_STEPS = 100
+
+
+def _check_time_step(
+    where: str, name: str, column: str, unit: str, raw_step: float, output_dt: float
+) -> None:
+    """The record's samples (median step, in its stated time unit) are not orders of
+    magnitude coarser than the comparison grid: a time column in ms stated as s reads 10 Hz
+    samples as 100 s apart. Stops naming the unit that would fit."""
+    step = raw_step * UNITS["time"][unit]
+    if not step > COARSE_STEPS * output_dt:
+        return
+    fits = [u for u, f in UNITS["time"].items() if u != unit and raw_step * f <= 10 * output_dt]
+    likely = max(fits, key=lambda u: UNITS["time"][u]) if fits else None
+    said = (
+        f"time_unit = {likely!r} would make them {raw_step * UNITS['time'][likely]:g} s apart"
+        if likely
+        else "no time unit makes them fit"
+    )
+    raise _err(
+        f"{where}.time_unit",
+        f"{name}: the samples of {column!r} are {step:g} s apart (median) with time_unit = "
+        f"{unit!r}, {step / output_dt:.0f}× the comparison step output_dt = {output_dt:g} s; "
+        f"{said}",
+        "state the time column's unit (units are never guessed), or compare on a grid the "
+        "samples fill (output_dt near their step)",
+    )
+
+
+#: A measured channel whose scale is this many times the model's at the reference vector (or
+#: its inverse) was read in the wrong unit or from the wrong column (see
+#: :func:`check_record_scales`).
+SCALE_MISMATCH = 30.0
+
+
+def check_record_scales(ident: SystemIdentification, ref: NDArray[np.float64], table: Any) -> None:
+    """Each measured channel's scale (RMS over the window) against the model's at the
+    reference vector ``ref`` (design vector, the noise floor's truth), floored by the
+    channel's stated noise σ: a ratio beyond :data:`SCALE_MISMATCH` (a column in mm stated as
+    m reads 1000×) stops, naming the unit that would make them agree when one does.
+
+    Raises
+    ------
+    StudyDefinitionError
+        At the record's unit of that channel (``identification.data[i].units.CH``).
+    """
+    tables = table.get("data", []) if isinstance(table, Mapping) else []
+    named = dict(zip(ident.variables, ref.tolist()))
+    for i, rec in enumerate(ident.records):
+        with at_reference(f"the model {type(ident.model).__name__}", named):
+            res = ident.simulate(ref[None, :], rec)
+        if not res.ok[0]:
+            continue  # the noise floor says why the model fails there
+        sigma = _stated_sigmas(table, tables[i] if i < len(tables) else None)
+        units = (tables[i].get("units") or {}) if i < len(tables) else {}
+        for ch, y in rec.values.items():
+            inside = (rec.t >= rec.t0 - 1e-9) & (rec.t <= rec.t0 + rec.duration + 1e-9)
+            meas = float(np.sqrt(np.mean(y[inside] ** 2))) if inside.any() else 0.0
+            sim_rms = float(np.sqrt(np.nanmean(res[ch][0] ** 2)))
+            scale = max(sim_rms, sigma.get(ch, 0.0))
+            if not (scale > 0 and meas > 0 and np.isfinite(scale) and np.isfinite(meas)):
+                continue
+            ratio = meas / scale
+            if 1 / SCALE_MISMATCH <= ratio <= SCALE_MISMATCH:
+                continue
+            stated = str(units.get(ch, ""))
+            model_unit = ident.model.unit_of(ch)
+            f_stated = convert_unit(stated, model_unit) or 1.0
+            likely = [
+                u
+                for (u, m), f in _CONVERSIONS.items()
+                if _norm_unit(m) == _norm_unit(model_unit)
+                and u != _norm_unit(stated)
+                and 1 / 3 <= ratio * f / f_stated <= 3
+            ]
+            if _norm_unit(model_unit) != _norm_unit(stated) and 1 / 3 <= ratio / f_stated <= 3:
+                likely.insert(0, model_unit)
+            hint = (
+                f"units {ch} = {likely[0]!r} would make them agree"
+                if likely
+                else "check the column mapped to it and its unit"
+            )
+            raise _err(
+                f"data[{i}].units.{ch}",
+                f"record {rec.name!r}: {ch} read in {stated!r} has an RMS of {meas:.4g} "
+                f"{model_unit}, {ratio:.3g}× the model's at the reference vector "
+                f"({scale:.4g} {model_unit}); {hint}",
+                "state the column's unit (units are never guessed), or give the variables "
+                "nominal values near the data",
+            )
+
+
+def _stated_sigmas(table: Any, rec_table: Any) -> dict[str, float]:
+    """σ per channel stated as a plain number (the study's, then the record's)."""
+    out: dict[str, float] = {}
+    for t in (table, rec_table):
+        noise = t.get("noise") if isinstance(t, Mapping) else None
+        if isinstance(noise, Mapping):
+            for ch, v in noise.items():
+                if isinstance(v, int | float) and not isinstance(v, bool):
+                    out[str(ch)] = float(v)
+                elif isinstance(v, Mapping) and isinstance(v.get("sigma"), int | float):
+                    out[str(ch)] = float(v["sigma"])
+    return out
 
 
 def _build_criterion(
@@ -750,6 +899,38 @@ def _library_criterion(use: Any, outputs: Sequence[str]):
 
 
 # -- resolving the model of a study ------------------------------------------------------------
+
+
+def _model_target(name: str) -> str | None:
+    """``"package.module:Class"`` a model name stands for, without importing it: an import
+    path as it is, a registered name or an entry point's target (None: unknown)."""
+    if models._is_import_path(name):
+        return name
+    return models._REGISTRY.get(name) or models._entry_points().get(name)
+
+
+def code_modules(spec: Any) -> dict[str, str]:
+    """The user's Python modules an ``[identification]`` study runs (the ``code_modules``
+    hook of its builder, see :mod:`vectorid.store.inputs`): the module of the model class
+    (``model = "msd.dynamics:MassSpringDamper"``, a registered name or an entry point) and
+    of each criterion function of your own (``use = "mycrit:f"``), module name -> role.
+    vectorid's own models are left out (vectorid's sources are hashed as one)."""
+    table = spec.extra.get("identification")
+    if not isinstance(table, Mapping):
+        return {}
+    out: dict[str, str] = {}
+    name = table.get("model", spec.model)
+    target = _model_target(name) if isinstance(name, str) else None
+    if target is not None:
+        module = target.partition(":")[0]
+        if module.split(".")[0] != "vectorid":
+            out[module] = "model module"
+    crits = table.get("criteria")
+    for c in crits.values() if isinstance(crits, Mapping) else ():
+        use = c.get("use") if isinstance(c, Mapping) else None
+        if isinstance(use, str) and ":" in use:
+            out.setdefault(use.partition(":")[0].strip(), "criterion module")
+    return out
 
 
 def resolve_model(table: Mapping[str, Any], default_model: Any, base_dir: str | Path | None):

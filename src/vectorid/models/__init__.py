@@ -2,7 +2,7 @@
 
 >>> from vectorid import models
 >>> models.available()
-('parachute6dof', 'parafoil6dof', 'parafoil8dof')
+('parachute6dof', 'parafoil6dof', 'parafoil8dof', 'rocket-descent', 'rocket-descent-cds')
 >>> m = models.get("parachute6dof")
 >>> res = m.simulate(m.nominal[None, :], t_final=10.0, dt=0.02, output_dt=1.0)  # doctest: +SKIP
 
@@ -23,8 +23,11 @@ installed package declares in the ``vectorid.models`` entry-point group::
 from __future__ import annotations
 
 import importlib
+import os
+from collections.abc import Sequence
 from typing import Any
 
+from vectorid._hints import QUIET_ENV, waiting
 from vectorid._simd import configure as _configure_simd
 
 _configure_simd()  # before numba compiles: full-width vectors on AVX-512 CPUs (see _simd)
@@ -60,6 +63,7 @@ __all__ = [
     "WindProfile",
     "available",
     "choose_step",
+    "compile_models",
     "flap_deflections",
     "get",
     "register",
@@ -99,8 +103,10 @@ def register(name: str, target: str) -> None:
 
 def _is_import_path(text: str) -> bool:
     module, sep, name = text.partition(":")
-    return bool(sep) and all(p.isidentifier() for p in module.split(".")) and all(
-        p.isidentifier() for p in name.split(".")
+    return (
+        bool(sep)
+        and all(p.isidentifier() for p in module.split("."))
+        and all(p.isidentifier() for p in name.split("."))
     )
 
 
@@ -138,6 +144,21 @@ def get(name: str, **options: Any) -> Model:
         Unknown name (the message lists the known ones).
     ImportError
         The model's module or class cannot be imported (not written yet, or broken).
+
+    Examples
+    --------
+    >>> from vectorid import models
+    >>> models.available()
+    ('parachute6dof', 'parafoil6dof', 'parafoil8dof', 'rocket-descent', 'rocket-descent-cds')
+    >>> m = models.get("parachute6dof")
+    >>> len(m.parameters), m.parameter_names[:3]
+    (15, ('x1', 'x2', 'x3'))
+    >>> p = m.parameters[0]
+    >>> p.name, p.nominal, (p.low, p.high), p.meaning
+    ('x1', 1.03, (0.0, 1.5), 'α11 = x1 m_a, apparent mass along x and y (eq. 9)')
+
+    ``m.simulate(m.nominal[None, :], t_final=60.0, dt=0.02)`` flies it (the first call
+    compiles its kernel, once per machine; the README's tour shows the result).
     """
     if name in _REGISTRY:
         target = _REGISTRY[name]
@@ -174,3 +195,58 @@ def get(name: str, **options: Any) -> Model:
             "vectorid.models.SystemModel or vectorid.models.Model)"
         )
     return cls(**options)
+
+
+def compile_models(names: Sequence[str], workers: int | None = None) -> list[str]:
+    """Compile, in parallel, the kernels of the models ``names`` that numba's on-disk cache
+    lacks, so that their first use loads them instead of compiling one after the other.
+
+    A kernel's first compile (numba, tens of seconds each) runs on one core; several models'
+    compiles are independent, so they run in child interpreters, one per core (at most
+    ``workers``), while a waiting notice says which and for how long. One kernel to compile
+    is compiled here. Nothing is done for kernels cached already (a second run). A child that
+    fails leaves its model to compile here, on first use, where its error shows.
+
+    Parameters
+    ----------
+    names : sequence of str
+        Registry names (:func:`available`).
+    workers : int, optional
+        Most processes (default: the cores this process may use).
+
+    Returns
+    -------
+    list of str
+        The models whose kernel is compiled now (empty when every one was cached).
+    """
+    import subprocess
+    import sys
+    import time
+
+    todo = [n for n in dict.fromkeys(names) if get(n).kernel_cached() is False]
+    if not todo:
+        return []
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        cores = os.cpu_count() or 1
+    n = max(1, min(len(todo), workers or cores))
+    if n == 1:
+        for name in todo:
+            get(name).compile()
+        return todo
+    code = "import sys; from vectorid.models import get; get(sys.argv[1]).compile()"
+    env = dict(os.environ, **{QUIET_ENV: "1"})  # the notice below speaks for them
+    what = f"compiling the kernels of {', '.join(todo)} in {n} processes"
+    with waiting(what, note="numba, first use only, cached on disk afterwards"):
+        queue, running = list(todo), []
+        while queue or running:
+            while queue and len(running) < n:
+                name = queue.pop(0)  # a child knows the import path, not names registered here
+                target = _REGISTRY.get(name) or _entry_points().get(name) or name
+                args = [sys.executable, "-c", code, target]
+                quiet = {"stdout": subprocess.DEVNULL, "stderr": subprocess.DEVNULL}
+                running.append(subprocess.Popen(args, env=env, **quiet))
+            time.sleep(0.1)
+            running = [p for p in running if p.poll() is None]
+    return [name for name in todo if get(name).kernel_cached() is not False]

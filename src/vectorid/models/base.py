@@ -11,6 +11,7 @@ a concrete model implements only the hook :meth:`Model._simulate` (and usually
 from __future__ import annotations
 
 import abc
+import contextlib
 import sys
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
@@ -20,6 +21,7 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from vectorid._hints import waiting
 from vectorid.models.atmosphere import ISA, UniformAtmosphere
 from vectorid.models.controls import ControlSchedule
 from vectorid.models.integrate import (
@@ -202,6 +204,11 @@ class SimulationResult(ChannelResult):
         0 = ok; other codes in ``STATUS_MESSAGES`` (``messages`` gives one line per trial).
     t_fail : ndarray (n,)
         Time of failure, s (NaN for trials that finished).
+    origin_altitude : float
+        Altitude above mean sea level of the origin that ``position`` (its ``down``) is
+        measured from, m: 0 for a model's own simulation (down = -altitude above sea level);
+        a drop's origin altitude where an identification returns positions relative to the
+        drop's origin (:meth:`vectorid.identify.Identification.simulate`).
     """
 
     t: NDArray[np.float64]
@@ -211,6 +218,7 @@ class SimulationResult(ChannelResult):
     t_fail: NDArray[np.float64]
     params: NDArray[np.float64]
     model: str
+    origin_altitude: float = 0.0
     position: NDArray[np.float64] = field(init=False, repr=False)
     velocity: NDArray[np.float64] = field(init=False, repr=False)
     euler: NDArray[np.float64] = field(init=False, repr=False)
@@ -290,23 +298,28 @@ class Model(abc.ABC):
             return None
         return True
 
-    def _announce_compile(self) -> None:
-        """Print, once per process and model, that the kernel is about to be compiled."""
+    def _compiling(self) -> contextlib.AbstractContextManager[None]:
+        """Signs of life around the first call, once per process and model, when the kernel
+        is about to be compiled: what is compiled and the seconds waited so far
+        (:func:`vectorid._hints.waiting`), then how long it took."""
         if type(self) in _ANNOUNCED:
-            return
+            return contextlib.nullcontext()
         _ANNOUNCED.add(type(self))
-        if self.kernel_cached() is False:
-            about = (
-                f", about {self.compile_seconds:.0f} s"
-                if self.compile_seconds
-                else ", up to a minute"
-            )
-            print(
-                f"compiling the {self.name} model, first use only{about} "
-                "(numba; cached on disk afterwards) ...",
-                file=sys.stderr,
-                flush=True,
-            )
+        if self.kernel_cached() is not False:
+            return contextlib.nullcontext()
+        kernels = ", ".join(
+            f"{getattr(k, '__module__', '?')}.{getattr(k, '__name__', '?')}"
+            for k in self._kernels()
+        )
+        about = (
+            f"about {self.compile_seconds:.0f} s on 2 quiet cores"
+            if self.compile_seconds
+            else "up to a minute on 2 quiet cores"
+        )
+        return waiting(
+            f"compiling the {self.name} model's kernel ({kernels})",
+            note=f"numba, first use only, cached on disk afterwards; {about}",
+        )
 
     def compile(self) -> bool:
         """Compile the model's kernel now unless it is cached, saying so on stderr.
@@ -422,8 +435,7 @@ class Model(abc.ABC):
         # on the parafoil box, where half the trials stop early), and on a shared machine a
         # thread that gets less of its core takes fewer chunks (benchmarks/models.py --busy 1:
         # 63-69 % of the quiet throughput with one CPU-bound process beside it on 2 cores).
-        self._announce_compile()
-        with numba.parallel_chunksize(PARALLEL_CHUNK):
+        with self._compiling(), numba.parallel_chunksize(PARALLEL_CHUNK):
             y = self._simulate(
                 np.ascontiguousarray(Xc),
                 status,

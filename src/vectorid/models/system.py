@@ -50,6 +50,7 @@ from vectorid.models.integrate import (
     STATUS_NONFINITE,
     STATUS_OK,
 )
+from vectorid.problem import checked_output
 
 __all__ = ["SystemModel", "SystemResult"]
 
@@ -100,6 +101,12 @@ class SystemModel(abc.ABC):  # noqa: B024 - either hook (rhs or _simulate) is th
       other trials of the batch.
     - A trial whose state becomes NaN/inf gets status 1 and NaN outputs from that time on;
       it is stored as a failed trial with that reason and the study goes on.
+    - What :meth:`rhs`, :meth:`output` and :meth:`_simulate` return is checked before it is
+      used: real numbers of exactly the documented shape, (n, states), (n, outputs) and
+      (n, output times, outputs). Anything else (an (n, 1) column or a scalar that numpy
+      would broadcast, a transposed array, a list of columns) raises
+      :class:`~vectorid.problem.ModelOutputError` naming the function, the expected and the
+      returned shape.
     - The class must be importable by name (a module-level class), so that process and Dask
       workers can rebuild it; constructor options must be plain values (TOML
       ``model_options``).
@@ -249,18 +256,20 @@ class SystemModel(abc.ABC):  # noqa: B024 - either hook (rhs or _simulate) is th
         y = np.full((n, T, len(self.outputs)), np.nan)
         x = x0.copy()
         live = status == STATUS_OK
+        rhs, output = self._checked_rhs, self._checked_output
         with np.errstate(all="ignore"):
-            y[live, 0] = self.output(0.0, x[live], X[live])
+            self._probe(x[live][:1], X[live][:1], int(live.sum()))
+            y[live, 0] = output(0.0, x[live], X[live])
             for k in range(n_steps):
                 t = k * dt
                 idx = np.flatnonzero(live)
                 if not idx.size:
                     break
                 xs, ps = x[idx], X[idx]
-                k1 = self.rhs(t, xs, ps)
-                k2 = self.rhs(t + dt / 2, xs + dt / 2 * k1, ps)
-                k3 = self.rhs(t + dt / 2, xs + dt / 2 * k2, ps)
-                k4 = self.rhs(t + dt, xs + dt * k3, ps)
+                k1 = rhs(t, xs, ps)
+                k2 = rhs(t + dt / 2, xs + dt / 2 * k1, ps)
+                k3 = rhs(t + dt / 2, xs + dt / 2 * k2, ps)
+                k4 = rhs(t + dt, xs + dt * k3, ps)
                 xs = xs + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
                 bad = ~np.all(np.isfinite(xs), axis=1)
                 if bad.any():
@@ -270,8 +279,47 @@ class SystemModel(abc.ABC):  # noqa: B024 - either hook (rhs or _simulate) is th
                 x[idx] = xs
                 if (k + 1) % stride == 0:
                     good = idx[~bad]
-                    y[good, (k + 1) // stride] = self.output(t + dt, x[good], X[good])
+                    y[good, (k + 1) // stride] = output(t + dt, x[good], X[good])
         return y
+
+    # ---- the contract of rhs and output, checked ----------------------------------------
+    def _where(self, hook: str) -> str:
+        cls = type(self)
+        return f"{cls.__module__}.{cls.__qualname__}.{hook}"
+
+    def _checked_rhs(
+        self, t: float, x: NDArray[np.float64], p: NDArray[np.float64]
+    ) -> NDArray[np.float64]:
+        """:meth:`rhs`, its result checked: (n, states) real numbers."""
+        names = ", ".join(self.state_names)
+        return checked_output(
+            self._where("rhs"),
+            self.rhs(t, x, p),
+            x.shape,
+            f"one row per trial, one column per state: {names}",
+        )
+
+    def _checked_output(
+        self, t: float, x: NDArray[np.float64], p: NDArray[np.float64]
+    ) -> NDArray[np.float64]:
+        """:meth:`output`, its result checked: (n, outputs) real numbers."""
+        names = ", ".join(self.output_names)
+        return checked_output(
+            self._where("output"),
+            self.output(t, x, p),
+            (x.shape[0], len(self.outputs)),
+            f"one row per trial, one column per output: {names}",
+        )
+
+    def _probe(self, x1: NDArray[np.float64], p1: NDArray[np.float64], n: int) -> None:
+        """With as many trials as states (or outputs), a transposed result has the right
+        shape: one trial alone tells it (``(1, s)`` against ``(s, 1)``)."""
+        if not len(x1):
+            return
+        if n == len(self.states) > 1:
+            self._checked_rhs(0.0, x1, p1)
+        if n == len(self.outputs) > 1:
+            self._checked_output(0.0, x1, p1)
 
     # ---- simulation ---------------------------------------------------------------------
     def simulate(
@@ -323,12 +371,12 @@ class SystemModel(abc.ABC):  # noqa: B024 - either hook (rhs or _simulate) is th
             stride=stride,
         )
         expected = (n, n_steps // stride + 1, len(self.outputs))
-        if getattr(y, "shape", None) != expected:
-            raise RuntimeError(
-                f"{self.name}: _simulate returned shape {getattr(y, 'shape', None)}, expected "
-                f"{expected} (trials, output times, outputs)"
-            )
-        y = np.asarray(y, dtype=float)
+        y = checked_output(
+            self._where("_simulate"),
+            y,
+            expected,
+            "trials, output times, outputs " + ", ".join(self.output_names),
+        )
         y[status != STATUS_OK] = np.nan
         return SystemResult(
             t=np.arange(expected[1]) * stride * dt,

@@ -223,7 +223,6 @@ def _code_on_worker(blob: bytes) -> dict[str, str]:
     :func:`vectorid.store.inputs.code_hashes`)."""
     import cloudpickle
 
-
     spec = cloudpickle.loads(blob)
     return {k: str(v.get("sha256")) for k, v in code_hashes(spec).items()}
 

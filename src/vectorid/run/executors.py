@@ -372,6 +372,11 @@ def _worker_main(
 
             spec = cloudpickle.loads(spec)
         problem = spec.problem()
+        if one_thread and "numba" in sys.modules:
+            # numba reads its thread count when imported (before OMP_NUM_THREADS above, in a
+            # spawned worker): one thread per worker, or a parallel kernel in each of N
+            # workers starts N threads more on N cores
+            sys.modules["numba"].set_num_threads(1)
     except BaseException as exc:
         # A definition error already says what to fix; anything else is described.
         text = str(exc) if isinstance(exc, VectoridError) else describe_exception(exc)
@@ -782,8 +787,9 @@ _OPTIONS: contextvars.ContextVar[dict[str, Any] | None] = contextvars.ContextVar
 @contextlib.contextmanager
 def executor_options(**options: Any) -> Iterator[None]:
     """Defaults for :func:`make_executor` within a ``with`` block (``timeout=``,
-    ``scheduler=``); None values are ignored. The command line uses it to pass
-    ``--timeout`` and ``--scheduler`` through :func:`vectorid.run.run_store`."""
+    ``scheduler=``, ``workers=``); None values are ignored. The command line uses it to pass
+    ``--timeout``, ``--scheduler`` and (through workflows that run several studies, such as
+    the demos) ``--workers`` to every run of :func:`vectorid.run.run_store`."""
     merged = {**(_OPTIONS.get() or {}), **{k: v for k, v in options.items() if v is not None}}
     token = _OPTIONS.set(merged)
     try:
@@ -818,11 +824,14 @@ def make_executor(
     workers : int, optional
     **options
         ``timeout`` (seconds per trial) for every executor; ``scheduler``
-        (``"tcp://HOST:PORT"``) for ``"dask"``. Unset options come from an enclosing
-        :func:`executor_options` block, then from the study.
+        (``"tcp://HOST:PORT"``) for ``"dask"``. Unset options (and ``workers``) come from an
+        enclosing :func:`executor_options` block, then from the study.
     """
     cls = executor_class(name)
     opts = {**(_OPTIONS.get() or {}), **{k: v for k, v in options.items() if v is not None}}
+    in_block = opts.pop("workers", None)
+    if workers is None:
+        workers = in_block if in_block is not None else getattr(spec, "workers", None)
     scheduler = opts.pop("scheduler", None)
     if scheduler is not None:
         if name != "dask":

@@ -32,7 +32,6 @@ __all__ = [
 ]
 
 
-
 def failed_result(n: int, k: int, q: int, reason: str) -> EvalResult:
     """An :class:`EvalResult` of ``n`` trials, all failed with ``reason``."""
     return EvalResult(
@@ -247,5 +246,3 @@ def resident_bytes(pid: int) -> int | None:
 
 #: Seconds between two looks at the workers' memory when a memory limit is set.
 MEMORY_POLL_S = 0.1
-
-

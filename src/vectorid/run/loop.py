@@ -18,7 +18,9 @@ rest, the same way for every sampler:
   written in one transaction, and a batch whose range is stored already is counted as a
   duplicate, not stored again; a run interrupted at any point (Ctrl-C, ``kill -9``) resumes
   with no trial lost and none stored twice;
-* **progress** and the **run log** with its report (failures, recovered model errors).
+* **progress** (a bar, or the sampler's lines; by default only where someone watches: a
+  terminal or a notebook, :func:`progress_wanted`) and the **run log** with its report
+  (failures, recovered model errors).
 """
 
 from __future__ import annotations
@@ -33,7 +35,8 @@ from typing import Any, TextIO
 import numpy as np
 from tqdm.auto import tqdm
 
-from ..errors import RunFailedError, StoreError
+from .._hints import quiet
+from ..errors import RunFailedError, StoreError, plural
 from ..problem import FAILED, EvalResult, Problem
 from ..samplers import Round, RoundResult, RunContext, RunSettings, StageRequest, sampler_for
 from ..samplers.table import sample_spans
@@ -50,6 +53,7 @@ __all__ = [
     "evaluate_into",
     "group_failures",
     "plan",
+    "progress_wanted",
     "run_store",
 ]
 
@@ -70,6 +74,35 @@ class RunInterrupted(KeyboardInterrupt):
             f"interrupted: {s.stored} new trials stored in this run; the study holds "
             f"{s.total_stored} of {s.target}; run the same command again to resume"
         )
+
+
+def progress_wanted(file: Any = None) -> bool:
+    """Whether a run shows progress when it is not told (``progress=None``): when ``file``
+    (default: standard error) is a terminal, or in a notebook (IPython's kernel), and
+    notices are not turned off (``--quiet``, :func:`vectorid._hints.quiet`); a script whose
+    standard error goes to a file or a pipe runs silently.
+
+    Parameters
+    ----------
+    file : text file, optional
+        Where the progress would go (default ``sys.stderr``).
+    """
+    if quiet():
+        return False
+    out = sys.stderr if file is None else file
+    try:
+        if out is not None and out.isatty():
+            return True
+    except (AttributeError, ValueError, OSError):
+        pass
+    shell = None
+    ipython = sys.modules.get("IPython")
+    if ipython is not None and "ipykernel" in sys.modules:
+        try:
+            shell = ipython.get_ipython()
+        except Exception:  # an IPython without a shell
+            shell = None
+    return shell is not None and type(shell).__name__ == "ZMQInteractiveShell"
 
 
 def plan(
@@ -115,8 +148,8 @@ def _hint(message: str, spec: Any) -> str:
     p, k, q = len(spec.space), len(spec.criteria), len(spec.constraints)
     if ("model returned" in message and "shape" in message) or "model returned no" in message:
         return (
-            f"the model's output does not fit the study, which has {k} criteria "
-            f"({names(spec.criteria)}) and {q} functional constraints "
+            f"the model's output does not fit the study, which has {plural(k, 'criterion')} "
+            f"({names(spec.criteria)}) and {plural(q, 'functional constraint')} "
             f"({names(spec.constraints) or 'none'}): make [[criteria]] and [[constraints]] "
             "match the model's output columns, in order"
         )
@@ -126,6 +159,8 @@ def _hint(message: str, spec: Any) -> str:
             f"variables ({', '.join(spec.space.names)}) — check [[variables]] against what "
             "the model expects"
         )
+    if message.startswith("ModelOutputError"):
+        return "make the function the message names return the shape and numbers it expects"
     if message.startswith(("ImportError", "ModuleNotFoundError")):
         return "the model needs a module this environment cannot import: install it"
     if message.startswith("non-finite result"):
@@ -263,7 +298,7 @@ def run_store(
     executor: str | None = None,
     workers: int | None = None,
     batch_size: int | None = None,
-    progress: bool | TextIO = True,
+    progress: bool | TextIO | None = True,
     keep_going: bool = False,
     timeout: float | None = None,
     budget: int | None = None,
@@ -288,9 +323,10 @@ def run_store(
         Worker processes (default: all cores).
     batch_size : int, optional
         Trials per batch (default: the study's, else chosen from the work size).
-    progress : bool or file
+    progress : bool, file or None
         Show progress (on stderr, or on the given file): a bar over the trials of the plain
-        table, one line per generation of the sequential sampler.
+        table, one line per generation of the sequential sampler. None: where someone
+        watches (:func:`progress_wanted`: a terminal or a notebook), else silent.
     keep_going : bool
         Store the first batches even when every one of their trials failed (see the module
         docstring); default False: stop with :class:`~vectorid.errors.RunFailedError`.
@@ -328,9 +364,9 @@ def run_store(
     if accept_changes:
         summary.notes += check_inputs(store, accept_changes=True)
     executor_name = executor or spec.executor or "processes"
-    pool = make_executor(
-        executor_name, spec, workers if workers is not None else spec.workers, timeout=timeout
-    )
+    pool = make_executor(executor_name, spec, workers, timeout=timeout)
+    if progress is None:
+        progress = progress_wanted()
     out = progress if not isinstance(progress, bool) else sys.stderr
     say = (lambda text: print(text, file=out, flush=True)) if progress else (lambda text: None)
     ctx = RunContext(settings, summary, pool.workers, say, search)

@@ -33,14 +33,14 @@ import os
 import shutil
 import sqlite3
 import time
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TextIO
+from typing import Any, TextIO
 
 import numpy as np
 
-from ..errors import StoreDamagedError, StoreError
+from ..errors import StoreDamagedError, StoreError, plural
 from ..samplers import sampler_for
 from ..spec import load_study
 from ..store import DamagedBatch, Store, VerifyReport
@@ -69,6 +69,24 @@ class RepairReport:
     #: run); ``vectorid run STORE`` computes them.
     missing: int = 0
 
+    def to_dict(self) -> dict:
+        """The report as JSON-ready values (``vectorid repair --json``)."""
+        batch = lambda d: {  # noqa: E731
+            "block": d.block, "stage": d.stage, "first_id": d.first_id, "last_id": d.last_id,
+            "n": d.n, "reason": d.reason,
+        }  # fmt: skip
+        return {
+            "store": str(self.path),
+            "rebuilt": self.rebuilt,
+            "backup": None if self.backup is None else str(self.backup),
+            "restored_from": None if self.restored is None else str(self.restored),
+            "lost_rows": list(self.lost_rows),
+            "dropped": [batch(d) for d in self.dropped],
+            "recomputed": self.recomputed,
+            "not_recomputed": [batch(d) for d in self.not_recomputed],
+            "missing": self.missing,
+        }
+
     def describe(self) -> str:
         lines = []
         if self.restored is not None:
@@ -85,7 +103,7 @@ class RepairReport:
         for d in self.dropped:
             lines.append(f"dropped {d.describe()}")
         if self.dropped or self.rebuilt:
-            lines.append(f"recomputed {self.recomputed} trials")
+            lines.append(f"recomputed {plural(self.recomputed, 'trial')}")
         if self.missing:
             lines.append(
                 f"{self.missing} planned trials are missing (not damage: an interrupted run); "
@@ -372,14 +390,28 @@ def _repair_batches(
     )
     hook = os.environ.get("VECTORID_TEST_REPAIR_PAUSE")
     if hook:  # tests: a moment to kill the repair between computing and committing
-
         time.sleep(float(hook))
-    report.recomputed += store.replace_batches(
-        [d.block for d in damaged],
-        [(stage, start, work[(stage, start)], res) for (stage, start), res in results.items()],
-        why,
-    )
+    batches: Any = [
+        (stage, start, work[(stage, start)], res) for (stage, start), res in results.items()
+    ]
+    inside = os.environ.get("VECTORID_TEST_REPAIR_TX_PAUSE")
+    if inside:  # tests: a moment to kill the repair inside its one transaction
+        batches = _pause_inside(batches, float(inside), os.environ.get("VECTORID_TEST_REPAIR_MARK"))
+    report.recomputed += store.replace_batches([d.block for d in damaged], batches, why)
     report.dropped = damaged
+
+
+def _pause_inside(batches: list, seconds: float, mark: str | None) -> Iterator[Any]:
+    """``batches``, pausing before the second is written: by then the transaction of
+    :meth:`Store.replace_batches` has dropped the damaged batches and written one new one,
+    and holds the store's write lock (tests kill the repair there; ``mark`` names a file
+    written at that moment, so the test knows the kill lands inside)."""
+    for i, item in enumerate(batches):
+        if i == 1:
+            if mark:
+                Path(mark).write_text(f"inside the transaction, pid {os.getpid()}\n")
+            time.sleep(seconds)
+        yield item
 
 
 def _plan_gaps(
@@ -460,7 +492,6 @@ def _evaluate(spec, work: dict, executor: str | None, workers: int | None) -> di
 
 def _restore_definition(store: Store, study: Path) -> None:
     """Write the definition of ``study`` into ``store`` after checking it against stage 0."""
-
 
     spec = load_study(study)
     text = store.stage_box_text(0)

@@ -7,9 +7,10 @@ each into
 * **taken** — it does not change a trial already computed: criteria limits Φ**, functional
   constraint bounds, criterion sense and role, labels (names of the study, units,
   descriptions, nominal values), run settings (target trial count, executor, workers,
-  timeout, batch size, scheduler, store path), ``x-`` tables, the seed of an unscrambled
-  Sobol sequence (which does not use it), and the path of a data file whose content is the
-  same as the one the trials were computed from;
+  timeout, batch size, scheduler, store path), the declared inputs (``[study] inputs``:
+  their content is compared by :mod:`vectorid.store.inputs` before a trial is added), ``x-``
+  tables, the seed of an unscrambled Sobol sequence (which does not use it), and the path of
+  a data file whose content is the same as the one the trials were computed from;
 * **refused** — it would change computed trials: the model, the variables (names, order,
   kinds, bounds, values), the criteria and constraints themselves (names, order), the
   sampler, scrambling, the seed of a scrambled or Latin hypercube sequence, ``batch``,
@@ -49,6 +50,8 @@ TAKEN_STUDY = {
     "budget": "a run setting (sequential sampler): stored trials stay",
     "population": "the target of later generations (sequential sampler); stored trials stay",
     "store": "where the store is",
+    "inputs": "what else is hashed: a declared input's content is checked before a trial is "
+    "added (vectorid.store.inputs)",
 }
 TAKEN_VARIABLE = {"unit": "a label", "description": "a label", "nominal": "a reference value"}
 TAKEN_CRITERION = {

@@ -20,7 +20,7 @@ from ..analysis.classes import CLASS_COLOURS, point_classes
 from ..analysis.results import Analysis
 from .clouds import _base_layout, _plain, b64, column, figure, thin
 
-__all__ = ["brush_event", "parallel_figure"]
+__all__ = ["brush_event", "parallel_axes", "parallel_figure"]
 
 _CODE = {"infeasible": 0, "feasible": 1, "pareto": 2}
 _SCALE = [
@@ -167,6 +167,145 @@ def parallel_figure(
         meta={"names": names},
     )
     return figure({"data": [trace], "layout": layout}, raw)
+
+
+def parallel_axes(
+    a: Analysis,
+    names: Sequence[str],
+    *,
+    lines: int | None = 600,
+    seed: int = 0,
+    labels: Any = None,
+    ranges: Mapping[str, Sequence[Any]] | None = None,
+    hidden: Sequence[str] = (),
+    colour: str = "set",
+    tips: Mapping[str, str] | None = None,
+) -> dict[str, Any]:
+    """The parallel coordinates as the browser UI draws them itself (no plotly.js): the axes
+    (name, title with unit, hover text, range, the criteria constraint in force), the lines
+    thinned per set (float32, base64) and the selection's brushes.
+
+    Parameters
+    ----------
+    a : Analysis
+    names : sequence of str
+        Every axis, in order (the hidden ones too: a brush on a hidden axis still selects).
+    lines : int, optional
+        Lines drawn per set (a uniform random subset beyond; None draws every trial).
+    labels : Labels, optional
+        Units and meanings (:func:`vectorid.views.labels.labels_of`).
+    ranges : mapping name -> list of (low, high), optional
+        The selection's brushes (several per axis).
+    hidden : sequence of str
+        Axes not drawn.
+    colour : str
+        ``"set"`` or a column's name (the lines coloured by its value, ten steps).
+    tips : mapping, optional
+        Extra hover text per axis (its verdict, its sensitivity).
+
+    Returns
+    -------
+    dict
+        ``title``; ``axes`` (``name``, ``title`` — "name [unit]", the unit always said —,
+        ``unit``, ``tip``, ``kind``, ``range``, ``limit`` — ``[side, value]`` of a criteria
+        constraint or functional bound in force, or None —, ``hidden``); ``lines``
+        (``values`` per axis, ``color``, ``cmin``, ``cmax``, ``mode``, ``colours``,
+        ``unselected``); ``colour`` (the colour-by column's title and range, or None);
+        ``ranges``; ``shown`` and ``count`` per set.
+    """
+    pc = point_classes(a)
+    rows, counts = thin(pc, lines, seed)
+    order = np.concatenate([rows["infeasible"], rows["feasible"], rows["pareto"]])
+    code = np.concatenate(
+        [
+            np.full(len(rows[k]), _CODE[k], dtype=np.int8)
+            for k in ("infeasible", "feasible", "pareto")
+        ]
+    )
+    hide = set(hidden)
+    axes, values = [], {}
+    for name in names:
+        v, kind = column(a, name)
+        lo, hi = _range(v)
+        values[name] = b64(np.asarray(v[order], dtype=np.float32))
+        limit = None
+        if kind in ("criterion", "functional"):
+            blo, bhi = a.bounds[name]
+            if kind == "criterion":
+                sense = a.senses[a.crit_names.index(name)]
+                worse = bhi if sense == "min" else blo
+                if math.isfinite(worse):
+                    limit = ["<=" if sense == "min" else ">=", float(worse)]
+            elif math.isfinite(blo) or math.isfinite(bhi):
+                limit = ["in", [blo if math.isfinite(blo) else None,
+                                bhi if math.isfinite(bhi) else None]]  # fmt: skip
+        tip = labels.hover(name) if labels is not None else name
+        extra = (tips or {}).get(name)
+        axes.append(
+            {
+                "name": name,
+                "title": labels.title(name) if labels is not None else name,
+                "unit": labels.unit_text(name) if labels is not None else "",
+                "tip": f"{tip}; {extra}" if extra else tip,
+                "kind": kind,
+                "range": [lo, hi],
+                "limit": limit,
+                "hidden": name in hide,
+            }
+        )
+    shown = {k: len(rows[k]) for k in rows}
+
+    def part(k: str, label: str) -> str:
+        if shown[k] < counts[k]:
+            return f"{label} {shown[k]:,} of {counts[k]:,}"
+        return f"{label} {counts[k]:,}"
+
+    line = {
+        "values": values,
+        "color": b64(code),
+        "cmin": 0,
+        "cmax": 2,
+        "mode": "set",
+        "colours": [CLASS_COLOURS[k] for k in ("infeasible", "feasible", "pareto")],
+        "unselected": {"color": "#bbb", "opacity": 0.08},
+    }
+    colour_of = None
+    if colour != "set":
+        cv = np.asarray(column(a, colour)[0][order], dtype=np.float32)
+        clo, chi = _range(cv)
+        line.update(color=b64(cv), cmin=clo, cmax=chi, mode="column")
+        colour_of = {
+            "name": colour,
+            "title": labels.title(colour) if labels is not None else colour,
+            "min": clo,
+            "max": chi,
+        }
+    kept = {}
+    for name, rs in (ranges or {}).items():
+        rs = [rs] if rs and not isinstance(rs[0], list | tuple) else list(rs)
+        rs = [[float(min(r)), float(max(r))] for r in rs]
+        if rs and name in values:
+            kept[name] = rs
+    title = (
+        f"Parallel coordinates (N={a.n:,}, ND={a.n_feasible:,}, NP={a.n_pareto:,}); lines: "
+        + ", ".join(
+            [
+                part("pareto", "Pareto (green)"),
+                part("feasible", "in D, not Pareto (blue)"),
+                part("infeasible", "infeasible (red, grey outside a brush)"),
+            ]
+        )
+    )
+    return {
+        "title": title,
+        "axes": axes,
+        "lines": line,
+        "colour": colour_of,
+        "ranges": kept,
+        "shown": shown,
+        "count": counts,
+        "height": 470,
+    }
 
 
 _KEY = re.compile(r"^dimensions\[(\d+)\]\.constraintrange$")

@@ -734,6 +734,7 @@ def build_report(
     top: int = 10,
     seed: int = 0,
     max_envelope: int = 40,
+    prediction: Any = None,
 ) -> tuple[str, _Page]:
     """The report as an HTML string (see :func:`write_report`)."""
     import plotly.offline
@@ -904,6 +905,12 @@ def build_report(
             )
         )
         page.fig(fg.robustness_figure(checks), "seed 001 Table 4")
+    if prediction is not None:  # what D predicts (vectorid.workflows.predict)
+        from .predict import report_parts
+
+        page.h2("Predictions")
+        for kind, part in report_parts(prediction):
+            page.fig(part) if kind == "figure" else page.add(part)
     # last: its 3-D figure's WebGL context must not be the oldest when every figure is
     # plotted at once (browsers drop the oldest beyond ~16 contexts, and a lost gl3d context
     # throws, while a lost scattergl one only goes blank)
@@ -937,6 +944,7 @@ def write_report(
     top: int = 10,
     seed: int = 0,
     max_envelope: int = 40,
+    prediction: Any = None,
 ) -> ReportResult:
     """Write the self-contained HTML report of the study held in ``store``.
 
@@ -961,6 +969,9 @@ def write_report(
         Seed of the decimation subsets.
     max_envelope : int
         Most trials simulated for the model envelope of the identification channels.
+    prediction : Prediction, optional
+        What D predicts for new drops (:func:`vectorid.workflows.predict.predict`): a
+        "Predictions" section with the bands per channel and the landing dispersion.
     """
     t0 = time.perf_counter()
     doc, page = build_report(
@@ -972,6 +983,7 @@ def write_report(
         top=top,
         seed=seed,
         max_envelope=max_envelope,
+        prediction=prediction,
     )
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)

@@ -31,6 +31,7 @@ import numpy as np
 
 from ..analysis.identifiability import identifiability
 from ..analysis.relaxation import Relaxation, relaxation_text
+from ..errors import plural
 from ..sampler_kinds import sampler_kind
 from ..study import Study
 from .extra import apply_refine, relax_study
@@ -115,7 +116,10 @@ def print_stage_limits(st: IdentificationStage, indent: str = "  ") -> None:
             weighted = "particles' chains; members of D weigh their holding times"
         else:
             weighted = "importance-weighted"
-        print(f"{indent}effective sample size {seq.ess:.0f} of {seq.members} members ({weighted})")
+        print(
+            f"{indent}effective sample size {seq.ess:.0f} of {plural(seq.members, 'member')} "
+            f"({weighted})"
+        )
     faithful = seq is None or seq.converged
     enough = "" if st.factor > 1 else " (enough to read ranges from)"
     if st.factor <= 1 and not faithful:
@@ -175,7 +179,7 @@ def _unconverged(verdicts: list, summary: Any) -> None:
     it may be too narrow (or miss part of D), so no variable is called identified or weak —
     each is "not identified", saying why; the range printed is the sampled set's."""
     why = (
-        f"the sequential sampler did not converge (D: {summary.members} members, ESS "
+        f"the sequential sampler did not converge (D: {plural(summary.members, 'member')}, ESS "
         f"{summary.ess:.0f} of {summary.population} wanted): the range is that of the trials "
         "sampled, not of D, and may be too narrow"
     )
@@ -200,6 +204,7 @@ def run_stage(
     sampler: str | None = None,
     budget: int | None = None,
     population: int | None = None,
+    executor: str | None = None,
 ) -> IdentificationStage:
     """Run one stage of an identification into a fresh store.
 
@@ -242,6 +247,9 @@ def run_stage(
         Sequential: most model evaluations (default: the study's).
     population : int, optional
         Sequential: members of D wanted (default: the study's, else 200).
+    executor : str, optional
+        Where the trials run (default: the study's, else ``"serial"``: one model process,
+        whose compiled kernel uses every core).
 
     Returns
     -------
@@ -266,7 +274,7 @@ def run_stage(
         noise = {c.name: float(c.limit) for c in held.criteria if c.limit is not None}
         notes0 = {c.name: c.limit_note for c in held.criteria if c.limit is not None}
         # the study's own executor ("inline" for the examples' stateful models), else serial
-        executor = study.spec.executor or "serial"
+        executor = executor or study.spec.executor or "serial"
         summary = None
         if aims_at_d:
             summary = study.run(executor=executor, progress=progress)

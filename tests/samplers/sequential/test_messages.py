@@ -99,5 +99,5 @@ def test_no_other_message_blames_the_model_or_the_limits():
     allowed = {p for p in hits if p.startswith("src/vectorid/samplers/sequential/sampler.py")}
     assert set(hits) == allowed, hits
     seq = (SRC / "samplers" / "sequential" / "sampler.py").read_text(encoding="utf-8")
-    body = seq[seq.index("def verdict"):seq.index("def describe")]
+    body = seq[seq.index("def verdict") : seq.index("def describe")]
     assert len(BLAME.findall(body)) == 1 and "inside the box, so the model" in body

@@ -415,3 +415,22 @@ def test_local_search_is_not_stopped_by_a_kink(tmp_path):
     assert "may not fit" not in text
     x0, x1 = s.search.x
     assert abs(x0 - 0.3 * x1 - 0.2) <= 0.002 and abs(x1 - 0.5) <= 0.02
+
+
+def test_every_executor_gives_the_same_trials(tmp_path):
+    """The generations are planned from the seed and the stored trials, never from how they
+    were evaluated: worker processes (the demos' --executor processes) store exactly the trials
+    this process does (issue 37, item 1)."""
+    spec = slab_spec(trials=256, budget=900, population=60)
+    runs = {}
+    for executor, workers in (("inline", None), ("processes", 2)):
+        path = tmp_path / f"{executor}.db"
+        with Store.create(path, spec) as st:
+            s = run_store(st, executor=executor, workers=workers, progress=False, search=False)
+            runs[executor] = (st.load(), [(g.seq_start, g.n) for g in generations(st)], s)
+    (ta, ga, sa), (tb, gb, sb) = runs["inline"], runs["processes"]
+    assert len(ga) > 1 and ga == gb
+    np.testing.assert_array_equal(ta.seq, tb.seq)
+    np.testing.assert_array_equal(ta.X, tb.X)
+    np.testing.assert_array_equal(ta.F, tb.F)
+    assert (sa.members, sa.evaluations) == (sb.members, sb.evaluations)

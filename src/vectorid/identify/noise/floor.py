@@ -14,7 +14,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from vectorid.errors import StudyDefinitionError, suggest
+from vectorid._hints import waiting
+from vectorid.errors import StudyDefinitionError, plural, suggest
 from vectorid.identify.criteria import INDICES, OPERATORS, get_criterion, spectral_defs
 from vectorid.identify.drops import fit_initial_state
 from vectorid.identify.flight import FlightChannel, FlightData
@@ -28,7 +29,12 @@ from vectorid.identify.noise.statements import (
     allowance_label,
     parse_discrepancy,
 )
-from vectorid.identify.system import Record, SystemIdentification, parse_record_noise
+from vectorid.identify.system import (
+    Record,
+    SystemIdentification,
+    at_reference,
+    parse_record_noise,
+)
 
 __all__ = [
     "NoiseFloor",
@@ -152,7 +158,7 @@ class NoiseFloor:
         names = list(names)
         if quantile is None:
             q = self.quantile_level(names, coverage)
-            how = f"q={q:.4g}, joint {coverage:.0%} over {len(names)} criteria"
+            how = f"q={q:.4g}, joint {coverage:.0%} over {plural(len(names), 'criterion')}"
         else:
             q = float(quantile)
             how = f"q={q:.4g}"
@@ -233,6 +239,13 @@ def noise_floor(
         When a criterion reads a channel component without stated noise, or a channel
         allowance does not bound a criterion (say it under the criterion's name).
     """
+    # seconds on a quiet machine, minutes on a busy one: said when it lasts (signs of life)
+    with waiting(f"computing the noise floors ({draws} draws of the twin experiment)", after=5.0):
+        return _noise_floor(ident, noise, draws=draws, seed=seed, params=params,
+                            discrepancy=discrepancy, criteria=criteria, linear=linear)  # fmt: skip
+
+
+def _noise_floor(ident, noise, *, draws, seed, params, discrepancy, criteria, linear):
     names = [c.name for c in ident.criteria]
     want = set(names if criteria is None else criteria)
     for n in want:
@@ -694,20 +707,40 @@ def record_noise_floor(
         if not needed:
             continue
         # the truth on the record's sample times and on the comparison grid
-        fine = ident.model.simulate(
-            ident.parameters(ref[None, :]),
-            t_final=rec.duration,
-            dt=ident.dt,
-            output_dt=ident.dt,
-            initial=rec.initial,
-        )
+        named = dict(zip(ident.variables, ref.tolist()))
+        with at_reference(f"the model {type(ident.model).__name__}", named):
+            fine = ident.model.simulate(
+                ident.parameters(ref[None, :]),
+                t_final=rec.duration,
+                dt=ident.dt,
+                output_dt=ident.dt,
+                initial=rec.initial,
+            )
         if not fine.ok[0]:
             raise _err(
                 "noise",
-                f"the model fails at the reference vector {dict(zip(ident.variables, ref))}: "
+                f"the model fails at the reference vector "
+                f"{dict(zip(ident.variables, ref.tolist()))}: "
                 f"{fine.messages[0]}",
                 "give the variables nominal values where the model runs",
             )
+        for ch in dict.fromkeys(ident.criteria[j].channel for j in needed):
+            bad = ~np.isfinite(fine[ch][0])
+            if bad.any():  # the states ran, the output did not: say so, not "a limit is NaN"
+                at = float(fine.t[np.argmax(bad)])
+                raise _err(
+                    "noise",
+                    f"the model's output {ch!r} is not a finite number at the reference vector "
+                    f"{dict(zip(ident.variables, ref.tolist()))} (NaN or inf at {int(bad.sum())} "
+                    f"of {bad.size} times, first at t = {at:g} s of record {rec.name!r}), so "
+                    "the noise floor of "
+                    + ", ".join(
+                        ident.criteria[j].name for j in needed if ident.criteria[j].channel == ch
+                    )
+                    + " cannot be computed",
+                    f"check {type(ident.model).__name__}.output(t, x, p) for {ch!r} (the states "
+                    "stay finite there), or give the variables nominal values where it runs",
+                )
         tf = rec.t0 + fine.t
         inside = (rec.t >= rec.t0 - 1e-9) & (rec.t <= rec.t0 + rec.duration + 1e-9)
         ts = rec.t[inside]
@@ -722,10 +755,21 @@ def record_noise_floor(
                 v = c.fn(meas[:, :, None], truth_g[:, None], rec.grid)
             else:
                 sim = truth_g[None, :, None]
-                v = np.array([float(np.asarray(c.fn(sim, m[:, None], rec.grid))[0]) for m in meas])
+                with at_reference(f"criterion {c.name} ({c.use})", named):
+                    v = np.array([c.value(c.fn(sim, m[:, None], rec.grid), 1)[0] for m in meas])
             S[:, j] += rec.weight * v
             W[j] += rec.weight
     S = S / np.where(W > 0, W, 1.0)
+    for j, c in enumerate(ident.criteria):
+        if c.name in targets and not np.all(np.isfinite(S[:, j])):
+            raise _err(
+                f"criteria.{c.name}",
+                f"criterion {c.name!r} ({c.use}) is not a finite number on the noise-floor "
+                "draws (the model at the reference vector compared with itself plus the stated "
+                f"noise): {int(np.sum(~np.isfinite(S[:, j])))} of {draws} draws are NaN or inf",
+                "make the criterion's function return finite numbers for finite inputs, or "
+                "give it a number as its limit",
+            )
     floor = NoiseFloor(
         names=names,
         units=[c.unit for c in ident.criteria],

@@ -7,9 +7,12 @@ hook: it runs once, when a store is created). See :mod:`vectorid.identify.noise`
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import replace
 from typing import Any
+
+import numpy as np
 
 from vectorid.errors import StudyDefinitionError
 from vectorid.identify.criteria import get_criterion
@@ -22,7 +25,7 @@ from vectorid.identify.noise.floor import (
     time_mean_unit,
 )
 from vectorid.identify.noise.statements import NoiseModel, parse_discrepancy, parse_noise
-from vectorid.identify.system import SystemIdentification, resolve_model
+from vectorid.identify.system import SystemIdentification, check_record_scales, resolve_model
 from vectorid.models.system import SystemModel
 
 __all__ = ["noise_limits", "resolve_noise_limits"]
@@ -92,7 +95,7 @@ def noise_limits(
             spec, ident, targets, draws=s["draws"], seed=int(s["seed"])
         )
         said = "; ".join(dict.fromkeys(described))
-        out = floor.limits(targets, quantile=s["quantile"], coverage=float(s["coverage"]))
+        out = _finite(floor.limits(targets, quantile=s["quantile"], coverage=float(s["coverage"])))
         return {n: (v, f"{note} ({said})") for n, (v, note) in out.items()}
     if s["noise"] is None and not any(
         "noise" in dt
@@ -117,10 +120,26 @@ def noise_limits(
         discrepancy=disc,
         criteria=targets,
     )
-    out = floor.limits(targets, quantile=s["quantile"], coverage=float(s["coverage"]))
+    out = _finite(floor.limits(targets, quantile=s["quantile"], coverage=float(s["coverage"])))
     # The stated noise is in the study file; an estimated one is only here, so say it.
     est = "; ".join(f"{k}: {v}" for k, v in floor.noise.items() if v.startswith("estimated"))
     return {n: (v, f"{note} ({est})" if est else note) for n, (v, note) in out.items()}
+
+
+def _finite(limits: dict[str, tuple[float, str]]) -> dict[str, tuple[float, str]]:
+    """The noise-floor limits, each a finite number: a NaN floor is the model's or the
+    criterion's doing, said as such (never as a limit the user did not write)."""
+    for name, (v, _) in limits.items():
+        if not math.isfinite(v):
+            raise _err(
+                "noise",
+                f"the noise floor of criterion {name!r} is {v} (the model at the reference "
+                "vector, compared with itself plus the stated noise, gives no finite value): "
+                "the model's output or the criterion is NaN or inf there",
+                "run the model once at the reference vector (the variables' nominal values, "
+                "else the middle of their box) to see where, or give the criterion a number",
+            )
+    return limits
 
 
 def _check_settings(s: Mapping[str, Any]) -> None:
@@ -179,7 +198,7 @@ def _drop_noise(spec, ident, study_noise) -> dict[str, NoiseModel | str]:
 
 
 def _drop_discrepancy(spec, value) -> dict:
-    return parse_discrepancy(value, spec.criterion_names)
+    return parse_discrepancy(value, {c.name: c.unit or "" for c in spec.criteria})
 
 
 def resolve_noise_limits(spec, *, ident=None, params: Mapping[str, float] | None = None):
@@ -191,6 +210,12 @@ def resolve_noise_limits(spec, *, ident=None, params: Mapping[str, float] | None
         return spec
     if ident is None and _own_model(spec):
         ident = Identification.from_spec(spec)
+    if isinstance(ident, SystemIdentification):  # records read in their stated units
+        ref = np.array([float(v.nominal) if v.nominal is not None else
+                        0.5 * (float(v.low) + float(v.high)) for v in spec.space])  # fmt: skip
+        if params:
+            ref = np.array([float(params.get(n, r)) for n, r in zip(spec.space.names, ref)])
+        check_record_scales(ident, ref, spec.extra["identification"])
     limits = noise_limits(spec, ident=ident, params=params)
     if isinstance(ident, SystemIdentification):
         units = ident.units()

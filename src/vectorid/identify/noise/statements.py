@@ -183,11 +183,12 @@ class NoiseModel:
         return head + (", ".join(parts) if parts else "none")
 
 
-def parse_component(where: str, value: Any, factor: float = 1.0) -> ComponentNoise:
+def parse_component(where: str, value: Any, factor: float = 1.0, unit: str = "") -> ComponentNoise:
     """One channel component's noise from the study file: a σ (white noise) or a table
     ``{ sigma, correlation_time, white }``, times ``factor`` (the key's unit to SI).
 
-    ``where`` names the field in errors (``"noise.position_h"``)."""
+    ``where`` names the field in errors (``"noise.position_h"``), ``unit`` the unit the σ is
+    stated in (the key's, or a model's output channel's), which the errors name."""
     if isinstance(value, Mapping):
         bad = [k for k in value if k not in ("sigma", "correlation_time", "white")]
         if bad:
@@ -196,22 +197,32 @@ def parse_component(where: str, value: Any, factor: float = 1.0) -> ComponentNoi
                 f"unknown key {bad[0]!r}",
                 suggest(bad[0], ["sigma", "correlation_time", "white"]),
             )
-        sigma = _nonneg(f"{where}.sigma", value.get("sigma", 0.0))
-        tau = _nonneg(f"{where}.correlation_time", value.get("correlation_time", 0.0))
-        white = _nonneg(f"{where}.white", value.get("white", 0.0))
+        sigma = _nonneg(f"{where}.sigma", value.get("sigma", 0.0), unit, "σ")
+        tau = _nonneg(f"{where}.correlation_time", value.get("correlation_time", 0.0), "s",
+                      "correlation time")  # fmt: skip
+        white = _nonneg(f"{where}.white", value.get("white", 0.0), unit, "white-noise σ")
         if sigma == 0 and white == 0:
-            raise _err(where, "sigma and white are both 0", "state the noise's σ")
+            raise _err(where, "sigma and white are both 0", f"state the noise's σ{_in(unit)}")
         return ComponentNoise(sigma * factor, tau, white * factor)
-    return ComponentNoise(_nonneg(where, value) * factor)
+    return ComponentNoise(_nonneg(where, value, unit, "σ") * factor)
 
 
-def _nonneg(where: str, value: Any) -> float:
+def _in(unit: str) -> str:
+    return f" in {unit}" if unit and unit not in ("-", "1") else ""
+
+
+def _nonneg(where: str, value: Any, unit: str = "", what: str = "number") -> float:
+    """A number >= 0; the error names what it is and its unit (``σ in rad``)."""
     try:
         v = float(value)
     except (TypeError, ValueError):
         v = math.nan
     if isinstance(value, bool) or not (v >= 0 and math.isfinite(v)):
-        raise _err(where, f"expected a number >= 0, got {value!r}", "e.g. 1.5")
+        raise _err(
+            where,
+            f"expected a {what} >= 0{_in(unit)}, got {value!r}",
+            f"e.g. 1.5 (in {unit})" if _in(unit) else "e.g. 1.5",
+        )
     return v
 
 
@@ -249,8 +260,8 @@ def parse_noise(value: Any, where: str = "noise") -> NoiseModel | str:
                 f"unknown noise key {key!r}",
                 suggest(key, list(NOISE_KEYS)) + f" (keys: {', '.join(NOISE_KEYS)})",
             )
-        ch, comps, factor, _ = NOISE_KEYS[key]
-        c = parse_component(f"{where}.{key}", v, factor)
+        ch, comps, factor, unit = NOISE_KEYS[key]
+        c = parse_component(f"{where}.{key}", v, factor, unit)
         cur = out.setdefault(ch, [None] * (max(comps) + 1))
         cur += [None] * (max(comps) + 1 - len(cur))
         for j in comps:
@@ -258,10 +269,14 @@ def parse_noise(value: Any, where: str = "noise") -> NoiseModel | str:
     return NoiseModel(out)
 
 
-def parse_discrepancy(value: Any, criteria: Sequence[str], where: str = "discrepancy") -> dict:
+def parse_discrepancy(
+    value: Any, criteria: Sequence[str] | Mapping[str, str], where: str = "discrepancy"
+) -> dict:
     """A discrepancy table: noise keys (channel allowances, SI after conversion) and criterion
-    names (allowances in the criterion's unit). Returns ``{"channels": {channel: [δ per
-    component]}, "criteria": {name: δ}}``."""
+    names (allowances in the criterion's unit; ``criteria`` may map each name to its unit, for
+    the errors). Returns ``{"channels": {channel: [δ per component]}, "criteria": {name:
+    δ}}``."""
+    criteria_units = dict(criteria) if isinstance(criteria, Mapping) else {}
     if value is None:
         return {"channels": {}, "criteria": {}}
     if not isinstance(value, Mapping):
@@ -272,14 +287,14 @@ def parse_discrepancy(value: Any, criteria: Sequence[str], where: str = "discrep
     crits: dict[str, float] = {}
     for key, v in value.items():
         if key in NOISE_KEYS:
-            ch, comps, factor, _ = NOISE_KEYS[key]
-            d = _nonneg(f"{where}.{key}", v) * factor
+            ch, comps, factor, unit = NOISE_KEYS[key]
+            d = _nonneg(f"{where}.{key}", v, unit, "allowance") * factor
             cur = chans.setdefault(ch, [0.0] * (max(comps) + 1))
             cur += [0.0] * (max(comps) + 1 - len(cur))
             for j in comps:
                 cur[j] = d
         elif key in criteria:
-            crits[key] = _nonneg(f"{where}.{key}", v)
+            crits[key] = _nonneg(f"{where}.{key}", v, criteria_units.get(key, ""), "allowance")
         else:
             raise _err(
                 f"{where}.{key}",

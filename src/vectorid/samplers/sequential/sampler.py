@@ -40,7 +40,7 @@ from typing import Any
 
 import numpy as np
 
-from ...errors import StudyDefinitionError
+from ...errors import StudyDefinitionError, plural
 from ...limits import Limits
 from ...spec import StudySpec
 from ...store import Store, Trials
@@ -129,19 +129,19 @@ class SequentialSummary(RunSummary):
     def verdict(self) -> str:
         """One plain sentence: converged, collapsed, or how far it got."""
         head = (
-            f"{self.evaluations} evaluations, {self.generations} generations, "
-            f"{self.members} members of D at the stated limits, ESS {self.ess:.0f}"
+            f"{plural(self.evaluations, 'evaluation')}, {plural(self.generations, 'generation')}, "
+            f"{plural(self.members, 'member')} of D at the stated limits, ESS {self.ess:.0f}"
         )
         if self.converged and self.moves:
             return (
-                f"D reached: {head} (target {self.population} members; ESS from the "
+                f"D reached: {head} (target {plural(self.population, 'member')}; ESS from the "
                 "autocorrelation of the particles' chains over their last moves at the stated "
                 "limits, each chain sampling D uniformly; densities of D weigh each member by "
                 "the number of those moves it held a particle, members never so held weigh 0)"
             )
         if self.converged:
             return (
-                f"D reached: {head} (target {self.population} members, ESS >= "
+                f"D reached: {head} (target {plural(self.population, 'member')}, ESS >= "
                 f"{ESS_SHARE * self.population:.0f}); histograms and densities of D use the "
                 "importance weights"
             )
@@ -160,15 +160,16 @@ class SequentialSummary(RunSummary):
                 else f"ESS {self.ess:.0f} against {ESS_SHARE * self.population:.0f} wanted"
             )
             return (
-                f"D not reached after {self.evaluations} evaluations: {head}; the population "
-                f"is {state} ({need}), so it is not presented as D: raise --budget to go on"
+                f"D not reached after {plural(self.evaluations, 'evaluation')}: {head}; the "
+                f"population is {state} ({need}), so it is not presented as D: raise --budget "
+                "to go on"
             )
         factor = (
             f"; the nearest generation meets the limits relaxed ×{self.relaxed:.3g}"
             if self.relaxed is not None
             else ""
         )
-        text = f"D not reached after {self.evaluations} evaluations ({head}){factor}"
+        text = f"D not reached after {plural(self.evaluations, 'evaluation')} ({head}){factor}"
         s = self.search
         if s is None:
             return text + "; raise --budget to go on"
@@ -200,6 +201,19 @@ class SequentialSummary(RunSummary):
             f"{missed}, inside the box, so the model or the limits may not fit the data (or D "
             f"is smaller than both searches found). Best vector: {best}"
         )
+
+    def to_dict(self) -> dict[str, Any]:
+        """The summary as JSON-ready values: :meth:`RunSummary.to_dict`'s, and the
+        sequential run's (budget, population, generations, evaluations, members, ess,
+        converged, relaxed, tolerance per criterion, the verdict sentence)."""
+        out = RunSummary.to_dict(self)
+        out.update(
+            budget=self.budget, population=self.population, generations=self.generations,
+            evaluations=self.evaluations, members=self.members, ess=self.ess,
+            converged=self.converged, relaxed=self.relaxed, tolerance=dict(self.tolerance),
+            moves=self.moves, verdict=self.verdict(),
+        )  # fmt: skip
+        return out
 
     def describe(self) -> str:
         head, *rest = RunSummary.describe(self).split("\n")
@@ -324,9 +338,11 @@ class SequentialSampler(Sampler):
             rel = relaxed(eps, state.floor)
             summary.relaxed = rel if len(gens) > 1 else relaxed_of_best(state, population)
             say(
-                f"generation {len(gens) - 1}: {gens[-1].n} trials, {evaluations} evaluations; "
+                f"generation {len(gens) - 1}: {plural(gens[-1].n, 'trial')}, "
+                f"{plural(evaluations, 'evaluation')}; "
                 + (f"limits ×{rel:.3g} of Φ**, " if rel is not None else "")
-                + f"{at_tol} trials within them; D: {members} members, ESS {state.ess:.0f}"
+                + f"{plural(at_tol, 'trial')} within them; D: {plural(members, 'member')}, "
+                f"ESS {state.ess:.0f}"
             )
             if moved:
                 summary.converged = done and members >= population
@@ -381,7 +397,8 @@ class SequentialSampler(Sampler):
         sq = assess(store)
         return [
             f"trials     {held} evaluated of a budget of {spec.sequential_budget}; {failed} failed",
-            f"sequential {len(sq.counts)} generations; D: {int(sq.members.sum())} members "
+            f"sequential {plural(len(sq.counts), 'generation')}; D: "
+            f"{plural(int(sq.members.sum()), 'member')} "
             f"(wanted {spec.sequential_population}), ESS {sq.ess:.0f} "
             + ("(particles' chains)" if sq.particles is not None else "(importance weights)"),
         ]
@@ -416,8 +433,9 @@ def sample_note(store: Store, limits: Any = None, trials: Trials | None = None) 
     m = int(state.members.sum())
     wanted = store.spec.sequential_population
     head = (
-        f"sequential sampler: {sum(state.counts)} evaluations in {len(state.counts)} "
-        f"generations; D holds {m} members, ESS {state.ess:.0f} "
+        f"sequential sampler: {plural(sum(state.counts), 'evaluation')} in "
+        f"{plural(len(state.counts), 'generation')}; D holds {plural(m, 'member')}, ESS "
+        f"{state.ess:.0f} "
         + (_chains_note(state) if state.particles is not None else "(importance weights)")
     )
     if m and state.ess < COLLAPSE_SHARE * wanted and state.particles is None:

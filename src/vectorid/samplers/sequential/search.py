@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ...errors import plural
 from ...limits import oriented
 from ...problem import OK
 from ...store import Store
@@ -177,7 +178,10 @@ def local_search(
         visited.append(u)
         if s < best_s:
             best_u, best_s = u, s
-    say(f"local search: {used} evaluations from {starts} start(s), best limits ×{best_s:.3g}")
+    say(
+        f"local search: {plural(used, 'evaluation')} from {plural(starts, 'start')}, best "
+        f"limits ×{best_s:.3g}"
+    )
     edges = search_edges(spec, best_u)
     return LocalSearch(start_id, float(sc0[first]), best_s, spec.space.scale(best_u[None])[0],
                        used, stage if isinstance(stage, int) else -1, edges, starts)  # fmt: skip

@@ -32,6 +32,7 @@ def serve(
     executor: str | None = None,
     workers: int | None = None,
     max_points: int = 20_000,
+    compare: str | None = None,
 ) -> None:
     """Serve the UI of ``store`` until interrupted (Ctrl-C), then stop any running job.
 
@@ -47,6 +48,8 @@ def serve(
         For background run jobs.
     max_points : int
         Points drawn in the criterion-vs-criterion plot.
+    compare : path, optional
+        A second store: a *Compare* tab shows both models side by side.
     """
     import logging
     import sys
@@ -54,7 +57,9 @@ def serve(
     from .data import limit_allocator_arenas
 
     limit_allocator_arenas()
-    app, ctx = create_app(store, executor=executor, workers=workers, max_points=max_points)
+    app, ctx = create_app(
+        store, executor=executor, workers=workers, max_points=max_points, compare=compare
+    )
     if host not in LOCAL_HOSTS:
         print(
             f"warning: serving on {host}: anyone who can reach port {port} there can read this "

@@ -10,7 +10,7 @@ from typing import Any
 from ...analysis.refine import propose_refine
 from ...errors import StudyDefinitionError, VectoridError
 from .context import UIContext, analysis_of
-from .data import parse_constraints, parse_number, parse_trial_id
+from .data import page_table, parse_constraints, parse_number, parse_trial_id
 from .jobs import JobBusy
 from .refine import _overrides, _refine_args
 from .verdicts import sources_to_save
@@ -180,6 +180,7 @@ def job_action(ctx: UIContext, action: str, **values: Any) -> dict[str, Any]:
 def job_message(ctx: UIContext, note: Mapping[str, Any] | None) -> str:
     """The message under the job bar for a note of :func:`job_action`: its text, except
     that "a job is already running" clears once the job it names is no longer running."""
+    note = page_table(note, "job note")
     if not note:
         return ""
     busy = note.get("busy")

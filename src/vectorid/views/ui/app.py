@@ -24,6 +24,7 @@ from . import callbacks as cb
 from . import client
 from .data import FreedMemoryReleaser, StoreCache
 from .jobs import JobManager
+from .pages import compare as compare_page
 from .pages import detail, explore, sets
 from .pages.common import Wiring, err
 
@@ -70,6 +71,8 @@ h3{margin:6px 0;font-size:15px}
 .source{font-size:11px;color:#555;line-height:1.25;margin:2px 0;display:-webkit-box;
 -webkit-line-clamp:2;-webkit-box-orient:vertical;overflow:hidden}
 .source.src-session,.chip.src-session{color:#222;font-weight:600}
+.source.src-relaxed{display:block;color:#6b4a00}.chip.src-relaxed{border-color:#d9a400;
+background:#fff7e0}.relaxed{color:#6b4a00;font-weight:600}
 .chip{display:inline-block;border:1px solid #ccc;border-radius:10px;padding:0 7px;margin:1px 3px;
 font-size:12px;background:#fff}
 .chip.src-session{border-color:#777;background:#eee}
@@ -77,13 +80,32 @@ font-size:12px;background:#fff}
 .verdict{border:1px solid #999;border-radius:3px;padding:0 5px;white-space:nowrap}
 .v-identified{font-weight:700;background:#e9e9e9}.v-weak{font-style:italic}
 .v-not-identified{border-style:dashed;color:#444}
-#par-graph .gl-canvas{visibility:hidden}#par-graph .gl-canvas-pick{pointer-events:none !important}
+#par-graph{overflow-x:auto;overflow-y:hidden;background:#fff}
+.vid-par-title{font-size:13px;color:#333;margin:4px 0 2px;text-align:center}
+.vid-par-svg text{font-family:system-ui,-apple-system,Segoe UI,Roboto,sans-serif;fill:#333}
+.vid-axis-title{font-size:12px;cursor:move;paint-order:stroke;stroke:#fff;stroke-width:3px}
+.vid-title .vid-unit{fill:#666}
+.vid-tick-label{font-size:11px;fill:#555;paint-order:stroke;stroke:#fff;stroke-width:3px}
+.vid-axis-line{stroke:#444;stroke-width:1}
+.vid-tick{stroke:#444}.vid-hit{fill:transparent;cursor:crosshair}
+.vid-brush{fill:rgba(60,60,60,.22);stroke:#333;stroke-width:1;cursor:pointer}
+.vid-limit{fill:#d9a400;stroke:#8a6a00;stroke-width:.5}
+.axes-panel{font-size:13px}.axes-panel summary{cursor:pointer}
+.axes-panel .vid-axes label{display:inline-block;min-width:150px;margin:1px 8px 1px 0;
+font-size:12px}
 .busy{visibility:hidden;color:#a15c00;font-size:13px}
 body:has([data-dash-is-loading="true"]) .busy{visibility:visible}
 #vid-counts[data-dash-is-loading="true"] b{opacity:.4}
 @media print{.top{position:static}.busy,button,.modebar-container{display:none !important}}
 .rangebar{position:relative;width:140px;height:12px;background:#e4e4e4;border-radius:2px;
-margin-top:3px}.rangebar>div{position:absolute}.rb-trial{top:-3px;height:18px;width:2px}
+margin-top:3px}
+.vpanel{background:#fff;border:1px solid #e4e4e4;border-radius:6px;padding:4px 8px;margin:4px 0;
+font-size:13px}.vgroup{display:flex;flex-wrap:wrap;gap:4px 6px;align-items:center;margin:3px 0}
+.vgroup-name{font-weight:600;min-width:120px}.vchip{border:1px solid #bbb;border-radius:4px;
+padding:0 5px;background:#fafafa;font-size:12px;white-space:nowrap}
+.vchip .rangebar{display:inline-block;width:44px;height:8px;margin:0 0 0 4px;vertical-align:middle}
+.vchip .rangebar>div{height:6px !important;top:1px !important}
+.vchip.v-identified{border-color:#2ca02c;background:#f1faf1}.vchip.v-weak{border-style:dashed}.rangebar>div{position:absolute}.rb-trial{top:-3px;height:18px;width:2px}
 """
 
 _INDEX = (
@@ -109,6 +131,7 @@ def _defaults(ctx: cb.UIContext) -> dict[str, Any]:
         fields[f"low.{g.name}"] = lo
         fields[f"high.{g.name}"] = hi
     x0, y0 = explore.default_axes(ctx)
+    view = sets.default_view(ctx)
     fields.update(
         tab="tables",
         x=x0,
@@ -116,8 +139,10 @@ def _defaults(ctx: cb.UIContext) -> dict[str, Any]:
         panel="histograms",
         crit=spec.criterion_names[0],
         trial=str(initial_choice(ctx) or ""),
+        axes=",".join(view["order"]),
+        hide=",".join(sets.default_hidden(ctx)),
     )
-    return {"fields": fields, "view": sets.default_view(ctx)}
+    return {"fields": fields, "view": view}
 
 
 def _layout(ctx: cb.UIContext) -> Any:
@@ -173,6 +198,17 @@ def _layout(ctx: cb.UIContext) -> Any:
                                 value="overview",
                                 children=detail.overview_layout(ctx),
                             ),
+                            *(
+                                [
+                                    dcc.Tab(
+                                        label="Compare two models",
+                                        value="compare",
+                                        children=compare_page.compare_layout(ctx),
+                                    )
+                                ]
+                                if "compare" in ctx.extra
+                                else []
+                            ),
                         ],
                     ),
                 ],
@@ -187,6 +223,7 @@ def create_app(
     executor: str | None = None,
     workers: int | None = None,
     max_points: int = 20_000,
+    compare: str | Path | None = None,
 ) -> tuple[Any, cb.UIContext]:
     """Build the Dash app serving one study store.
 
@@ -198,6 +235,9 @@ def create_app(
         For background run jobs (see :func:`vectorid.run.run_store`).
     max_points : int
         Points drawn per set in the criterion-vs-criterion plot.
+    compare : path, optional
+        A second store: a *Compare two models* tab shows both side by side
+        (:mod:`vectorid.views.ui.compare`; the spectral peaks are computed in a thread).
 
     Returns
     -------
@@ -224,6 +264,10 @@ def create_app(
         progress_of=lambda: cache.version()[0],
     )
     ctx = cb.UIContext(cache=cache, jobs=jobs, max_points=max_points)
+    if compare is not None:
+        from .compare import start_compare
+
+        start_compare(ctx, compare)
     _warm(ctx)  # load, compile (numba) and keep what the first page needs
     jobs.warm()  # the job worker imports vectorid while the page loads
 
@@ -294,6 +338,8 @@ def create_app(
     explore.register(app, ctx, w, tokens)
     sets.register(app, ctx, w, tokens)
     detail.register(app, ctx, w)
+    if "compare" in ctx.extra:
+        compare_page.register(app, ctx)
     _register_jobs(app, ctx, w)
     return app, ctx
 
@@ -332,7 +378,7 @@ _VIEW_FIELDS = (
     ("selection", "data"),
     ("par-view", "data"),
     ("par-colour", "value"),
-    ("par-hidden", "value"),
+    ("par-shown", "value"),
 )
 
 
@@ -391,7 +437,12 @@ def _register_url(app: Any, ctx: cb.UIContext, w: Wiring) -> None:
 
     from dash import Input, Output, State
 
-    names = {"crit": json.dumps(w.crit), "cons": json.dumps(w.cons)}
+    spec = ctx.spec
+    names = {
+        "crit": json.dumps(w.crit),
+        "cons": json.dumps(w.cons),
+        "axes": json.dumps(spec.criterion_names + spec.constraint_names + spec.space.names),
+    }
     outs = [Output(i, "value") for i in w.ids("limit") + w.ids("role") + w.ids("low")]
     outs += [Output(i, "value") for i in w.ids("high")]
     outs += [

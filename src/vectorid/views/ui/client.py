@@ -10,11 +10,14 @@ comes back in a fraction of the time the former in-page scan held the page froze
 
 * :data:`VID_JS` (served at ``/_vid/vid.js``) defines ``window.vid``:
 
-  - ``vid.brush(event, selection, view)``: a ``restyleData`` event of the parallel
-    coordinates to the new ``selection`` (``{"kind": "ranges", "ranges": {name: [[lo, hi],
-    ...]}}``, every range of every brushed axis, both edges) and the new axis ``view``
-    (``{"order": [...], "hidden": [...], "colour": ...}``; an axis dragged elsewhere changes
-    ``order``);
+  - ``vid.parRender(data, selection, view)``: the parallel coordinates drawn by the page
+    (SVG axes, the lines on a 2D canvas by a Web Worker; no plotly.js, no WebGL) from the
+    server's answer (:func:`vectorid.views.ui.parallel.parallel_view`). A drag along an axis
+    adds a range to the ``selection`` (``{"kind": "ranges", "ranges": {name: [[lo, hi],
+    ...]}}``, every range of every brushed axis, both edges; overlapping ranges of one axis
+    merge), a click on a range removes it, a title dragged sideways moves its axis (the
+    ``par-view`` store's ``order``); each is set in the page's stores at once
+    (``dash_clientside.set_props``);
   - ``vid.readState(hash)`` / ``vid.writeState(state, defaults)``: the view's state to and
     from the URL's fragment (``#lim.f1=20&tab=parallel&trial=110&...``, see
     :data:`STATE_KEYS`);
@@ -24,7 +27,7 @@ comes back in a fraction of the time the former in-page scan held the page froze
 
 from __future__ import annotations
 
-__all__ = ["BRUSH_JS", "READ_URL_JS", "STATE_KEYS", "VID_JS", "WRITE_URL_JS"]
+__all__ = ["PAR_JS", "READ_URL_JS", "STATE_KEYS", "VID_JS", "WRITE_URL_JS"]
 
 #: The keys of the URL fragment: ``lim.<criterion>`` (the Φ** field's text), ``role.<criterion>``
 #: (``pure``/``pseudo``), ``low.<constraint>``/``high.<constraint>`` (functional bounds), ``tab``,
@@ -70,41 +73,6 @@ function ranges(v) {
     if (isFinite(a) && isFinite(b)) out.push([Math.min(a, b), Math.max(a, b)]);
   }
   return out.sort((p, q) => p[0] - q[0]);
-}
-
-function liveDims() {
-  const gd = document.querySelector('#par-graph .js-plotly-plot');
-  return (gd && gd.data && gd.data[0] && gd.data[0].dimensions) || null;
-}
-
-// a brush (or an axis moved) on the parallel coordinates
-function brush(event, selection, view) {
-  const out = {selection: undefined, view: undefined};
-  if (!event || !event[0]) return out;
-  const dims = liveDims();
-  if (!dims) return out;
-  const ev = event[0];
-  if (ev.dimensions) {  // axes reordered: plotly sorted its dimensions in place
-    const v = Object.assign({order: [], hidden: [], colour: 'set'}, view || {});
-    v.order = dims.map(d => d.name);
-    out.view = v;
-    return out;
-  }
-  const cur = (selection && selection.kind === 'ranges') ? selection.ranges : {};
-  const next = {};
-  for (const k of Object.keys(cur)) next[k] = ranges(cur[k]);
-  let any = false;
-  for (const key of Object.keys(ev)) {
-    const m = /^dimensions\[(\d+)\]\.constraintrange$/.exec(key);
-    if (!m || !dims[Number(m[1])]) continue;
-    const name = dims[Number(m[1])].name;
-    const r = ranges(ev[key]);
-    if (r.length) next[name] = r; else delete next[name];
-    any = true;
-  }
-  if (!any) return out;
-  out.selection = Object.keys(next).length ? {kind: 'ranges', ranges: next} : null;
-  return out;
 }
 
 // the view's state <-> the URL's fragment
@@ -221,50 +189,364 @@ function typed(v) {
   return Float64Array.from(v || []);
 }
 
-const par = {worker: null, canvas: null, seq: 0, due: false};
-function parJob(gd) {
-  const meta = gd.layout && gd.layout.meta && gd.layout.meta.lines;
-  const fl = gd._fullLayout;
-  if (!meta || !fl) return null;
+// -- the parallel coordinates, drawn by the page ---------------------------------------------
+// The server sends the axes (name, title with unit, hover text, range, the limit in force)
+// and the lines (float32 per axis, thinned per set); the page lays the axes out in SVG and a
+// Web Worker draws the lines on a 2D canvas (OffscreenCanvas; on the main thread where a
+// browser has none). No WebGL: plotly.js's parcoords needed three WebGL layers, and in
+// software rendering their first draw held the main thread 4-14 s at 41 axes.
+//
+// Axes 86 px or more apart get their titles across, on two lines (name, [unit]); closer ones
+// get them upright, one line, so that no two titles overlap however many axes are shown.
+// Tick labels sit left of each axis where they fit between two axes; where they do not, each
+// axis shows only its two ends, centred on it, on alternate rows. Below MIN_GAP px the axes
+// are spread wider than the page, which then scrolls sideways.
+const SVGNS = 'http://www.w3.org/2000/svg';
+const FONT = '12px system-ui, -apple-system, Segoe UI, Roboto, sans-serif';
+const TICK_FONT = '11px system-ui, -apple-system, Segoe UI, Roboto, sans-serif';
+const MIN_GAP = 18;
+const par = {worker: null, seq: 0, data: null, sel: null, order: null, host: null,
+  geom: null, view: null, shown: null, due: false};
+let measurer = null;
+function textWidth(s, font) {
+  measurer = measurer || document.createElement('canvas').getContext('2d');
+  measurer.font = font;
+  return measurer.measureText(String(s)).width;
+}
+function svg(tag, attrs, parent) {
+  const e = document.createElementNS(SVGNS, tag);
+  for (const k of Object.keys(attrs || {})) e.setAttribute(k, attrs[k]);
+  if (parent) parent.appendChild(e);
+  return e;
+}
+function tip(e, text) { svg('title', {}, e).textContent = text; return e; }
+function niceTicks(lo, hi, n) {
+  const span = hi - lo;
+  if (!(span > 0)) return {ticks: [lo], step: 1};
+  const raw = span / n, p = Math.pow(10, Math.floor(Math.log10(raw))), m = raw / p;
+  const step = (m >= 5 ? 10 : m >= 2 ? 5 : m >= 1 ? 2 : 1) * p;
+  const out = [];
+  for (let v = Math.ceil(lo / step) * step; v <= hi + step * 1e-9; v += step) {
+    out.push(Math.abs(v) < step * 1e-9 ? 0 : v);
+  }
+  return {ticks: out, step: step};
+}
+function num(v) {  // a tick or range label, at most about six characters
+  if (v === 0) return '0';
+  let s = String(Number(v.toPrecision(3)));
+  if (s.length > 6) s = Number(v.toPrecision(2)).toExponential().replace('e+', 'e');
+  return s;
+}
+function ensureWorker() {
+  if (par.worker !== null || !window.Worker) return;
+  try {
+    const url = URL.createObjectURL(new Blob([PAR_WORKER], {type: 'text/javascript'}));
+    par.worker = new Worker(url);
+    par.worker.onmessage = e => {
+      const c = document.querySelector('#par-graph canvas.vid-lines');
+      if (c) parDone(c, e.data);
+    };
+  } catch (e) { par.worker = false; }
+}
+function parDone(cv, out) {  // what was drawn, for tests and benchmarks
+  cv.dataset.lines = out.lines; cv.dataset.selected = out.selected;
+  cv.dataset.ms = Math.round(out.ms || 0); cv.dataset.seq = out.seq || 0;
+  cv.dataset.at = Math.round(performance.now());
+}
+function shownAxes() {
+  const by = {};
+  for (const a of par.data.axes) by[a.name] = a;
+  const order = (par.order || []).filter(n => by[n]);
+  for (const a of par.data.axes) if (!order.includes(a.name)) order.push(a.name);
+  const show = par.shown ? new Set(par.shown) : null;
+  return order.map(n => by[n]).filter(a => (show ? show.has(a.name) : !a.hidden));
+}
+function layout(host) {
+  const axes = shownAxes(), n = axes.length;
+  const width0 = Math.max(320, host.clientWidth || 1200);
+  const mL = 60, mR = 60;
+  const tickW = axes.map(a => {
+    const t = niceTicks(a.range[0], a.range[1], 5).ticks;
+    return Math.max(0, ...t.map(v => textWidth(num(v), TICK_FONT)));
+  });
+  const endW = axes.map(a => Math.max(textWidth(num(a.range[0]), TICK_FONT),
+    textWidth(num(a.range[1]), TICK_FONT)));
+  let gap = n > 1 ? (width0 - mL - mR) / (n - 1) : 0;
+  const need = Math.max(MIN_GAP, (Math.max(0, ...endW) + 6) / 2);
+  if (n > 1 && gap < need) gap = need;  // wider than the page: it scrolls sideways
+  const width = n > 1 ? Math.ceil(mL + mR + gap * (n - 1)) : width0;
+  const two = axes.map(a => [a.name, '[' + a.unit + ']']);
+  const across = n < 2 || Math.max(...two.map(t => Math.max(textWidth(t[0], FONT),
+    textWidth(t[1], FONT)))) + 10 <= gap;
+  const upright = across ? 0 : Math.max(...axes.map(a => textWidth(a.title, FONT)));
+  const ticksFit = n < 2 || Math.max(...tickW) + 14 <= gap;
+  const titleH = across ? 34 : Math.ceil(upright) + 12;
+  const ends = ticksFit ? 18 : 32;
+  const top = titleH + ends, H = par.data.height || 470, bottom = H - (ticksFit ? 28 : 40);
+  const xs = axes.map((a, i) => n > 1 ? mL + gap * i : width / 2);
+  return {axes: axes, xs: xs, gap: gap, width: width, height: H, top: top, bottom: bottom,
+    across: across, ticksFit: ticksFit, titleH: titleH};
+}
+function yOf(g, a, v) {
+  const lo = a.range[0], hi = a.range[1];
+  if (!(hi > lo)) return (g.top + g.bottom) / 2;
+  return g.top + (hi - v) / (hi - lo) * (g.bottom - g.top);
+}
+function vOf(g, a, y) {
+  const lo = a.range[0], hi = a.range[1];
+  const t = Math.max(0, Math.min(1, (y - g.top) / (g.bottom - g.top)));
+  return hi - t * (hi - lo);
+}
+function selRanges() {
+  return (par.sel && par.sel.kind === 'ranges' && par.sel.ranges) ? par.sel.ranges : {};
+}
+function drawBrushes() {
+  const g = par.geom;
+  if (!g) return;
+  const rs = selRanges();
+  g.axes.forEach((a, i) => {
+    const grp = g.brushes[i];
+    while (grp.firstChild) grp.removeChild(grp.firstChild);
+    for (const r of ranges(rs[a.name])) {
+      const y1 = yOf(g, a, r[1]), y0 = yOf(g, a, r[0]);
+      tip(svg('rect', {x: g.xs[i] - 6, y: Math.min(y0, y1), width: 12,
+        height: Math.max(2, Math.abs(y0 - y1)), class: 'vid-brush',
+        'data-lo': r[0], 'data-hi': r[1]}, grp),
+        a.name + ' in [' + num(r[0]) + ', ' + num(r[1]) + '] (click to remove)');
+    }
+  });
+}
+function setSel(sel) {
+  par.sel = sel;
+  drawBrushes();
+  linesSoon();
+  if (window.dash_clientside && dash_clientside.set_props) {
+    dash_clientside.set_props('selection', {data: sel});
+  }
+}
+function commitRange(name, lo, hi, remove) {
+  const cur = selRanges(), next = {};
+  for (const k of Object.keys(cur)) next[k] = ranges(cur[k]);
+  let rs = next[name] || [];
+  if (remove) {
+    rs = rs.filter(r => !(remove >= r[0] && remove <= r[1]));
+  } else {
+    rs.push([lo, hi]);
+    rs.sort((p, q) => p[0] - q[0]);
+    const merged = [];
+    for (const r of rs) {  // overlapping bands of one axis become one
+      const last = merged[merged.length - 1];
+      if (last && r[0] <= last[1]) last[1] = Math.max(last[1], r[1]);
+      else merged.push([r[0], r[1]]);
+    }
+    rs = merged;
+  }
+  if (rs.length) next[name] = rs; else delete next[name];
+  setSel(Object.keys(next).length ? {kind: 'ranges', ranges: next} : null);
+}
+function setOrder(names) {
+  if (!par.data) {  // not drawn yet: the order is kept for the first drawing
+    par.view = Object.assign({order: []}, par.view || {}, {order: names.slice()});
+    if (window.dash_clientside && dash_clientside.set_props) {
+      dash_clientside.set_props('par-view', {data: par.view});
+    }
+    return;
+  }
+  const all = par.data.axes.map(a => a.name), shown = names.slice();
+  const rest = (par.order || all).filter(n => !shown.includes(n));
+  par.order = shown.concat(rest.filter(n => all.includes(n)));
+  const v = Object.assign({order: []}, par.view || {}, {order: par.order});
+  par.view = v;
+  if (window.dash_clientside && dash_clientside.set_props) {
+    dash_clientside.set_props('par-view', {data: v});
+  }
+  build();
+}
+function build() {
+  const host = document.querySelector('#par-graph');
+  if (!host || !par.data) return;
+  par.host = host;
+  while (host.firstChild) host.removeChild(host.firstChild);
+  const g = layout(host);
+  par.geom = g;
+  const head = document.createElement('div');
+  head.className = 'vid-par-title';
+  head.textContent = par.data.title;
+  host.appendChild(head);
+  if (par.data.colour) {
+    const c = par.data.colour, bar = document.createElement('div');
+    bar.className = 'vid-par-colour muted';
+    bar.append('colour: ' + c.title + ' ' + num(c.min) + ' ');
+    for (const col of VIRIDIS) {
+      const s = document.createElement('span');
+      s.style.cssText = 'display:inline-block;width:14px;height:10px;background:' + col;
+      bar.appendChild(s);
+    }
+    bar.append(' ' + num(c.max));
+    host.appendChild(bar);
+  }
+  const box = document.createElement('div');
+  box.className = 'vid-par-box';
+  box.style.cssText = 'position:relative;width:' + g.width + 'px;height:' + g.height + 'px';
+  host.appendChild(box);
+  const cv = document.createElement('canvas');
+  cv.className = 'vid-lines';
+  cv.style.cssText = 'position:absolute;left:0;top:0;pointer-events:none;width:' + g.width +
+    'px;height:' + g.height + 'px';
+  box.appendChild(cv);
+  ensureWorker();
+  if (par.worker && cv.transferControlToOffscreen) {
+    try {
+      const off = cv.transferControlToOffscreen();
+      par.worker.postMessage({canvas: off}, [off]);
+      cv.vidWorker = true;
+    } catch (e) { cv.vidWorker = false; }
+  }
+  const root = svg('svg', {width: g.width, height: g.height, class: 'vid-par-svg'}, box);
+  root.style.cssText = 'position:absolute;left:0;top:0;overflow:visible';
+  g.brushes = [];
+  g.axes.forEach((a, i) => {
+    const x = g.xs[i];
+    const grp = svg('g', {class: 'vid-axis', 'data-name': a.name}, root);
+    svg('line', {x1: x, x2: x, y1: g.top, y2: g.bottom, class: 'vid-axis-line'}, grp);
+    // ticks: labels left of the axis where they fit, else only the two ends, centred
+    const t = niceTicks(a.range[0], a.range[1], 5).ticks;
+    for (const v of t) {
+      const y = yOf(g, a, v);
+      svg('line', {x1: x - 3, x2: x, y1: y, y2: y, class: 'vid-tick'}, grp);
+      if (g.ticksFit) {
+        svg('text', {x: x - 5, y: y + 4, 'text-anchor': 'end', class: 'vid-tick-label'}, grp)
+          .textContent = num(v);
+      }
+    }
+    if (!g.ticksFit) {
+      const row = i % 2 ? 13 : 0;
+      svg('text', {x: x, y: g.top - 6 - row, 'text-anchor': 'middle',
+        class: 'vid-tick-label vid-end'}, grp).textContent = num(a.range[1]);
+      svg('text', {x: x, y: g.bottom + 14 + row, 'text-anchor': 'middle',
+        class: 'vid-tick-label vid-end'}, grp).textContent = num(a.range[0]);
+    }
+    // the limit in force: a criterion's worse-side bound, a functional's bounds
+    if (a.limit) {
+      const vals = a.limit[0] === 'in' ? a.limit[1] : [a.limit[1]];
+      for (const v of vals) {
+        if (v === null || v === undefined || v < a.range[0] || v > a.range[1]) continue;
+        const y = yOf(g, a, v);
+        tip(svg('path', {d: 'M' + (x + 2) + ',' + y + 'l7,-4v8z', class: 'vid-limit'}, grp),
+          a.name + ' ' + (a.limit[0] === 'in' ? 'bound ' : a.limit[0] + ' ') + num(v) +
+          ' (constraint in force)');
+      }
+    }
+    // the title: across on two lines, or upright; hover: unit, meaning and more
+    const title = svg('g', {class: 'vid-title', 'data-name': a.name}, grp);
+    if (g.across) {
+      const txt = svg('text', {x: x, y: 14, 'text-anchor': 'middle', class: 'vid-axis-title'},
+        title);
+      svg('tspan', {x: x, dy: 0}, txt).textContent = a.name;
+      svg('tspan', {x: x, dy: 14, class: 'vid-unit'}, txt).textContent = '[' + a.unit + ']';
+    } else {
+      const y = g.titleH - 6;
+      svg('text', {x: x + 4, y: y, 'text-anchor': 'start', class: 'vid-axis-title',
+        transform: 'rotate(-90 ' + (x + 4) + ' ' + y + ')'}, title).textContent = a.title;
+    }
+    tip(title, a.tip + ' — drag to move this axis');
+    const bg = svg('g', {class: 'vid-brushes'}, grp);
+    g.brushes.push(bg);
+    const half = Math.max(5, Math.min(12, g.gap / 2 - 2));
+    const hit = tip(svg('rect', {x: x - half, y: g.top, width: 2 * half,
+      height: g.bottom - g.top, class: 'vid-hit', 'data-name': a.name}, grp),
+      a.tip + ' — drag along the axis to select a range; click a range to remove it');
+    hit.addEventListener('pointerdown', ev => brushStart(ev, i, hit));
+    title.addEventListener('pointerdown', ev => moveStart(ev, i, grp));
+  });
+  drawBrushes();
+  linesSoon();
+}
+function brushStart(ev, i, hit) {
+  const g = par.geom, a = g.axes[i];
+  const box = hit.ownerSVGElement.getBoundingClientRect();
+  const y0 = ev.clientY - box.top;
+  const band = svg('rect', {x: g.xs[i] - 6, y: y0, width: 12, height: 0,
+    class: 'vid-brush vid-brushing'}, hit.parentNode);
+  hit.setPointerCapture(ev.pointerId);
+  ev.preventDefault();
+  let y1 = y0;
+  function move(e) {
+    y1 = Math.max(g.top, Math.min(g.bottom, e.clientY - box.top));
+    band.setAttribute('y', Math.min(y0, y1));
+    band.setAttribute('height', Math.abs(y1 - y0));
+  }
+  function up(e) {
+    hit.removeEventListener('pointermove', move);
+    hit.removeEventListener('pointerup', up);
+    band.remove();
+    if (Math.abs(y1 - y0) < 3) {  // a click: remove the range under it, if any
+      const v = vOf(g, a, y0);
+      if (ranges(selRanges()[a.name]).some(r => v >= r[0] && v <= r[1])) {
+        commitRange(a.name, 0, 0, v);
+      }
+      return;
+    }
+    const p = vOf(g, a, y0), q = vOf(g, a, y1);
+    commitRange(a.name, Math.min(p, q), Math.max(p, q));
+  }
+  hit.addEventListener('pointermove', move);
+  hit.addEventListener('pointerup', up);
+}
+function moveStart(ev, i, grp) {
+  const g = par.geom, x0 = ev.clientX;
+  const title = ev.currentTarget;
+  title.setPointerCapture(ev.pointerId);
+  ev.preventDefault();
+  let dx = 0;
+  function move(e) {
+    dx = e.clientX - x0;
+    grp.setAttribute('transform', 'translate(' + dx + ',0)');
+  }
+  function up() {
+    title.removeEventListener('pointermove', move);
+    title.removeEventListener('pointerup', up);
+    grp.removeAttribute('transform');
+    if (Math.abs(dx) < 3) return;
+    const at = g.xs[i] + dx, names = g.axes.map(a => a.name), me = names[i];
+    names.splice(i, 1);
+    let k = 0;
+    while (k < names.length && g.xs[k + (k >= i ? 1 : 0)] < at) k++;
+    names.splice(k, 0, me);
+    setOrder(names);
+  }
+  title.addEventListener('pointermove', move);
+  title.addEventListener('pointerup', up);
+}
+function linesJob() {
+  const g = par.geom, meta = par.data.lines;
   const vals = {};
   for (const k of Object.keys(meta.values)) vals[k] = typed(meta.values[k]);
-  const axes = [];
-  let model = null;
-  gd.querySelectorAll('.y-axis').forEach(el => {
-    const d = el.__data__;
-    if (!d || !d.model || !d.domainScale) return;
-    model = d.model;
-    const dim = d.model.dimensions[d.visibleIndex] || {};
-    const v = vals[dim.name];
-    if (!v) return;
-    const dom = d.domainScale.domain(), rng = d.domainScale.range();
-    const lo = dom[0], hi = dom[dom.length - 1];
-    const a = hi !== lo ? (rng[rng.length - 1] - rng[0]) / (hi - lo) : 0;
-    axes.push({x: d.x, a: a, b: rng[0] - a * lo, v: v, name: dim.name});
-  });
-  if (!model || !axes.length) return null;
-  axes.sort((p, q) => p.x - q.x);
-  const x0 = model.translateX + model.pad.l, y0 = model.translateY + model.pad.t;
-  for (const q of axes) { q.x += x0; q.b += y0; }
+  const axes = g.axes.map((a, i) => {
+    const lo = a.range[0], hi = a.range[1], h = g.bottom - g.top;
+    const k = hi > lo ? -h / (hi - lo) : 0;
+    return {x: g.xs[i], a: k, b: hi > lo ? g.top - k * hi : (g.top + g.bottom) / 2,
+      v: vals[a.name]};
+  }).filter(q => q.v);
+  if (!axes.length) return null;
   const n = axes[0].v.length;
-  // which lines lie in one range of every brushed axis (plotly.js's brushes, live)
-  const live = (gd.data && gd.data[0] && gd.data[0].dimensions) || [];
+  // which lines lie in one range of every brushed axis (hidden axes too)
   const brushed = [];
-  for (const d of live) {
-    const rs = ranges(d.constraintrange);
-    if (rs.length && vals[d.name]) brushed.push([vals[d.name], rs]);
+  const rs = selRanges();
+  for (const name of Object.keys(rs)) {
+    const r = ranges(rs[name]);
+    if (r.length && vals[name]) brushed.push([vals[name], r]);
   }
   const sel = new Uint8Array(n).fill(1);
-  for (const [v, rs] of brushed) {
+  for (const [v, rr] of brushed) {
     for (let i = 0; i < n; i++) {
       if (!sel[i]) continue;
       const x = v[i];
       let hit = false;
-      for (const q of rs) if (x >= q[0] && x <= q[1]) { hit = true; break; }
+      for (const q of rr) if (x >= q[0] && x <= q[1]) { hit = true; break; }
       if (!hit) sel[i] = 0;
     }
   }
-  // colour class per line: set (0 infeasible, 1 in D, 2 Pareto) or ten steps of a column
   const c = typed(meta.color), cls = new Uint8Array(n);
   let style;
   if (meta.mode === 'set') {
@@ -279,53 +561,16 @@ function parJob(gd) {
     style = VIRIDIS.map(col => [col, 0.6]);
   }
   const un = meta.unselected || {};
-  return {
-    w: fl.width, h: fl.height, dpr: window.devicePixelRatio || 1, n: n,
-    axes: axes.map(q => ({x: q.x, a: q.a, b: q.b, v: q.v})), sel: sel,
-    anySel: brushed.length > 0, cls: cls, style: style,
-    unsel: {color: un.color || '#bbb', alpha: un.opacity === undefined ? 0.08 : un.opacity},
-  };
+  return {w: g.width, h: g.height, dpr: window.devicePixelRatio || 1, n: n, axes: axes,
+    sel: sel, anySel: brushed.length > 0, cls: cls, style: style,
+    unsel: {color: un.color || '#bbb', alpha: un.opacity === undefined ? 0.08 : un.opacity}};
 }
-function parCanvas(gd) {
-  let cv = gd.querySelector('canvas.vid-lines');
-  if (cv) return cv;
-  const box = gd.querySelector('.gl-container') || gd.querySelector('.svg-container');
-  if (!box) return null;
-  cv = document.createElement('canvas');
-  cv.className = 'vid-lines';
-  cv.style.cssText = 'position:absolute;top:0;left:0;pointer-events:none';
-  box.appendChild(cv);
-  if (window.Worker && cv.transferControlToOffscreen) {
-    try {
-      if (!par.worker) {
-        const url = URL.createObjectURL(new Blob([PAR_WORKER], {type: 'text/javascript'}));
-        par.worker = new Worker(url);
-        par.worker.onmessage = e => {  // on the canvas shown now (a tab may remount it)
-          const c = document.querySelector('#par-graph canvas.vid-lines');
-          if (c) parDone(c, e.data);
-        };
-      }
-      const off = cv.transferControlToOffscreen();
-      par.worker.postMessage({canvas: off}, [off]);
-      cv.vidWorker = true;
-    } catch (e) { cv.vidWorker = false; }
-  }
-  return cv;
-}
-function parDone(cv, out) {  // what was drawn, for tests and benchmarks
-  cv.dataset.lines = out.lines; cv.dataset.selected = out.selected;
-  cv.dataset.ms = Math.round(out.ms || 0); cv.dataset.seq = out.seq || 0;
-  cv.dataset.at = Math.round(performance.now());
-}
-function parRedraw() {
+function linesNow() {
   par.due = false;
-  const gd = document.querySelector('#par-graph .js-plotly-plot');
-  if (!gd || !gd.offsetParent) return;
-  const job = parJob(gd);
+  const cv = document.querySelector('#par-graph canvas.vid-lines');
+  if (!cv || !par.geom) return;
+  const job = linesJob();
   if (!job) return;
-  const cv = parCanvas(gd);
-  if (!cv) return;
-  cv.style.width = job.w + 'px'; cv.style.height = job.h + 'px';
   job.seq = ++par.seq;
   cv.dataset.asked = job.seq;
   if (cv.vidWorker) {
@@ -337,32 +582,53 @@ function parRedraw() {
     parDone(cv, out);
   }
 }
-function parSchedule() {
-  if (!par.due) { par.due = true; requestAnimationFrame(parRedraw); }
+function linesSoon() {
+  if (!par.due) { par.due = true; requestAnimationFrame(linesNow); }
 }
-// listen to the graph (created once by dcc.Graph) for new figures, brushes and moved axes
+// a new answer from the server, or a new selection (from a brush, or from another view)
+function parRender(data, selection, view, shown) {
+  const show = shown ? shown.slice() : null;
+  if (data && data !== par.data) {
+    par.data = data;
+    par.order = ((view && view.order) || []).slice();
+    par.view = view || null;
+    par.sel = selection || null;
+    par.shown = show;
+    build();
+  } else if (JSON.stringify(show) !== JSON.stringify(par.shown || null)) {
+    par.shown = show;
+    par.sel = selection || null;
+    build();
+  } else {
+    const same = JSON.stringify(selection || null) === JSON.stringify(par.sel || null);
+    par.sel = selection || null;
+    if (!same) { drawBrushes(); linesSoon(); }
+  }
+  return data ? data.rev : null;
+}
+// the tab's content is mounted anew when it is shown again: draw it again from what we hold
+let lastWidth = 0;
 setInterval(() => {
-  const gd = document.querySelector('#par-graph .js-plotly-plot');
-  if (gd && gd.on && gd.__vidPar !== gd._ev) {
-    gd.__vidPar = gd._ev;
-    gd.on('plotly_afterplot', parSchedule);
-    gd.on('plotly_restyle', parSchedule);
-    parSchedule();
+  const host = document.querySelector('#par-graph');
+  if (!host || !par.data || !host.offsetParent) return;
+  const w = host.clientWidth;
+  if (!host.querySelector('.vid-par-box') || Math.abs(w - lastWidth) > 20) {
+    lastWidth = w;
+    build();
   }
 }, 300);
 
-window.vid = {brush: brush, ranges: ranges, readState: readState, writeState: writeState,
-  parRedraw: parRedraw, parDraw: parDraw};
+window.vid = {ranges: ranges, readState: readState, writeState: writeState,
+  parRender: parRender, parDraw: parDraw, parOrder: setOrder, textWidth: textWidth};
 })();
 """
 
-#: Clientside callback: a ``restyleData`` event of the parallel coordinates to the selection
-#: and the axis view (no server round trip; the server then counts the selection).
-BRUSH_JS = """
-function(event, selection, view) {
-  const nc = dash_clientside.no_update;
-  const r = window.vid.brush(event, selection, view);
-  return [r.selection === undefined ? nc : r.selection, r.view === undefined ? nc : r.view];
+#: Clientside callback: the parallel coordinates drawn by the page from the server's answer
+#: (``par-data``), and their brushes and lines drawn again when the selection changes (a
+#: brush, or a selection made in another view).
+PAR_JS = """
+function(data, selection, shown, view) {
+  return window.vid.parRender(data, selection, view, shown);
 }
 """
 
@@ -372,7 +638,7 @@ READ_URL_JS = """
 function(hash, defaults) {
   const nc = dash_clientside.no_update;
   const s = window.vid.readState(hash);
-  const crit = %(crit)s, cons = %(cons)s;
+  const crit = %(crit)s, cons = %(cons)s, axes = %(axes)s;
   const pick = k => (k in s ? s[k] : nc);
   const role = k => (k in s && ['pure', 'pseudo'].includes(s[k]) ? s[k] : nc);
   const json = k => { try { return k in s ? JSON.parse(s[k]) : nc; } catch (e) { return nc; } };
@@ -383,7 +649,8 @@ function(hash, defaults) {
     ...cons.map(n => pick('low.' + n)),
     ...cons.map(n => pick('high.' + n)),
     pick('tab'), pick('x'), pick('y'), pick('panel'), pick('crit'), pick('trial'),
-    json('sel'), 'axes' in s ? {order: list('axes')} : nc, pick('colour'), list('hide'),
+    json('sel'), 'axes' in s ? {order: list('axes')} : nc, pick('colour'),
+    'hide' in s ? axes.filter(n => !list('hide').includes(n)) : nc,
   ];
 }
 """
@@ -392,14 +659,15 @@ function(hash, defaults) {
 #: (``history.replaceState``: no reload, no new history entry per keystroke).
 WRITE_URL_JS = """
 function(...v) {
-  const crit = %(crit)s, cons = %(cons)s;
+  const crit = %(crit)s, cons = %(cons)s, axes = %(axes)s;
   const k = crit.length, q = cons.length;
   const defaults = v[v.length - 1] || {};
   const s = {};
   crit.forEach((n, j) => { s['lim.' + n] = v[j]; });
   crit.forEach((n, j) => { s['role.' + n] = v[k + j]; });
   cons.forEach((n, j) => { s['low.' + n] = v[2 * k + j]; s['high.' + n] = v[2 * k + q + j]; });
-  const [tab, x, y, panel, crit0, trial, sel, view, colour, hide] = v.slice(2 * k + 2 * q);
+  const [tab, x, y, panel, crit0, trial, sel, view, colour, shown] = v.slice(2 * k + 2 * q);
+  const hide = shown ? axes.filter(n => !shown.includes(n)) : [];
   Object.assign(s, {tab: tab, x: x, y: y, panel: panel, crit: crit0, trial: trial,
     sel: sel ? JSON.stringify(sel) : '', axes: ((view || {}).order || []).join(','),
     colour: colour || 'set', hide: (hide || []).join(',')});

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from ...analysis.results import Analysis
-from ..labels import Labels, labels_of
+from ..labels import Labels, labels_of, relaxed_of
 from .data import Constraints, StoreCache, finite, parse_constraints
 from .jobs import JobManager
 
@@ -111,10 +111,15 @@ def analysis_of(
 
 def limit_source_of(criterion: Any) -> str:
     """Where a criterion's saved limit comes from, in words: "noise floor", "quantile
-    stand-in" or "expert", with its note ("" when the study saves no limit for it)."""
+    stand-in" or "expert", with its note ("" when the study saves no limit for it); a limit
+    relaxed as the last resort says so first, with its factor and the stated limit
+    (:func:`vectorid.views.labels.relaxed_of`)."""
     src = getattr(criterion, "source", "")
     if not src or getattr(criterion, "limit", None) is None:
         return ""
+    rel = relaxed_of(criterion)
+    if rel is not None:
+        return rel.text(getattr(criterion, "unit", ""))
     label = SOURCE_LABELS.get(src, src)
     note = getattr(criterion, "limit_note", "") or ""
     if not note:

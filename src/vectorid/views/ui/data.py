@@ -15,11 +15,12 @@ was expected), trial ids as integers, names are checked against the study.
 
 from __future__ import annotations
 
+import logging
 import math
 import threading
 import zlib
 from collections import OrderedDict
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence, Sized
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -569,3 +570,56 @@ def finite(v: Any) -> float | None:
 
 def as_mapping(d: Mapping[str, Any] | None) -> dict[str, Any]:
     return dict(d or {})
+
+
+log = logging.getLogger("vectorid.ui")
+
+
+def refused(what: str, problem: str) -> StudyDefinitionError:
+    """A malformed value from the page (only a hand-made request sends one): one log line,
+    and the error the page shows."""
+    log.warning("refused a malformed value from the page: %s: %s", what, problem)
+    return StudyDefinitionError(what, problem, "reload the page")
+
+
+def page_table(value: Any, what: str) -> dict[str, Any] | None:
+    """A value the page sends as a table (a Plotly event, a selection, a job note): None
+    when empty, else a dict.
+
+    Raises
+    ------
+    StudyDefinitionError
+        For anything else (only a hand-made request sends it): one line, no traceback.
+    """
+    if value is None or (isinstance(value, Sized) and not isinstance(value, str) and not value):
+        return None
+    if not isinstance(value, Mapping):
+        raise refused(
+            what, f"expected a table from the page, got {type(value).__name__} {_short(value)}"
+        )
+    return dict(value)
+
+
+def page_numbers(value: Any, n: int, what: str) -> list[float]:
+    """``n`` finite numbers the page sends as a list (a range, a bin's custom data).
+
+    Raises
+    ------
+    StudyDefinitionError
+        For anything else: one line, no traceback.
+    """
+    ok = isinstance(value, list | tuple) and len(value) == n
+    out: list[float] = []
+    for v in value if ok else ():
+        if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
+            ok = False
+            break
+        out.append(float(v))
+    if not ok:
+        raise refused(what, f"expected {n} finite numbers, got {_short(value)}")
+    return out
+
+
+def _short(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."

@@ -5,6 +5,7 @@ rule. Plain functions: browser values in, plain data and Plotly figures out.
 
 from __future__ import annotations
 
+import re
 import weakref
 from collections.abc import Mapping, Sequence
 from typing import Any
@@ -17,9 +18,10 @@ from ...analysis.weights import how_weighted
 from ...errors import StudyDefinitionError, VectoridError
 from ...samplers import sampler_for
 from .. import clouds
+from ..labels import relaxation_line
 from .context import UIContext, analysis_of, fmt, num
-from .data import parse_trial_id
-from .verdicts import limit_sources, verdict_line, verdicts_of
+from .data import page_numbers, page_table, parse_trial_id, refused
+from .verdicts import limit_sources, verdict_groups, verdict_line, verdicts_of
 
 __all__ = [
     "box_to_limits",
@@ -215,9 +217,14 @@ def summary_view(
         (columns, data, styles of the test tables), ``sources`` (where each criterion's
         limit in force came from, :func:`~vectorid.views.ui.verdicts.limit_sources`) and
         ``verdicts`` (the identifiability verdicts in one line,
-        :func:`~vectorid.views.ui.verdicts.verdict_line`).
+        :func:`~vectorid.views.ui.verdicts.verdict_line`), ``verdict_groups`` (the verdict
+        panel, :func:`~vectorid.views.ui.verdicts.verdict_groups`), ``thin`` (D too small
+        to show a spread, in words, or ""), ``relaxed`` (the study's saved limits relaxed
+        as the last resort, in words, or "", :func:`vectorid.views.labels.
+        relaxation_line`) and ``nd``.
     """
     a, c = analysis_of(ctx, limit_texts, roles, functional)
+    vs = verdicts_of(ctx, a)
     messages = list(c.messages)
     note = sampler_note(ctx, a)
     if note:
@@ -276,7 +283,16 @@ def summary_view(
         "ranges": ranges,
         "table": {"columns": columns, "data": data, "styles": styles},
         "sources": limit_sources(ctx, a, c),
-        "verdicts": verdict_line(verdicts_of(ctx, a)),
+        "verdicts": verdict_line(vs),
+        "verdict_groups": verdict_groups(vs),
+        "thin": (
+            f"thin: D holds {vs[0].n_feasible} trials, fewer than the {vs[0].n_needed} needed "
+            'to show its spread (run more trials, or sampler = "sequential")'
+            if vs and vs[0].thin
+            else ""
+        ),
+        "relaxed": relaxation_line(ctx.spec),
+        "nd": a.n_feasible,
     }
 
 
@@ -434,16 +450,20 @@ def selection_from_event(
         ``{"kind": "bin", "param", "lo", "hi", "class"}`` for a histogram bin; None when the
         event selects nothing.
     """
+    event = page_table(event, "selection event")
     if not event:
         return None
+    points = event.get("points") or []
+    if not isinstance(points, list) or not all(isinstance(p, Mapping) for p in points[:_MAX_IDS]):
+        raise refused("selection event", f"expected a list of points, got {points!r}"[:120])
     if source == "hist":
-        pt = (event.get("points") or [None])[0]
+        pt = (points or [None])[0]
         if not pt:
             return None
         cd = pt.get("customdata")
         if not isinstance(cd, list) or len(cd) != 4:
             return None
-        _, panel, code, b = (int(v) for v in cd)
+        _, panel, code, b = (int(v) for v in page_numbers(cd, 4, "histogram bin"))
         a, _ = analysis_of(ctx, limit_texts, roles, functional)
         hists = histograms_of(ctx, a)
         if not 0 <= panel < len(hists):
@@ -460,17 +480,19 @@ def selection_from_event(
             "last": b == len(h.edges) - 2,
             "class": "feasible" if cls == "selected" else cls,
         }
-    rng = event.get("range")
+    rng = page_table(event.get("range"), "selection range")
     if source == "scatter":
         x = ctx.cache.check_name(x, "any")
         y = ctx.cache.check_name(y, "any")
         if rng and "x" in rng and "y" in rng:
-            return {"kind": "box", "x": x, "y": y, "xr": list(rng["x"]), "yr": list(rng["y"])}
+            xr = page_numbers(rng["x"], 2, "selection range x")
+            yr = page_numbers(rng["y"], 2, "selection range y")
+            return {"kind": "box", "x": x, "y": y, "xr": xr, "yr": yr}
     elif source == "cvp":
         y = ctx.cache.check_name(y, "criterion")
         if rng:
-            xk = next((k for k in rng if k.startswith("x")), None)
-            yk = next((k for k in rng if k.startswith("y")), None)
+            xk = next((k for k in rng if re.fullmatch(r"x\d*", str(k))), None)
+            yk = next((k for k in rng if re.fullmatch(r"y\d*", str(k))), None)
             if xk and yk:
                 n = int(xk[1:] or 1)
                 names = ctx.spec.space.names
@@ -479,12 +501,12 @@ def selection_from_event(
                         "kind": "box",
                         "x": names[n - 1],
                         "y": y,
-                        "xr": list(rng[xk]),
-                        "yr": list(rng[yk]),
+                        "xr": page_numbers(rng[xk], 2, "selection range x"),
+                        "yr": page_numbers(rng[yk], 2, "selection range y"),
                     }
     else:
         raise StudyDefinitionError("selection", f"unknown view {source!r}", "reload the page")
-    ids = [p.get("customdata") for p in event.get("points") or []]
+    ids = [p.get("customdata") for p in points]
     ids = [int(i) for i in ids if isinstance(i, int | float) and not isinstance(i, bool)]
     return {"kind": "ids", "ids": ids[:_MAX_IDS]} if ids else None
 
@@ -509,12 +531,18 @@ def box_to_limits(
     StudyDefinitionError
         When the selection is not a box or neither axis is a criterion.
     """
+    selection = page_table(selection, "box selection")
     if not selection or selection.get("kind") != "box":
         raise StudyDefinitionError(
             "box selection",
             "no box is selected",
             "choose the box-select tool on the criterion plot, drag a box, then press the button",
         )
+    for key, n in (("xr", 2), ("yr", 2)):
+        selection[key] = page_numbers(selection.get(key), n, f"box selection {key}")
+    for key in ("x", "y"):
+        if not isinstance(selection.get(key), str):
+            raise refused("box selection", f"expected an axis name, got {selection.get(key)!r}")
     spec = ctx.spec
     names = spec.criterion_names
     texts = list(limit_texts) if limit_texts else [""] * len(names)

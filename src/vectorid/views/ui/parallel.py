@@ -1,7 +1,10 @@
-"""Data of the parallel-coordinates and history views: the figure under the constraints in
-force with the selection's brushes (two-sided, several per axis, any axis; a brush is a
-selection), the brushes made constraints on request (criterion axis: its criteria constraint
-Φ**; functional axis: its bounds), and N/ND/NP against the number of trials."""
+"""Data of the parallel-coordinates and history views: the axes and lines under the
+constraints in force with the selection's brushes (two-sided, several per axis, any axis; a
+brush is a selection), drawn by the page itself (:mod:`vectorid.views.ui.client`); which axes
+are shown and in what order (by default the criteria, the functionals and the gains D depends
+on most, by sensitivity); the brushes made constraints on request (criterion axis: its
+criteria constraint Φ**; functional axis: its bounds); and N/ND/NP against the number of
+trials."""
 
 from __future__ import annotations
 
@@ -9,33 +12,152 @@ from collections import OrderedDict
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from ...analysis.classes import CLASS_COLOURS
+import numpy as np
+
+from ...analysis.sensitivity import ks_filtering, sensitivity
+from ...analysis.weights import trial_weights
 from ...errors import StudyDefinitionError
 from ..history import history, history_figure
-from ..parallel import parallel_figure
+from ..parallel import parallel_axes
 from .context import UIContext, analysis_of, fmt
+from .data import page_table
 from .explore import range_list
 
 __all__ = [
+    "AXES_AT_LOAD",
+    "axis_groups",
     "axis_order",
+    "axis_presets",
     "brushes_to_limits",
+    "default_hidden",
     "default_view",
     "history_view",
-    "lines_apart",
     "parallel_view",
 ]
 
+#: Axes shown at page load: the criteria and functionals, then the gains D depends on most
+#: (sensitivity) up to this many axes in all (at least four gains); 16 axes on a 1,500-px
+#: screen are 86 px apart, room for every title across. The others are a click away.
+AXES_AT_LOAD = 16
+#: Trials the sensitivity ranking reads (a seeded random subset beyond; the ranking of the
+#: axes, not a printed number).
+RANK_ROWS = 20_000
+
 
 def _ranges(selection: Mapping[str, Any] | None) -> dict[str, list[tuple[float, float]]]:
+    selection = page_table(selection, "brushes")
     if selection and selection.get("kind") == "ranges":
-        return {k: range_list(v) for k, v in dict(selection.get("ranges") or {}).items()}
+        ranges = page_table(selection.get("ranges"), "brushes") or {}
+        return {str(k): range_list(v) for k, v in ranges.items()}
     return {}
 
 
+def _ks_ranking(a: Any) -> dict[str, float]:
+    """Each parameter's KS statistic between D and the other trials (Monte Carlo filtering,
+    :func:`vectorid.analysis.sensitivity.sensitivity`; importance-weighted on a sequential
+    store), over at most :data:`RANK_ROWS` trials (a seeded random subset beyond). NaN where
+    D or its complement is empty."""
+    names = a.spec.space.names
+    if a.n <= RANK_ROWS:
+        s = sensitivity(a)
+        return dict(zip(names, map(float, s.ks)))
+    keep = np.zeros(a.n, bool)
+    keep[np.random.default_rng(0).choice(a.n, RANK_ROWS, replace=False)] = True
+    w = trial_weights(a, keep)
+    ks, _ = ks_filtering(a.trials.X[keep], a.feasible[keep], w)
+    return dict(zip(names, map(float, ks)))
+
+
+def axis_groups(ctx: UIContext) -> dict[str, Any]:
+    """What the axis controls offer, under the limits saved with the study (once per store
+    version): ``criteria``, ``functionals``, ``gains`` (by decreasing sensitivity, KS
+    statistic between D and the rest; NaN last, in the study's order), ``ks`` (name -> KS)
+    and ``verdict`` (name -> identified / weak / not identified)."""
+    from .verdicts import verdicts_of
+
+    key = ctx.cache.version()
+    hit = ctx.extra.get("axis-groups")
+    if hit is not None and hit[0] == key:
+        return hit[1]
+    spec = ctx.spec
+    a = ctx.cache.analysis()
+    ks = _ks_ranking(a) if a.n else {}
+    names = spec.space.names
+    order = sorted(
+        range(len(names)),
+        key=lambda j: (
+            not np.isfinite(ks.get(names[j], np.nan)),
+            -np.nan_to_num(ks.get(names[j], 0.0)),
+            j,
+        ),
+    )
+    verdict = {v.name: v.verdict for v in verdicts_of(ctx, a)} if a.n else {}
+    out = {
+        "criteria": spec.criterion_names,
+        "functionals": spec.constraint_names,
+        "gains": [names[j] for j in order],
+        "ks": ks,
+        "verdict": verdict,
+    }
+    ctx.extra["axis-groups"] = (key, out)
+    return out
+
+
+def _top_gains(g: dict[str, Any]) -> list[str]:
+    room = max(4, AXES_AT_LOAD - len(g["criteria"]) - len(g["functionals"]))
+    return g["gains"][:room]
+
+
+def axis_presets(ctx: UIContext) -> dict[str, Any]:
+    """The axis sets and orders the page offers (computed here, applied in the page).
+
+    Returns
+    -------
+    dict
+        ``shown``: preset -> the axes shown (``top``: criteria, functionals and the gains D
+        depends on most, :data:`AXES_AT_LOAD` axes in all; ``verdict``: criteria,
+        functionals and the identified and weak gains; ``all``: every axis; ``criteria``:
+        criteria and functionals only); ``order``: preset -> every axis in order
+        (``sensitivity``: gains by decreasing sensitivity; ``study``: the study's order;
+        ``verdict``: gains grouped identified, weak, not identified, each by sensitivity);
+        ``labels``: the presets in words.
+    """
+    g = axis_groups(ctx)
+    head = g["criteria"] + g["functionals"]
+    by_verdict = [
+        n
+        for v in ("identified", "weak", "not identified", "")
+        for n in g["gains"]
+        if g["verdict"].get(n, "") == v
+    ]
+    return {
+        "shown": {
+            "top": head + _top_gains(g),
+            "verdict": head
+            + [n for n in g["gains"] if g["verdict"].get(n) in ("identified", "weak")],
+            "all": head + g["gains"],
+            "criteria": head,
+        },
+        "order": {
+            "sensitivity": head + g["gains"],
+            "study": head + ctx.spec.space.names,
+            "verdict": head + by_verdict,
+        },
+    }
+
+
 def default_view(ctx: UIContext) -> dict[str, Any]:
-    """The axes of the parallel coordinates at page load: criteria, functionals, then
-    parameters (an empty ``order``), none hidden, lines coloured by set."""
-    return {"order": []}
+    """The axes' order at page load: criteria, functionals, then the gains by decreasing
+    sensitivity (lines coloured by set)."""
+    return {"order": axis_presets(ctx)["order"]["sensitivity"]}
+
+
+def default_hidden(ctx: UIContext) -> list[str]:
+    """The axes hidden at page load: the gains beyond the :data:`AXES_AT_LOAD` first (the
+    criteria and functionals, then the gains D depends on most)."""
+    p = axis_presets(ctx)
+    top = set(p["shown"]["top"])
+    return [n for n in p["order"]["sensitivity"] if n not in top]
 
 
 def axis_order(ctx: UIContext, order: Sequence[Any] | None) -> list[str]:
@@ -45,6 +167,21 @@ def axis_order(ctx: UIContext, order: Sequence[Any] | None) -> list[str]:
     names = spec.criterion_names + spec.constraint_names + spec.space.names
     first = [n for n in dict.fromkeys(str(v) for v in order or []) if n in names]
     return first + [n for n in names if n not in first]
+
+
+def _tips(ctx: UIContext) -> dict[str, str]:
+    g = axis_groups(ctx)
+    out = {}
+    for n in g["gains"]:
+        parts = []
+        if g["verdict"].get(n):
+            parts.append(g["verdict"][n] + " (saved limits)")
+        ks = g["ks"].get(n, float("nan"))
+        if np.isfinite(ks):
+            parts.append(f"sensitivity KS {ks:.2f} (D against the rest)")
+        if parts:
+            out[n] = ", ".join(parts)
+    return out
 
 
 def parallel_view(
@@ -58,57 +195,37 @@ def parallel_view(
     hidden: Sequence[Any] | None = None,
 ) -> Any:
     """Parallel coordinates of criteria, functionals and parameters, coloured by set (or by
-    a column), the selection's brushes drawn on their axes, the axes in the order the user
-    left them (``view["order"]``) with ``hidden`` ones left out."""
+    a column), the selection's brushes on their axes, the axes in the order the user left
+    them (``view["order"]``) with ``hidden`` ones left out; drawn by the page itself (no
+    plotly.js: :data:`vectorid.views.ui.client.VID_JS`, ``vid.parRender``).
+
+    plotly.js's parcoords drew 41 axes in 4-14 s on the first draw in software WebGL (its
+    three WebGL layers, each read back per panel), and redrew every line at each brush
+    move; the page's SVG axes and its 2D canvas in a Web Worker take milliseconds.
+
+    Returns
+    -------
+    dict
+        :func:`vectorid.views.parallel.parallel_axes`'s, with ``rev`` (a new number per
+        answer)."""
     a, _ = analysis_of(ctx, limit_texts, roles, functional)
     names = axis_order(ctx, (view or {}).get("order"))
     if colour not in (None, "", "set"):
         colour = ctx.cache.check_name(colour, "any")
     hide = [n for n in (hidden or []) if n in names]
-    fig = parallel_figure(
+    out = parallel_axes(
         a,
         names,
         lines=ctx.parallel_lines,
         labels=ctx.labels,
         ranges=_ranges(selection),
-        bounds_as_brushes=False,
         hidden=hide,
         colour=colour or "set",
-        raw=True,
+        tips=_tips(ctx),
     )
-    fig["layout"]["uirevision"] = "parallel"
-    return lines_apart(fig, by_set=colour in (None, "", "set"))
-
-
-def lines_apart(fig: dict[str, Any], by_set: bool = True) -> dict[str, Any]:
-    """The parallel coordinates' lines moved out of plotly.js's way: plotly.js keeps the
-    axes, their brushes and their order (two placeholder lines per axis, its WebGL canvases
-    hidden by the page's style), and the page draws the lines itself on a 2D canvas in a
-    Web Worker (``vid.par`` in :mod:`vectorid.views.ui.client`) from ``layout.meta.lines``:
-    ``values`` (axis name -> float32 values, one per line), ``color`` (set code 0/1/2, or
-    the colour-by column's values), ``cmin``/``cmax``, ``mode`` (``set`` or ``column``).
-
-    plotly.js redraws every line on its WebGL canvases at each brush move (software WebGL
-    in a headless or GPU-less browser: 0.3-1 s per redraw at 1,800 lines on a loaded
-    2-core machine, holding the page's main thread while it waits for the GPU process); the
-    page's own drawing takes a few milliseconds off the main thread."""
-    tr = fig["data"][0]
-    line = tr["line"]
-    lines = {
-        "values": {d["name"]: d["values"] for d in tr["dimensions"]},
-        "color": line["color"],
-        "cmin": line.get("cmin", 0),
-        "cmax": line.get("cmax", 2),
-        "mode": "set" if by_set else "column",
-        "colours": [CLASS_COLOURS[k] for k in ("infeasible", "feasible", "pareto")],
-        "unselected": tr.get("unselected", {}).get("line", {}),
-    }
-    for d in tr["dimensions"]:
-        lo, hi = d["range"]
-        d["values"] = [lo, hi]
-    tr["line"] = dict(line, color=[lines["cmin"], lines["cmax"]])
-    fig["layout"]["meta"] = dict(fig["layout"].get("meta") or {}, lines=lines)
-    return fig
+    ctx.extra["par-rev"] = ctx.extra.get("par-rev", 0) + 1
+    out["rev"] = ctx.extra["par-rev"]
+    return out
 
 
 def brushes_to_limits(

@@ -24,6 +24,7 @@ import numpy as np
 
 from ...analysis.identifiability import ParameterVerdict, identifiability
 from ...analysis.results import Analysis
+from ..labels import relaxed_of
 from .context import SOURCE_LABELS, UIContext, analysis_of, fmt
 from .data import Constraints
 
@@ -34,6 +35,7 @@ __all__ = [
     "limit_sources",
     "sources_to_save",
     "span",
+    "verdict_groups",
     "verdict_line",
     "verdict_rows",
     "verdicts_of",
@@ -128,16 +130,17 @@ def verdict_rows(vs: list[ParameterVerdict]) -> list[dict[str, Any]]:
 
 
 def verdict_line(vs: list[ParameterVerdict]) -> str:
-    """The verdicts in one line: identified variables with their feasible range, the others
-    by name under their verdict (no value anywhere)."""
+    """The verdicts in one line: every variable under its verdict with the range of D (the
+    box where D is empty), never a value."""
     if not vs:
         return ""
     parts = []
-    ident = [f"{v.name} {span(v.feasible)}" for v in vs if v.identified]
-    if ident:
-        parts.append("identified: " + ", ".join(ident))
-    for verdict in ("weak", "not identified"):
-        names = [v.name for v in vs if v.verdict == verdict]
+    for verdict in ("identified", "weak", "not identified"):
+        names = [
+            f"{v.name} {span(v.feasible if v.feasible is not None else v.box)}"
+            for v in vs
+            if v.verdict == verdict
+        ]
         if names:
             parts.append(f"{verdict}: " + ", ".join(names))
     if vs[0].thin:  # too few members of D to show a spread: say so beside the verdicts
@@ -146,6 +149,44 @@ def verdict_line(vs: list[ParameterVerdict]) -> str:
             'to show its spread (run more trials, or sampler = "sequential")'
         )
     return "; ".join(parts)
+
+
+def verdict_groups(vs: list[ParameterVerdict]) -> list[dict[str, Any]]:
+    """The verdict panel's groups: identified, weak, not identified (in that order, empty
+    ones left out), each variable with D's range (the box's where D is empty), its share of
+    the box, its unit and meaning, and why.
+
+    Returns
+    -------
+    list of dict
+        ``verdict``, ``items`` (``name``, ``range`` text, ``unit``, ``meaning``, ``share``
+        — D's width over the box's, 0-1, None where D is empty —, ``why``, ``ranges``).
+    """
+    out = []
+    for verdict in ("identified", "weak", "not identified"):
+        items = []
+        for v in vs:
+            if v.verdict != verdict:
+                continue
+            r = v.feasible if v.feasible is not None else v.box
+            items.append(
+                {
+                    "name": v.name,
+                    "range": span(r) if v.feasible is not None else f"none in D (box {span(r)})",
+                    "unit": "" if v.unit in ("", "-") else v.unit,
+                    "meaning": v.meaning,
+                    "share": None if v.width != v.width else round(float(v.width), 3),
+                    "why": v.reason + (f"; to identify it: {v.suggestion}" if v.suggestion else ""),
+                    "ranges": {
+                        "box": list(v.box),
+                        "feasible": None if v.feasible is None else list(v.feasible),
+                        "pareto": None if v.pareto is None else list(v.pareto),
+                    },
+                }
+            )
+        if items:
+            out.append({"verdict": verdict, "items": items})
+    return out
 
 
 def limit_sources(ctx: UIContext, a: Analysis, c: Constraints) -> list[dict[str, Any]]:
@@ -160,8 +201,10 @@ def limit_sources(ctx: UIContext, a: Analysis, c: Constraints) -> list[dict[str,
     -------
     list of dict
         Per criterion, in the study's order: ``name``, ``kind`` (``noise``, ``quantile``,
-        ``expert``, ``session`` or ``none``), ``label`` (the kind in words), ``note``,
-        ``bound`` (e.g. ``"<= 913.66"``, "" for none) and ``text`` (label and note).
+        ``relaxed`` — a stand-in saved relaxed as the last resort, D not reached at the
+        stated limits —, ``expert``, ``session`` or ``none``), ``label`` (the kind in
+        words), ``note``, ``bound`` (e.g. ``"<= 913.66"``, "" for none) and ``text``
+        (label and note).
     """
     out = []
     for j, crit in enumerate(a.spec.criteria):
@@ -177,7 +220,12 @@ def limit_sources(ctx: UIContext, a: Analysis, c: Constraints) -> list[dict[str,
             same = True
         bound = "" if value is None else f"{side} {fmt(value)}"
         was = "" if saved is None else f"{side} {fmt(saved)}"
-        if same and saved is not None and value is not None:
+        rel = relaxed_of(crit)
+        if same and saved is not None and value is not None and rel is not None:
+            # relaxed as the last resort: said first and in full, never a "stand-in"
+            kind, label = "relaxed", rel.label()
+            note = rel.text(crit.unit).partition("; ")[2]
+        elif same and saved is not None and value is not None:
             kind = crit.source or "expert"
             label = SOURCE_LABELS.get(kind, kind)
             note = crit.limit_note
@@ -185,7 +233,11 @@ def limit_sources(ctx: UIContext, a: Analysis, c: Constraints) -> list[dict[str,
             kind, label, note = "none", "no limit", ""
         else:
             kind, label = "session", "this session"
-            what = SOURCE_LABELS.get(crit.source or "expert", crit.source)
+            what = (
+                rel.label()
+                if rel is not None
+                else SOURCE_LABELS.get(crit.source or "expert", crit.source)
+            )
             note = (
                 f"replaces the saved {was} ({what})"
                 if saved is not None
@@ -223,6 +275,8 @@ def sources_to_save(ctx: UIContext, a: Analysis, c: Constraints) -> dict[str, tu
         crit = a.spec.criteria[a.crit_names.index(s["name"])]
         if s["kind"] == "session" and s["bound"]:
             out[s["name"]] = ("expert", UI_NOTE)
+        elif s["kind"] == "relaxed":
+            out[s["name"]] = (crit.limit_source or "quantile", crit.limit_note)
         elif s["kind"] not in ("session", "none"):
             out[s["name"]] = (crit.limit_source or "expert", crit.limit_note)
     return out
@@ -238,7 +292,8 @@ def identifiability_view(
     Returns
     -------
     dict
-        ``line`` (:func:`verdict_line`), ``rows`` (:func:`verdict_rows`), ``sources``
+        ``line`` (:func:`verdict_line`), ``groups`` (:func:`verdict_groups`), ``rows``
+        (:func:`verdict_rows`), ``sources``
         (:func:`limit_sources`), ``changed`` (the sources of the limits set in this session)
         and ``counts`` (n, nd, np).
     """
@@ -247,6 +302,7 @@ def identifiability_view(
     sources = limit_sources(ctx, a, c)
     return {
         "line": verdict_line(vs),
+        "groups": verdict_groups(vs),
         "rows": verdict_rows(vs),
         "sources": sources,
         "changed": [s for s in sources if s["kind"] == "session"],

@@ -5,12 +5,23 @@ from __future__ import annotations
 
 import logging
 import re
+import traceback
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 from ....errors import VectoridError
 
-__all__ = ["Wiring", "err", "range_bar", "rows_table", "safe", "table", "verdict_table"]
+__all__ = [
+    "Wiring",
+    "err",
+    "range_bar",
+    "rows_table",
+    "safe",
+    "table",
+    "verdict_panel",
+    "verdict_table",
+]
 
 log = logging.getLogger("vectorid.ui")
 
@@ -21,11 +32,18 @@ def safe(name: str) -> str:
 
 
 def err(exc: BaseException) -> str:
-    """The message shown for an exception raised by a callback."""
+    """The message shown for an exception raised by a callback: a
+    :class:`~vectorid.errors.VectoridError`'s own (what came and the fix), else one line that
+    is also logged as one line — the exception, its message and where it was raised — never
+    a traceback (the traceback goes to the ``vectorid.ui`` logger at DEBUG level only)."""
     if isinstance(exc, VectoridError):
         return str(exc)
-    log.exception("unexpected error in a UI callback")
-    return f"internal error ({type(exc).__name__}: {exc}); the server log has the details"
+    text = " ".join(str(exc).split())[:300]
+    tb = traceback.extract_tb(exc.__traceback__)
+    where = f" at {Path(tb[-1].filename).name}:{tb[-1].lineno} in {tb[-1].name}" if tb else ""
+    log.error("UI callback failed: %s: %s%s", type(exc).__name__, text, where)
+    log.debug("the traceback", exc_info=exc)
+    return f"internal error ({type(exc).__name__}: {text}); the server log has one line on it"
 
 
 def table(id_: str, **kw: Any) -> Any:
@@ -221,3 +239,46 @@ def verdict_table(rows: list[dict[str, Any]], prefix: str, *, trial: bool = Fals
         ),
         className="scroll",
     )
+
+
+def verdict_panel(
+    groups: list[dict[str, Any]], *, nd: int, thin: str = "", relaxed: str = ""
+) -> list[Any]:
+    """What D pins down, at a glance: the identified, weak and not identified variables,
+    each a chip (``vid-vchip-<variable>``, with ``data-verdict``) holding D's range and unit
+    and a small drawing of it over the box (hover: meaning and why); the relaxation of the
+    saved limits, where the study had to relax them, said first."""
+    from dash import html
+
+    out: list[Any] = []
+    if relaxed:
+        out.append(html.Div(relaxed, className="relaxed", id="vid-relaxed"))
+    if not groups:
+        out.append(html.Span("no design variable", className="muted"))
+    for g in groups:
+        chips = []
+        for it in g["items"]:
+            unit = f" {it['unit']}" if it["unit"] else ""
+            tip = "; ".join(x for x in (it["meaning"], it["why"]) if x)
+            chips.append(
+                html.Span(
+                    [
+                        html.B(it["name"]),
+                        f" {it['range']}{unit}",
+                        range_bar(it["ranges"]),
+                    ],
+                    id=f"vid-vchip-{safe(it['name'])}",
+                    className="vchip v-" + g["verdict"].replace(" ", "-"),
+                    title=tip,
+                    **{"data-verdict": g["verdict"]},
+                )
+            )
+        out.append(
+            html.Div(
+                [html.Span(f"{g['verdict']} ({len(g['items'])})", className="vgroup-name"), *chips],
+                className="vgroup",
+            )
+        )
+    if thin:
+        out.append(html.Div(thin, className="muted"))
+    return out

@@ -23,7 +23,7 @@ from ..explore import (
 )
 from ..overview import initial_choice
 from ..verdicts import limit_sources
-from .common import Wiring, err, safe, table
+from .common import Wiring, err, safe, table, verdict_panel
 
 __all__ = ["counts_children", "default_axes", "header", "layout", "register"]
 
@@ -307,14 +307,21 @@ def layout(ctx: UIContext) -> Any:
             ),
             html.Div(
                 [
-                    html.Span("identifiability under these constraints: ", className="muted"),
-                    html.Span(id="vid-verdicts"),
-                    html.Span(
-                        " (ranges of D; details on Refine & continue and Chosen trial)",
-                        className="muted",
+                    html.Div(
+                        [
+                            html.B("What D pins down"),
+                            html.Span(
+                                " under the constraints in force: each design variable's "
+                                "verdict and the range of D (the box drawn grey, D blue, the "
+                                "Pareto set green; no value where the data do not determine "
+                                "one; details on Refine & continue and Chosen trial)",
+                                className="muted",
+                            ),
+                        ]
                     ),
+                    html.Div(id="vid-verdicts"),
                 ],
-                className="note",
+                className="vpanel",
             ),
             html.Div(
                 className="row",
@@ -578,7 +585,7 @@ def register(app: Any, ctx: UIContext, w: Wiring, tokens: Any) -> None:
             t["columns"] if shown else no_update,
             t["data"] if shown else no_update,
             t["styles"] if shown else no_update,
-            s["verdicts"],
+            verdict_panel(s["verdict_groups"], nd=s["nd"], thin=s["thin"], relaxed=s["relaxed"]),
             *cls,
         )
 

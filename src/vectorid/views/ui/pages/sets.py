@@ -11,12 +11,60 @@ from typing import Any
 
 from .. import client
 from ..context import UIContext
-from ..parallel import brushes_to_limits, default_view, history_view, parallel_view
+from ..parallel import (
+    axis_groups,
+    axis_presets,
+    brushes_to_limits,
+    default_hidden,
+    default_view,
+    history_view,
+    parallel_view,
+)
 from ..table import SETS, TABLE_STYLES, csv_rows, table_columns, table_page
 from ..verdicts import identifiability_view
 from .common import Wiring, err, safe, table
 
-__all__ = ["csv_route", "default_view", "parallel_layout", "register", "table_layout"]
+__all__ = [
+    "csv_route",
+    "default_hidden",
+    "default_view",
+    "parallel_layout",
+    "register",
+    "table_layout",
+]
+
+#: The axis sets and orders offered beside the parallel coordinates, in words.
+PRESETS = {
+    "top": "criteria + the gains D depends on most (sensitivity)",
+    "verdict": "criteria + identified and weak gains",
+    "all": "every axis",
+    "criteria": "criteria only",
+}
+ORDERS = {
+    "sensitivity": "gains by sensitivity",
+    "verdict": "gains grouped: identified, weak, not identified",
+    "study": "the study's order",
+}
+
+
+def _axis_options(ctx: UIContext) -> list[dict[str, Any]]:
+    """One checkbox per axis: criteria and functionals, then the gains by sensitivity, each
+    with its unit, its verdict and its KS statistic (hover: the meaning)."""
+    from dash import html
+
+    g = axis_groups(ctx)
+    lab = ctx.labels
+    out = []
+    for n in g["criteria"] + g["functionals"] + g["gains"]:
+        extra = []
+        if g["verdict"].get(n):
+            extra.append(g["verdict"][n])
+        ks = g["ks"].get(n)
+        if ks is not None and ks == ks:
+            extra.append(f"KS {ks:.2f}")
+        text = lab.title(n) + (f" ({', '.join(extra)})" if extra else "")
+        out.append({"label": html.Span(text, title=lab.hover(n)), "value": n})
+    return out
 
 
 def parallel_layout(ctx: UIContext) -> Any:
@@ -24,17 +72,69 @@ def parallel_layout(ctx: UIContext) -> Any:
 
     spec = ctx.spec
     names = spec.criterion_names + spec.constraint_names + spec.space.names
-    opts = [{"label": ctx.labels.short(n), "value": n} for n in names]
+    opts = [{"label": ctx.labels.title(n), "value": n} for n in names]
+    presets = axis_presets(ctx)
+    hidden = set(default_hidden(ctx))
+    shown = [n for n in names if n not in hidden]
     return html.Div(
         [
             html.P(
                 "Brush an axis (drag along it) to select the trials within that range; drag "
                 "again elsewhere on the axis for another range (a trial is selected when it "
                 "lies in one range of every brushed axis). Click a brush to remove it; drag "
-                "an axis's title to move it. The selection is counted in the header and "
-                "shown on every view; make it constraints with the button. Lines: a random "
-                "subset per set (the title says how many); Pareto on top.",
+                "an axis's title to move it; hover a title for its unit and meaning. The "
+                "selection is counted in the header and shown on every view; make it "
+                "constraints with the button. Lines: a random subset per set (the title says "
+                "how many); Pareto on top. Amber marks: the constraints in force.",
                 className="muted",
+            ),
+            dcc.Store(id="par-presets", data=presets),
+            dcc.Store(id="par-data"),
+            dcc.Store(id="par-drawn"),
+            html.Details(
+                className="axes-panel",
+                children=[
+                    html.Summary(
+                        id="par-axes-summary",
+                        children=f"Axes: {len(shown)} of {len(names)} shown (choose, group, order)",
+                    ),
+                    html.Div(
+                        className="bar",
+                        children=[
+                            html.Label("show "),
+                            dcc.Dropdown(
+                                id="par-preset",
+                                options=[{"label": v, "value": k} for k, v in PRESETS.items()],
+                                value=None,
+                                placeholder=PRESETS["top"],
+                                clearable=False,
+                                style={"width": "360px"},
+                            ),
+                            html.Label("order "),
+                            dcc.Dropdown(
+                                id="par-order",
+                                options=[{"label": v, "value": k} for k, v in ORDERS.items()],
+                                value=None,
+                                placeholder=ORDERS["sensitivity"],
+                                clearable=False,
+                                style={"width": "330px"},
+                            ),
+                        ],
+                    ),
+                    html.P(
+                        "Gains listed by sensitivity (KS statistic between D and the other "
+                        "trials, under the limits saved with the study); verdicts under the "
+                        "same limits. Tick an axis to show it.",
+                        className="muted",
+                    ),
+                    dcc.Checklist(
+                        id="par-shown",
+                        className="vid-axes",
+                        options=_axis_options(ctx),
+                        value=shown,
+                        inline=True,
+                    ),
+                ],
             ),
             html.Div(
                 className="bar",
@@ -55,15 +155,6 @@ def parallel_layout(ctx: UIContext) -> Any:
                         clearable=False,
                         style={"width": "180px"},
                     ),
-                    html.Label("hidden axes "),
-                    dcc.Dropdown(
-                        id="par-hidden",
-                        options=opts,
-                        value=[],
-                        multi=True,
-                        placeholder="none",
-                        style={"minWidth": "220px"},
-                    ),
                 ],
             ),
             html.Div(id="par-msg", className="note"),
@@ -81,7 +172,7 @@ def parallel_layout(ctx: UIContext) -> Any:
                 ],
                 className="note",
             ),
-            dcc.Graph(id="par-graph", config={"displaylogo": False}),
+            html.Div(id="par-graph"),
             html.H3("History: N, ND, NP against the number of trials"),
             html.P(
                 "ND and NP among the first n trials (sequence order) under the constraints in "
@@ -212,35 +303,72 @@ def csv_route(server: Any, ctx: UIContext) -> CsvTokens:
 
 def register(app: Any, ctx: UIContext, w: Wiring, tokens: CsvTokens) -> None:
     from dash import Input, Output, State, no_update
-    from dash import ctx as dctx
     from dash.exceptions import PreventUpdate
 
     CON_S = w.constraint_inputs(State)
 
+    all_axes = ctx.spec.criterion_names + ctx.spec.constraint_names + ctx.spec.space.names
+
     @app.callback(
-        Output("par-graph", "figure"),
+        Output("par-data", "data"),
         w.gate(app, "parallel"),
         Input("par-colour", "value"),
-        Input("par-hidden", "value"),
-        Input("par-clear", "n_clicks"),
-        State("selection", "data"),
+        State("par-shown", "value"),
         State("par-view", "data"),
+        State("selection", "data"),
         State("tabs", "value"),
         Input("version", "data"),
     )
-    def parallel(cons, colour, hidden, _clear, sel, view, tab, _v):
-        """Redrawn when the constraints, colour or hidden axes change, not on a brush (the
-        brush is already drawn: the selection and the axis order are read, not listened to)."""
+    def parallel(cons, colour, shown, view, sel, tab, _v):
+        """The axes and lines under the constraints in force: sent again when the
+        constraints or the colour change, not on a brush, an axis moved or one shown or
+        hidden (the page draws those itself from what it holds)."""
         if not cons or tab != "parallel":
             raise PreventUpdate
         texts, roles, pairs = w.split(list(cons[0]))
-        if dctx.triggered_id == "par-clear":
-            sel = None
+        hidden = [n for n in all_axes if n not in set(shown or [])] if shown is not None else []
         try:
             return parallel_view(ctx, texts, roles, pairs, sel, view, colour, hidden)
         except Exception as exc:
             err(exc)
             return no_update
+
+    app.clientside_callback(
+        client.PAR_JS,
+        Output("par-drawn", "data"),
+        Input("par-data", "data"),
+        Input("selection", "data"),
+        Input("par-shown", "value"),
+        State("par-view", "data"),
+    )
+
+    app.clientside_callback(
+        """function(preset, order, presets) {
+          const nc = dash_clientside.no_update;
+          const t = dash_clientside.callback_context.triggered_id;
+          if (t === 'par-preset' && preset && presets.shown[preset]) {
+            return presets.shown[preset];
+          }
+          if (t === 'par-order' && order && presets.order[order]) {
+            window.vid.parOrder(presets.order[order]);
+          }
+          return nc;
+        }""",
+        Output("par-shown", "value", allow_duplicate=True),
+        Input("par-preset", "value"),
+        Input("par-order", "value"),
+        State("par-presets", "data"),
+        prevent_initial_call=True,
+    )
+
+    app.clientside_callback(
+        "function(shown) { return 'Axes: ' + (shown || []).length + ' of "
+        + str(len(all_axes))
+        + " shown (choose, group, order)'; }",
+        Output("par-axes-summary", "children"),
+        Input("par-shown", "value"),
+        prevent_initial_call=True,
+    )
 
     @app.callback(
         Output("hist-history", "figure"),
@@ -257,16 +385,6 @@ def register(app: Any, ctx: UIContext, w: Wiring, tokens: CsvTokens) -> None:
         except Exception as exc:
             err(exc)
             return no_update
-
-    app.clientside_callback(
-        client.BRUSH_JS,
-        Output("selection", "data", allow_duplicate=True),
-        Output("par-view", "data", allow_duplicate=True),
-        Input("par-graph", "restyleData"),
-        State("selection", "data"),
-        State("par-view", "data"),
-        prevent_initial_call=True,
-    )
 
     @app.callback(
         Output("selection", "data", allow_duplicate=True),
