@@ -166,7 +166,10 @@ def run_ultranest(t: Target, population: int, budget: int, seed: int = 1,
         return _missing("ultranest", "UltraNest")
     import logging
 
-    logging.getLogger("ultranest").setLevel(logging.WARNING)
+    log = logging.getLogger("ultranest")
+    if not log.handlers:  # UltraNest adds a stdout handler at INFO to a logger without one
+        log.addHandler(logging.NullHandler())
+    log.setLevel(logging.WARNING)
     p = t.p
     np.random.seed(seed)  # UltraNest draws from numpy's global state; seeded here
 

@@ -619,7 +619,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.quick:
         problems = ["parachute3"] if args.problems == ",".join(PROBLEMS) else problems
         population = min(population, 50)
-        wanted = min(wanted, 1000)
+        wanted = min(wanted, 500)
     print(_machine.describe())
     print(f"population {population}; the machine may be shared (wall times under its load; "
           "CPU seconds are this process's, all threads)")  # fmt: skip
