@@ -17,7 +17,7 @@ noise; criteria constraints Φ** = each criterion's noise floor, joint 95 %, ``l
   x6, x8, x11 as above, the others nominal). An uncontrolled drop does not see most of them:
   D is a slab through the box.
 * ``parachute15quiet`` — parachute15 with the sensor noise, and with it every Φ**, ten times
-  smaller: D is a far thinner slab (no Sobol trial of 200,000 is in it).
+  smaller: D is a far thinner slab (2 of 200,000 Sobol trials are in it).
 * ``parafoil33`` — the parafoil demo's drop (``vectorid demo parafoil``) with all 33 gains
   free in their full boxes, the demo's limits (noise floors plus its discrepancy allowance)
   and truth (``truth.json``).
