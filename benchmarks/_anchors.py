@@ -219,7 +219,8 @@ SUBSET_TRIES = 5
 def run_subset(t: Target, population: int, budget: int, seed: int = 1) -> Sample:
     """OpenTURNS SubsetSampling on ``g <= 1`` (module docstring): N doubled until the last
     level's members (repeats counted as weights) reach an ESS of ``population``; the evaluations
-    are those of that run alone, as if N had been known, and the earlier tries are noted."""
+    are those of that run alone, as if N had been known, and the earlier tries are noted (where
+    no try reaches D within ``budget``, every try's evaluations count)."""
     try:
         import openturns as ot
     except ImportError:
@@ -271,7 +272,10 @@ def run_subset(t: Target, population: int, budget: int, seed: int = 1) -> Sample
     reached = len(X) >= population and not stopped
     note = "" if reached else (f"{len(counts)} distinct members of D after {last + 1} levels "
                                f"(population {population}, budget {budget})")  # fmt: skip
-    if tries:
+    if tries and reached:
         note = "; ".join(x for x in (note, "tries not counted: " + "; ".join(tries)) if x)
+    elif tries:  # D not reached: every try's evaluations count
+        evaluations = spent_all
+        note += "; all tries counted: " + "; ".join(tries)
     return Sample("subset", X, None, evaluations, reached, note,
                   {"N": n, "p0": SUBSET_P0, "range": SUBSET_RANGE, "levels": last + 1})  # fmt: skip
