@@ -150,8 +150,12 @@ def run_dynesty(t: Target, population: int, budget: int, seed: int = 1) -> Sampl
     X = t.to_box(np.asarray(sampler.live_u)[inside])
     reached = bool(inside.all())
     evaluations = t.calls - start
+    # dynesty's own call count (its ``maxcall``) includes slice steps outside the unit cube,
+    # which call no model: it can stop below ``budget`` model evaluations
     note = "" if reached else (f"budget spent with {int(inside.sum())} of {population} live "
-                               f"points in D (best max Φ/Φ** {-live_l.max():.3g})")  # fmt: skip
+                               f"points in D (best max Φ/Φ** {-live_l.max():.3g}; dynesty's "
+                               f"call count {sampler.ncall:,}, steps outside the box "
+                               "included)")  # fmt: skip
     return Sample("dynesty", X, None, evaluations, reached, note,
                   {"sample": "unif (auto)" if sample == "auto" else sample})  # fmt: skip
 
