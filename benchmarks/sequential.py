@@ -94,6 +94,9 @@ REFERENCE_BUDGET = {"parachute3": 400_000, "parachute15": 1_000_000,
                     "parachute15quiet": 1_000_000, "parafoil33": 65_536}  # fmt: skip
 #: Family-wise level of the per-parameter KS test (Bonferroni over the parameters).
 KS_LEVEL = 0.01
+#: The sequential sampler's first generation (Sobol trials; ``--first``): None keeps the
+#: twin's ``trials`` (1024).
+FIRST: int | None = None
 SOBOL_BATCH = 1024
 VARS3 = (("x6", 0.3, 1.0), ("x8", 0.75, 1.5), ("x11", 0.06, 0.13))
 NOISE = {"position_h": 1.5, "position_v": 3.0, "velocity": 0.15, "euler_deg": 0.5, "rates": 0.01}
@@ -296,7 +299,8 @@ def run_sequential(p: Problem, folder: Path, population: int, budget: int) -> Ou
 
     try:
         spec = dataclasses.replace(p.spec, sampler="sequential", budget=int(budget),
-                                   population=int(population))  # fmt: skip
+                                   population=int(population),
+                                   trials=int(FIRST or p.spec.trials))  # fmt: skip
     except Exception as exc:  # a vectorid without the sequential sampler
         return Outcome("sequential", 0, 0.0, 0, 0.0, None, False, f"not available: {exc}")
     store = folder / f"{p.name}-sequential.db"
@@ -611,6 +615,11 @@ def main(argv: list[str] | None = None) -> int:
         help="dynesty's, UltraNest's and subset simulation's evaluations at most",
     )
     ap.add_argument(
+        "--first",
+        type=int,
+        help="the sequential sampler's first generation, Sobol trials (default: the twin's 1024)",
+    )
+    ap.add_argument(
         "--reference",
         type=int,
         default=REFERENCE_MEMBERS,
@@ -632,6 +641,12 @@ def main(argv: list[str] | None = None) -> int:
             return 2
     population = args.population
     wanted = args.reference
+    if args.first is not None and args.first < 1:
+        print(f"error: --first takes a number of Sobol trials >= 1, got {args.first}",
+              file=sys.stderr)  # fmt: skip
+        return 2
+    global FIRST
+    FIRST = args.first
     if args.quick:
         problems = ["parachute3"] if args.problems == ",".join(PROBLEMS) else problems
         population = min(population, 50)

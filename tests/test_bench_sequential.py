@@ -79,6 +79,7 @@ def test_quick_run_reaches_d_and_checks_faithfulness(tmp_path, capsys):
     sequential.faithful_at(o, 50, checked=True)
     assert o.faithful_at is None and o.why.startswith("KS fails: x6")
     assert sequential.main(["--methods", "nope"]) == 2
+    assert sequential.main(["--first", "0"]) == 2
 
 
 @pytest.mark.slow
