@@ -323,7 +323,11 @@ def run_sequential(p: Problem, folder: Path, population: int, budget: int) -> Ou
     from vectorid.analysis.weights import trial_weights
 
     # D's weights: importance weights (fewer than 20 variables) or the chains' holding times
-    w = trial_weights(a, in_d)
+    w = trial_weights(a, in_d)  # in row order; X is in evaluation order
+    if w is not None:
+        full = np.full(a.n, np.nan)
+        full[in_d] = w
+        w = full[rows]
     return Outcome("sequential", evaluations, wall, members, ess,
                    _inside(X, a.spec.space.names, p.truth), reached, note,
                    first=first, X=X, w=w)  # fmt: skip
