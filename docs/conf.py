@@ -52,6 +52,8 @@ numpydoc_validation_checks = {"GL08", "PR01", "PR02"}
 numpydoc_validation_exclude = {
     r"^vectorid\.(Trials|RunSummary|TestTable|EmptyDiagnosis|ParameterVerdict)$",
     r"^vectorid\.models\.(SimulationResult|SystemResult)$",
+    r"^vectorid\.analysis\.combinations\.Combination$",
+    r"^vectorid\.workflows\.design\.(Design|Candidate)$",
     # a class attribute documented by its ``#:`` comment, which autodoc shows
     r"^vectorid\.models\.Model\.compile_seconds$",
 }

@@ -16,6 +16,18 @@ import pytest
 if signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
     signal.signal(signal.SIGINT, signal.default_int_handler)
 
+def pytest_configure(config: pytest.Config) -> None:
+    """Under pytest-xdist (``-n``), the controller compiles the shipped models' numba kernels
+    that the on-disk cache lacks (a fresh clone) once, one model per core, before the workers
+    start; otherwise every worker would compile the same kernel at once on first use (a
+    kernel's compile is tens of CPU-seconds). Nothing to do on a second run."""
+    if hasattr(config, "workerinput") or not getattr(config.option, "numprocesses", None):
+        return
+    from vectorid.models import available, compile_models
+
+    compile_models(available())
+
+
 # A user model in the contract's form: batch X (n, 3) -> (criteria (n, 2), functionals (n, 1)).
 # Trials with x1 > 0.9 raise (the batch is bisected), trials with x2 < 0.05 return NaN,
 # and VECTORID_TEST_SLEEP seconds are slept per batch so a run can be killed mid-way.

@@ -176,3 +176,26 @@ def test_hist_text_labels_its_count_columns(store, capsys):
     h = json.loads(doc)["histograms"][0]
     assert h["feasible_weighted"] is None and h["feasible_weighted_by"] is None  # a plain table
     assert [int(r[0]) for r in rows] == h["feasible"] and [int(r[1]) for r in rows] == h["pareto"]
+
+
+def test_identifiability_combinations_text_and_json(tmp_path, capsys):
+    """``--combinations``: the one combination D pins down (x1 + x2), in z and in metres."""
+    from tests.analysis.test_combinations import CENTRE, HALF, _sum_spec
+
+    path = tmp_path / "sum.db"
+    with Study.create(_sum_spec(), path) as st:
+        st.run(executor="inline", progress=False)
+    code, out, _ = run_cli(capsys, "identifiability", path, "--combinations")
+    assert code == 0
+    assert "combinations D pins down" in out and "1 identified, 0 weak" in out
+    line = next(s for s in out.splitlines() if "in the gains' units" in s)
+    lo, hi = (float(v) for v in line.split("[")[1].split("]")[0].split(","))
+    assert lo <= CENTRE - 0.9 * HALF and hi >= CENTRE + 0.9 * HALF and hi - lo < 3 * HALF
+    code, out, _ = run_cli(capsys, "identifiability", path, "--combinations", "--json")
+    doc = json.loads(out)
+    (c,) = doc["combinations"]
+    assert sorted(c["loadings"]) == ["x1", "x2"] and c["verdict"] == "identified"
+    assert len(c["range"]) == 2 and 0 < c["width_fraction"] < 0.25
+    assert "z = (x - low)/(high - low)" in doc["range_units"]
+    code, out, _ = run_cli(capsys, "identifiability", path, "--json")
+    assert "combinations" not in json.loads(out)

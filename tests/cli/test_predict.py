@@ -29,6 +29,17 @@ def _cli(capsys, *args):
     return code, out, err
 
 
+def _refused(code: int, err: str, needle: str) -> bool:
+    """Exit 2 with one line on stderr that names the problem, and no traceback."""
+    return (
+        code == 2
+        and needle in err
+        and err.startswith("error: ")
+        and err.count("\n") == 1
+        and "Traceback" not in err
+    )
+
+
 def test_cli_prints_json_and_writes_figures(store, tmp_path, capsys):
     f = drop_file(tmp_path / "next.toml", [planned(noise={"position_h": 2.0})])
     code, out, err = _cli(capsys, "predict", store, f, "--members", 100, "--json", "--out",
@@ -62,30 +73,35 @@ def test_bad_drops_say_one_line_exit_2_and_write_nothing(store, tmp_path, capsys
     f = drop_file(tmp_path / "bad.toml", [drop])
     before = _digest(store)
     code, out, err = _cli(capsys, "predict", store, f, "--out", tmp_path / "out")
-    assert code == 2 and needle in err, err
-    assert err.startswith("error: ") and err.count("\n") == 1 and "Traceback" not in err
+    assert _refused(code, err, needle), err
     assert _digest(store) == before and not (tmp_path / "out").exists()
 
 
 def test_a_store_of_another_model_or_no_flight_model(store, tmp_path, capsys, user_study):
     f = drop_file(tmp_path / "p.toml", [planned()], model="parachute6dof")
-    code, _, err = _cli(capsys, "predict", store, f)
-    assert code == 2 and "the store identifies" in err and err.count("\n") == 1
+    before = _digest(store)
+    code, _, err = _cli(capsys, "predict", store, f, "--out", tmp_path / "out")
+    assert _refused(code, err, "the store identifies"), err
+    assert _digest(store) == before and not (tmp_path / "out").exists()
     other = tmp_path / "user.db"
     assert (
         _cli(capsys, "run", user_study, "--store", other, "--executor", "inline", "--quiet")[0] == 0
     )
     capsys.readouterr()
-    code, _, err = _cli(capsys, "predict", other, drop_file(tmp_path / "q.toml", [planned()]))
-    assert code == 2 and "identifies no flight model" in err and err.count("\n") == 1
+    before = _digest(other)
+    code, _, err = _cli(capsys, "predict", other, drop_file(tmp_path / "q.toml", [planned()]),
+                        "--out", tmp_path / "out")  # fmt: skip
+    assert _refused(code, err, "identifies no flight model"), err
+    assert _digest(other) == before and not (tmp_path / "out").exists()
 
 
 def test_an_empty_d_says_so(store, tmp_path, capsys):
     f = drop_file(tmp_path / "p.toml", [planned()])
     before = _digest(store)
-    code, _, err = _cli(capsys, "predict", store, f, "--limit", "pos_h_abs<=-1")
-    assert code == 2 and "D is empty" in err and "nearest generation" not in err
-    assert _digest(store) == before
+    code, _, err = _cli(capsys, "predict", store, f, "--limit", "pos_h_abs<=-1", "--out",
+                        tmp_path / "out")  # fmt: skip
+    assert _refused(code, err, "D is empty") and "nearest generation" not in err, err
+    assert _digest(store) == before and not (tmp_path / "out").exists()
     with pytest.raises(EmptySetError):
         members_of(store, limits={"pos_h_abs": -1.0})
 
@@ -98,8 +114,10 @@ def test_nearest_generation_only_when_named(tmp_path, capsys):
     with Study.open(store) as st:
         assert st.analysis().n_feasible == 0
     f = drop_file(tmp_path / "p.toml", [planned()])
-    code, _, err = _cli(capsys, "predict", store, f)
-    assert code == 2 and "D is empty" in err and "--nearest-generation" in err
+    before = _digest(store)
+    code, _, err = _cli(capsys, "predict", store, f, "--out", tmp_path / "out")
+    assert _refused(code, err, "D is empty") and "--nearest-generation" in err, err
+    assert _digest(store) == before and not (tmp_path / "out").exists()
     code, out, err = _cli(capsys, "predict", store, f, "--nearest-generation", "--json")
     assert code == 0, err
     doc = json.loads(out)

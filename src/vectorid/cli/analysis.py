@@ -180,6 +180,10 @@ def add_parsers(sub: Any) -> None:
         "--weak", type=float, default=0.6,
         help="not identified: D spans more than this share of the box's width (default 0.6)",
     )  # fmt: skip
+    i.add_argument(
+        "--combinations", action="store_true",
+        help="also the combinations of variables D pins down (docs/identification.md)",
+    )  # fmt: skip
     add_json_option(i)
 
     g = sub.add_parser("plot", help="write one figure: pair, matrix, vs-params or spread")
@@ -617,6 +621,11 @@ def _span(p: tuple[float, float] | None, unit: str = "") -> str:
 
 
 def _cmd_identifiability(args: argparse.Namespace) -> int:
+    from ..analysis.combinations import (
+        combinations_json,
+        combinations_text,
+        identifiable_combinations,
+    )
     from ..analysis.identifiability import identifiability, verdicts_json
 
     if not (0 < args.identified <= args.weak <= 1):
@@ -632,10 +641,15 @@ def _cmd_identifiability(args: argparse.Namespace) -> int:
         meanings = variable_meanings(spec)  # the model's parameter meanings, from the builder
         verdicts = identifiability(a, identified=args.identified, weak=args.weak, meanings=meanings)
         note = _sampler_note(study, a)
+        combos = None
+        if args.combinations:
+            combos = identifiable_combinations(a, identified=args.identified, weak=args.weak)
     if args.json:
         out = verdicts_json(verdicts)
         out["n"], out["n_feasible"], out["n_pareto"] = a.n, a.n_feasible, a.n_pareto
         out["constraints_in_force"] = [str(b) for b in a.active_bounds()]
+        if combos is not None:
+            out.update(combinations_json(combos))
         _json(out)
         return 0
     print(f"N = {a.n}   ND = {a.n_feasible}   NP = {a.n_pareto}")
@@ -673,6 +687,10 @@ def _cmd_identifiability(args: argparse.Namespace) -> int:
         "\n(identified: D spans <= "
         f"{args.identified:.0%} of the box, off its edges; not identified: > {args.weak:.0%})"
     )
+    if combos is not None:
+        print()
+        limited = any(b.name in a.crit_names for b in a.active_bounds())
+        print(combinations_text(combos, a.n_feasible, limited))
     return 0
 
 

@@ -146,9 +146,7 @@ def executor_of(args: argparse.Namespace) -> str | None:
     return executor
 
 
-def add_limit_options(
-    sp: argparse.ArgumentParser, *, save: bool = True, role: bool = True
-) -> None:
+def add_limit_options(sp: argparse.ArgumentParser, *, save: bool = True, role: bool = True) -> None:
     """Add ``--limit`` and ``--role`` (shared by every analysis verb), and ``--save``
     (``role=False``: a verb that reads only D, which roles do not change)."""
     sp.add_argument(
@@ -371,6 +369,7 @@ _EXTENSION_MODULES = (
     "vectorid.cli.descent",
     "vectorid.cli.step",
     "vectorid.cli.predict",
+    "vectorid.cli.design",
 )
 
 

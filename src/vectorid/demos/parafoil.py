@@ -66,6 +66,7 @@ from typing import Any
 import numpy as np
 
 from .._toml import toml_value
+from ..analysis.combinations import identifiable_combinations
 from ..analysis.identifiability import VERDICTS
 from ..analysis.relaxation import MIN_D
 from ..analysis.sections import sections_through
@@ -567,6 +568,38 @@ def _print_stage(st: IdentificationStage, ident, true, *, title: str) -> dict:
     return {"truth_in_d": inside_d, "inside": inside, "missed": missed}
 
 
+def print_combinations(a: Any, true: Mapping[str, float], top: int = 8) -> dict[str, int]:
+    """The combinations of gains stage 2's set pins down (issue 34), narrowest first, each
+    with its range (in z, widened to hold D's boundary) and whether the generator's truth lies
+    inside it; returns the counts (identified, weak, truth outside)."""
+    combos = identifiable_combinations(a)
+    print()
+    print(
+        "  combinations of gains this set pins down (z(g) = (g - low)/(high - low), each gain "
+        "as a share of its box;\n  ranges in z, widened to hold the set's boundary; "
+        "docs/identification.md, vectorid identifiability --combinations):"
+    )
+    outside = 0
+    for k, c in enumerate(combos, 1):
+        v = c.value_of(true)
+        inside = c.range[0] <= v <= c.range[1]
+        outside += not inside
+        if k <= top:
+            print(
+                f"    c{k} {c.text(terms=4)}\n       range [{c.range[0]:.3f}, {c.range[1]:.3f}]"
+                f", width {c.width_fraction:.0%} of a box side, {c.verdict}; the truth "
+                f"{v:.3f}: {'inside' if inside else 'OUTSIDE'}"
+            )
+    if len(combos) > top:
+        print(f"    ... and {len(combos) - top} more (vectorid identifiability --combinations)")
+    n_id = sum(c.identified for c in combos)
+    print(
+        f"  {n_id} combination(s) identified, {len(combos) - n_id} weak; the truth inside "
+        f"{len(combos) - outside} of {len(combos)} ranges"
+    )
+    return {"identified": n_id, "weak": len(combos) - n_id, "truth_outside": outside}
+
+
 def _print_sections(sec: Mapping[str, tuple[float, float] | None], boxes) -> None:
     """The sections through the truth, grouped by the share of its box a gain keeps."""
     print(
@@ -720,7 +753,12 @@ def _planned_manoeuvre(out: Path, truth: Mapping[str, Any], st: IdentificationSt
     # D at the stated limits wherever it holds a member; else the stage's last resort, named
     stated = st.n_noise_feasible > 0
     limits = None if stated else r.analysis.limits
-    which = "D" if stated else f"the last resort's set (limits relaxed x{st.factor:g}), not D"
+    which = (
+        "D"
+        if stated
+        else f"the set at the limits relaxed x{st.factor:g} (last resort: D at the stated "
+        "limits was not reached), not D"
+    )
     try:
         p = predict(r.store, f, members=PLANNED_MEMBERS, seed=1, limits=limits,
                     relaxed_by=None if stated else st.factor)  # fmt: skip
@@ -935,6 +973,7 @@ def _run_parafoil_demo(
         f"  truth inside the feasible range of {n_in} of {len(ins)} gains"
         + (f" (misses: {', '.join(misses)})" if misses else "")
     )
+    print_combinations(a2, true)
     sec = _sections(ident8, true, st2.noise_limits, full_boxes)
     _print_sections(sec, full_boxes)
     pure = a2.pure

@@ -585,7 +585,6 @@ def _flight_part(
     Options the user gave (``first_line``, ``last_line``, ``max_gap``) are kept as given.
     """
 
-
     factor = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9, "min": 60.0}.get(time_unit)
     if factor is None:
         return {}

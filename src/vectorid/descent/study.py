@@ -240,7 +240,6 @@ def _identify(plan: DescentPlan, out: str | Path, progress) -> DescentResult:
     check_time_scale(t, h, read, plan, origin)
 
     def diagnose() -> str:  # what the other columns say, only when a check fails
-
         return suggest_altitude(
             path, plan.mapping, read, t, h, mass=plan.mass, origin=origin,
             totals=stated_totals(plan), api=read.time_from == "mapping",

@@ -12,11 +12,18 @@ import html
 from collections.abc import Mapping, Sequence
 from typing import Any
 
+from ..analysis.combinations import Combination, identifiable_combinations
 from ..analysis.identifiability import ParameterVerdict, identifiability
 from ..analysis.results import Analysis
 from ..builders import variable_meanings
 
-__all__ = ["identifiability_html", "limits_html", "report_section", "verdicts_for_report"]
+__all__ = [
+    "combinations_html",
+    "identifiability_html",
+    "limits_html",
+    "report_section",
+    "verdicts_for_report",
+]
 
 _COLOURS = {"identified": "#2ca02c", "weak": "#ff7f0e", "not identified": "#d62728"}
 
@@ -126,3 +133,70 @@ def report_section(
         if hit.size:
             chosen = dict(zip(a.spec.space.names, map(float, a.trials.X[hit[0]])))
     return identifiability_html(a, verdicts=verdicts, chosen=chosen)
+
+
+def combinations_html(
+    a: Analysis,
+    *,
+    combos: Sequence[Combination] | None = None,
+    truth: Mapping[str, float] | None = None,
+) -> str:
+    """The combinations of gains D pins down, as an HTML fragment for the report and the UI's
+    verdict panel: one row per identified or weak combination (narrowest first) with its
+    loadings on the box-normalised gains, its range over D (in z, widened to hold D's
+    boundary), the width as a share of a box side, the verdict, and the reading in the gains'
+    own units. Numbers come from
+    :func:`vectorid.analysis.combinations.identifiable_combinations`.
+
+    Parameters
+    ----------
+    a : Analysis
+        Trials and the constraints in force.
+    combos : sequence of Combination, optional
+        Already computed (computed here when None).
+    truth : mapping, optional
+        A twin's truth (gain -> value in its unit): a column says whether each range holds
+        its projection.
+
+    Returns
+    -------
+    str
+        HTML (a paragraph and a table, or a sentence when there is none).
+    """
+    cs = list(combos) if combos is not None else identifiable_combinations(a)
+    intro = (
+        "<p class=muted>Directions in the gains, each gain as a share of its box "
+        "(z = (x - low)/(high - low)), along which the feasible set D is narrow: the principal "
+        "directions of D's weighted members, each kept to the few gains that carry it. Ranges "
+        "are in z, widened to hold D's boundary; width as a share of one box side; verdicts "
+        "by the same rules as a gain's (vectorid.analysis.combinations).</p>"
+    )
+    if a.n_feasible < 2:
+        return intro + f"<p>D holds {a.n_feasible} member(s): no combination can show a spread.</p>"
+    if not cs:
+        return intro + "<p>No combination of gains is identified or weak.</p>"
+    head = ["combination (z)", "range (z)", "width", "verdict", "in the gains' units"]
+    if truth is not None:
+        head.append("truth inside")
+    rows = []
+    for c in cs:
+        colour = _COLOURS.get(c.verdict, "#222")
+        cells = [
+            f"<td class=l>{_e(c.text())}</td>",
+            f"<td>{_span(c.range)}</td>",
+            f"<td>{c.width_fraction:.1%}</td>",
+            f"<td class=l style='color:{colour}'><b>{_e(c.verdict)}</b> {_e(c.reason)}</td>",
+            f"<td class=l>{_e(c.own_units_text())}</td>",
+        ]
+        if truth is not None:
+            t = c.value_of(truth)
+            cells.append(f"<td>{'yes' if c.range[0] <= t <= c.range[1] else 'NO'} ({_g(t)})</td>")
+        rows.append("<tr>" + "".join(cells) + "</tr>")
+    return (
+        intro
+        + "<table><tr>"
+        + "".join(f"<th class=l>{h}</th>" for h in head)
+        + "</tr>"
+        + "".join(rows)
+        + "</table>"
+    )
