@@ -176,6 +176,10 @@ class StudySpec:
     extra : dict, optional
         The study file's other tables: a builder's table (``[identification]``) or ``x-``
         tables kept for tools.
+    inputs : tuple of str, optional
+        Files and folders the model reads itself (``[study] inputs``), relative to
+        ``base_dir``: hashed like data files before a trial is added
+        (:mod:`vectorid.store.inputs`).
     """
 
     name: str
@@ -201,8 +205,6 @@ class StudySpec:
     fmu: dict[str, Any] | None = field(default=None, hash=False)
     budget: int | None = None
     population: int | None = None
-    #: Files and folders the model reads itself (``[study] inputs``), relative to ``base_dir``:
-    #: hashed like data files before a trial is added (:mod:`vectorid.store.inputs`).
     inputs: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:

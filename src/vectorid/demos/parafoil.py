@@ -753,7 +753,12 @@ def _planned_manoeuvre(out: Path, truth: Mapping[str, Any], st: IdentificationSt
     # D at the stated limits wherever it holds a member; else the stage's last resort, named
     stated = st.n_noise_feasible > 0
     limits = None if stated else r.analysis.limits
-    which = "D" if stated else f"the last resort's set (limits relaxed x{st.factor:g}), not D"
+    which = (
+        "D"
+        if stated
+        else f"the set at the limits relaxed x{st.factor:g} (last resort: D at the stated "
+        "limits was not reached), not D"
+    )
     try:
         p = predict(r.store, f, members=PLANNED_MEMBERS, seed=1, limits=limits,
                     relaxed_by=None if stated else st.factor)  # fmt: skip
