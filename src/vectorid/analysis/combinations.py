@@ -26,7 +26,7 @@ gains but is not unique; the principal directions are, and the readable form bel
 their width.)
 
 **Readable form.** A principal direction of 33 gains has 33 coefficients. Its gains are taken
-in order of |coefficient| and the shortest prefix is kept whose combination (renormalised to
+in order of absolute coefficient and the shortest prefix is kept whose combination (renormalised to
 unit length) spreads over D at most ``1.25`` times as much as the full direction; the range
 and verdict printed are those of that shorter combination itself, so what is printed is what
 is determined. The coefficients are on z; :attr:`Combination.per_unit` gives them per unit of
@@ -111,7 +111,7 @@ class Combination:
     ----------
     loadings : dict of str to float
         Gain name -> coefficient on its z = (x - low)/(high - low); a unit vector over the
-        gains listed (the others weigh 0), largest |coefficient| first.
+        gains listed (the others weigh 0), largest absolute coefficient first.
     range : (float, float)
         Range of ``sum(loadings[g] * z[g])`` over D, widened to hold D's boundary (module
         docstring), in z (dimensionless: shares of the box sides).
