@@ -13,6 +13,7 @@ import sys
 import warnings
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from vectorid import Study, load_study
@@ -92,9 +93,27 @@ EDITS = {
         "self.force_amplitude * np",
         "1.5 * self.force_amplitude * np",
     ),
-    "package of the model": ("msd/__init__.py", '"""', '"""\nSCALE = 1.0  # edited\n"""'),
+    "package of the model": ("msd/__init__.py", '"""A mass', 'SCALE = 1.0  # edited\n"""A mass'),
     "criterion module": ("mycrit.py", "np.max(", "1.01 * np.max("),
 }
+
+
+def test_an_accepted_edit_runs_the_edited_code_in_the_same_process(tmp_path):
+    # a notebook runs a study, the user edits a criterion module and accepts the change: the
+    # new trials must be the edited code's, not what this process imported before the edit
+    study = own_model(tmp_path / "om")
+    db = study.with_suffix(".db")
+    run(study)
+    f = study.parent / "mycrit.py"
+    f.write_text(
+        MYCRIT.replace("return np.max(", "return 0 * np.max(").replace("axis=1)", "axis=1) + 123.0")
+    )
+    run(db, accept_changes=True, trials=256)
+    with Store.open(db) as st:
+        trials = st.load()
+        k = [c.name for c in st.spec.criteria].index("x_peak")
+    old, new = trials.F[:128, k], trials.F[128:, k]
+    assert len(new) == 128 and np.all(old != 123.0) and np.all(new == 123.0)
 
 
 @pytest.mark.parametrize(

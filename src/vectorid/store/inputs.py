@@ -90,6 +90,7 @@ __all__ = [
     "check_inputs",
     "code_hashes",
     "declared_hashes",
+    "forget_loaded_code",
     "history",
     "input_changes",
     "record_history",
@@ -650,6 +651,54 @@ def code_hashes(spec: Any) -> dict[str, Any]:
     (see the module docstring); empty for a model without a source file (an FMU is a data
     file; a function typed at an interactive prompt has no file)."""
     return _code(spec)[0]
+
+
+def forget_loaded_code(spec: Any) -> list[str]:
+    """Make this process import the study's own model code afresh from its files: every
+    module of the study's project code (the model's module, its package and project modules,
+    criterion and reduction modules; see :func:`code_hashes`) that this process has imported
+    is dropped from :data:`sys.modules`, and its cached bytecode removed, so that the next
+    build of the model (here, or in a worker process started from here) reads the files as
+    they are now.
+
+    Without it, a long-lived process (a notebook, a script that runs a study twice) would go
+    on running the code it imported before an edit while the input check compares the files
+    on disk: trials of the old code stored under the new code's hashes. The run driver calls
+    it before each run (:func:`vectorid.run.run_store`). A model given as a Python object
+    (``model = f``) cannot be re-imported: the object is what runs; edit and re-create it.
+
+    Returns
+    -------
+    list of str
+        The module names dropped (empty when none was imported).
+    """
+    import importlib
+    import importlib.util
+
+    try:
+        _, code = _code(spec)
+    except Exception:  # the builder reports a broken study; nothing to forget here
+        return []
+    files = {p.resolve() for p, _ in code.files if p.suffix == ".py"}
+    if not files:
+        return []
+    dropped = []
+    for name, mod in list(sys.modules.items()):
+        f = getattr(mod, "__file__", None)
+        if not f or name in ("__main__", "__mp_main__"):  # the running script stays itself
+            continue
+        try:
+            real = Path(f).resolve()
+        except (OSError, ValueError):
+            continue
+        if real in files:
+            del sys.modules[name]
+            dropped.append(name)
+    for path in files:  # a same-size edit within a second would keep the old bytecode
+        with contextlib.suppress(OSError, ValueError, NotImplementedError):
+            Path(importlib.util.cache_from_source(str(path))).unlink(missing_ok=True)
+    importlib.invalidate_caches()
+    return dropped
 
 
 # -- declared inputs and what the scan cannot see ----------------------------------------------
