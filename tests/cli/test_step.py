@@ -23,6 +23,7 @@ def study(tmp_path_factory):
     return path
 
 
+@pytest.mark.slow  # minutes: a study per drop (CI runs the slow suite too)
 def test_step_prints_errors_per_drop_and_a_recommendation(study, capsys):
     assert main(["step", str(study), "--trials", "2", "--tolerance", "0.05", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)

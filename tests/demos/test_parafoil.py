@@ -29,6 +29,7 @@ def _generator():
     return gen
 
 
+@pytest.mark.slow  # minutes: a study per drop (CI runs the slow suite too)
 def test_parafoil_demo_end_to_end_reduced(tmp_path, capsys):
     out = tmp_path / "demo"
     code = main(["demo", "parafoil", "--out", str(out), "--trials", "256", "--budget", "1500",
