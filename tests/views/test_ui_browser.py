@@ -13,6 +13,7 @@ from __future__ import annotations
 import csv
 import io
 import json
+import time
 import urllib.error
 import urllib.parse
 import urllib.request
@@ -348,13 +349,21 @@ def _lines(drv) -> dict[str, int]:
 def _brush(drv, axis: str, top: float, bottom: float) -> None:
     """Drag along axis ``axis`` from ``top`` to ``bottom`` (fractions of its height from
     its top)."""
-    b = drv.find_element(By.CSS_SELECTOR, f"#par-graph .vid-hit[data-name='{axis}']")
-    h = b.size["height"]
-    ActionChains(drv).move_to_element_with_offset(
-        b, 0, int(-h / 2 + top * h)
-    ).click_and_hold().move_by_offset(0, 5).move_to_element_with_offset(
-        b, 0, int(-h / 2 + bottom * h)
-    ).release().perform()
+    for attempt in range(3):  # the page may lay its axes out again as it settles: find anew
+        b = drv.find_element(By.CSS_SELECTOR, f"#par-graph .vid-hit[data-name='{axis}']")
+        try:
+            h = b.size["height"]
+            ActionChains(drv).move_to_element_with_offset(
+                b, 0, int(-h / 2 + top * h)
+            ).click_and_hold().move_by_offset(0, 5).move_to_element_with_offset(
+                b, 0, int(-h / 2 + bottom * h)
+            ).release().perform()
+            return
+        except StaleElementReferenceException:
+            ActionChains(drv).release().perform()
+            if attempt == 2:
+                raise
+            time.sleep(0.5)
 
 
 def test_parallel_brushes_select_and_one_action_makes_a_constraint(browser, server):

@@ -328,7 +328,8 @@ VERB_GROUPS = (
     ("run", ("run", "info", "verify", "repair")),
     ("analyse", ("table", "pareto", "section", "refine", "robustness", "correlation",
                  "sensitivity", "export")),
-    ("identify from flight data", ("identifiability", "step", "descent", "predict")),
+    ("identify from flight data", ("identifiability", "step", "descent", "predict",
+                                   "design")),
     ("view", ("hist", "plot", "report", "ui")),
 )  # fmt: skip
 

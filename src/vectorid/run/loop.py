@@ -41,7 +41,7 @@ from ..problem import FAILED, EvalResult, Problem
 from ..samplers import Round, RoundResult, RunContext, RunSettings, StageRequest, sampler_for
 from ..samplers.table import sample_spans
 from ..store import Store
-from ..store.inputs import check_inputs, forget_loaded_code
+from ..store.inputs import check_inputs, reload_edited_code
 from ..summary import FailureGroup, RunSummary, group_failures, reason_key
 from .executors import make_executor
 
@@ -356,7 +356,7 @@ def run_store(
     RunFailedError
         When every trial of the first batches failed (unless ``keep_going``).
     """
-    forget_loaded_code(store.spec)  # the model's code as its files are now, not as imported
+    reload_edited_code(store.spec)  # the model's code as its files are now, not as imported
     sampler = sampler_for(store.spec)
     settings = sampler.configure(store, trials=trials, budget=budget, population=population)
     spec = settings.spec

@@ -90,11 +90,11 @@ __all__ = [
     "check_inputs",
     "code_hashes",
     "declared_hashes",
-    "forget_loaded_code",
     "history",
     "input_changes",
     "record_history",
     "record_inputs",
+    "reload_edited_code",
     "unseen_loads",
 ]
 
@@ -653,52 +653,70 @@ def code_hashes(spec: Any) -> dict[str, Any]:
     return _code(spec)[0]
 
 
-def forget_loaded_code(spec: Any) -> list[str]:
-    """Make this process import the study's own model code afresh from its files: every
-    module of the study's project code (the model's module, its package and project modules,
-    criterion and reduction modules; see :func:`code_hashes`) that this process has imported
-    is dropped from :data:`sys.modules`, and its cached bytecode removed, so that the next
-    build of the model (here, or in a worker process started from here) reads the files as
-    they are now.
+#: The content (sha256) of each own-code file as this process last ran a study with it:
+#: {resolved path: digest}. :func:`reload_edited_code` reloads a module whose file differs.
+_RAN_WITH: dict[Path, str] = {}
+
+
+def reload_edited_code(spec: Any) -> list[str]:
+    """Make this process run the study's own model code as its files are now: a module of
+    the study's project code (the model's module, its package and project modules,
+    criterion and reduction modules; see :func:`code_hashes`) that this process imported and
+    whose file was edited since this process last ran a study with it is reloaded
+    (:func:`importlib.reload`; its cached bytecode is removed first), so that the next build
+    of the model — here, or in a worker process started from here — runs the edited code.
 
     Without it, a long-lived process (a notebook, a script that runs a study twice) would go
     on running the code it imported before an edit while the input check compares the files
     on disk: trials of the old code stored under the new code's hashes. The run driver calls
     it before each run (:func:`vectorid.run.run_store`). A model given as a Python object
-    (``model = f``) cannot be re-imported: the object is what runs; edit and re-create it.
+    (``model = f``) is not reloaded: the object is what runs; re-create it after an edit.
+    A module that no longer imports after the edit is dropped, so that building the model
+    reports its error.
 
     Returns
     -------
     list of str
-        The module names dropped (empty when none was imported).
+        The names of the modules reloaded.
     """
     import importlib
     import importlib.util
 
     try:
-        _, code = _code(spec)
-    except Exception:  # the builder reports a broken study; nothing to forget here
+        hashes, code = _code(spec)
+    except Exception:  # the builder reports a broken study; nothing to reload here
         return []
-    files = {p.resolve() for p, _ in code.files if p.suffix == ".py"}
-    if not files:
+    now: dict[Path, str] = {}
+    for info in hashes.values():
+        path = Path(str(info.get("path", "")))
+        if path.suffix == ".py" and info.get("sha256"):
+            with contextlib.suppress(OSError, ValueError):
+                if not _inside(path.resolve(), _vectorid_dir()):  # the user's code only
+                    now[path.resolve()] = str(info["sha256"])
+    if not now:
         return []
-    dropped = []
+    own = getattr(spec.model, "__module__", None) if callable(spec.model) else None
+    reloaded = []
     for name, mod in list(sys.modules.items()):
         f = getattr(mod, "__file__", None)
-        if not f or name in ("__main__", "__mp_main__"):  # the running script stays itself
+        if not f or name in ("__main__", "__mp_main__") or name == own:
             continue
         try:
             real = Path(f).resolve()
         except (OSError, ValueError):
             continue
-        if real in files:
-            del sys.modules[name]
-            dropped.append(name)
-    for path in files:  # a same-size edit within a second would keep the old bytecode
+        before = _RAN_WITH.get(real)
+        if real not in now or before is None or before == now[real]:
+            continue
         with contextlib.suppress(OSError, ValueError, NotImplementedError):
-            Path(importlib.util.cache_from_source(str(path))).unlink(missing_ok=True)
-    importlib.invalidate_caches()
-    return dropped
+            Path(importlib.util.cache_from_source(str(real))).unlink(missing_ok=True)
+        try:
+            importlib.reload(mod)
+        except Exception:  # the edit broke it: building the model says how
+            sys.modules.pop(name, None)
+        reloaded.append(name)
+    _RAN_WITH.update(now)
+    return reloaded
 
 
 # -- declared inputs and what the scan cannot see ----------------------------------------------
