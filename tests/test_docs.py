@@ -394,6 +394,7 @@ def readme_demo_block(command: str) -> Block:
     return found[0]
 
 
+@pytest.mark.long
 @pytest.mark.slow
 @pytest.mark.parametrize("block", SLOW_BLOCKS, ids=[b.where for b in SLOW_BLOCKS])
 def test_slow_doc_blocks_run(block, tmp_path_factory):

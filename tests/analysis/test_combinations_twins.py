@@ -12,6 +12,7 @@ from vectorid.analysis.combinations import identifiable_combinations
 from vectorid.study import Study
 
 
+@pytest.mark.long
 @pytest.mark.slow
 def test_the_truth_lies_inside_every_combinations_range(tmp_path):
     """Ten twins, about 5 s each (the measured figures are in docs/identification.md)."""

@@ -323,6 +323,7 @@ def _large(kind, n, k, seed):
     raise AssertionError(kind)
 
 
+@pytest.mark.long
 @pytest.mark.slow
 @pytest.mark.parametrize("k", [2, 3, 4, 6])
 @pytest.mark.parametrize("kind", ["uniform", "correlated", "ties", "anti"])
@@ -452,6 +453,7 @@ np.savez({str(tmp_path / "m.npz")!r}, **out)
         )
 
 
+@pytest.mark.slow
 @settings(max_examples=200, deadline=None)
 @given(
     problems(values=st.integers(0, 4).map(float), max_n=200),

@@ -29,6 +29,7 @@ def _generator():
     return gen
 
 
+@pytest.mark.long
 @pytest.mark.slow  # minutes: a study per drop (CI runs the slow suite too)
 def test_parafoil_demo_end_to_end_reduced(tmp_path, capsys):
     out = tmp_path / "demo"
@@ -175,6 +176,7 @@ def test_print_verdicts_shows_a_value_only_where_the_gain_is_identified(capsys):
     assert inside == {"CD0": True, "kA": True}
 
 
+@pytest.mark.long
 @pytest.mark.slow
 def test_demo_ranges_hold_the_truth(tmp_path_factory):
     """Done-when of issues 15 and 22 on the full demo as the README runs it (its slow block,
@@ -216,6 +218,7 @@ def test_demo_ranges_hold_the_truth(tmp_path_factory):
         assert "Stage 3: the reduced set" in text and "stage 3" in summary["stages"]
 
 
+@pytest.mark.long
 @pytest.mark.slow
 def test_discrepancy_allowance_covers_twins_of_the_generator(tmp_path):
     """The demo's allowance was read from twins of the generator (scripts/

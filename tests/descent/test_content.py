@@ -120,6 +120,7 @@ def test_two_altitude_columns_that_agree_are_one_and_that_differ_are_an_error(tm
         detect_format(path)
 
 
+@pytest.mark.slow
 def test_feet_without_a_unit_in_the_header_are_not_read_as_metres(tmp_path):
     t, h = _descent()
     path = _write(tmp_path / "feet.csv", "time,ALT", list(zip(t, h / FT)))

@@ -144,6 +144,7 @@ def test_faulty_logs_give_the_clean_results(bella_runs, fault):
     assert abs(vb / va - 1) < 0.01, (va, vb)
 
 
+@pytest.mark.slow
 def test_a_gps_that_stops_early_does_not_bound_the_window(tmp_path):
     """The issue's second logger: the last GPS fix before the end of the main window."""
     if not TELEMEGA.exists():

@@ -27,6 +27,9 @@ def _gallery():
 
 GALLERY = _gallery()
 
+#: Every real descent identified (minutes): run by the slow suite.
+pytestmark = pytest.mark.slow
+
 
 @pytest.fixture(scope="module")
 def results(tmp_path_factory):

@@ -91,6 +91,7 @@ def test_limits_and_verdicts_come_from_the_shared_machinery(result):
         assert p.limits.alt_rms == pytest.approx(p.limits.floor_alt_rms + p.limits.allowance_alt)
 
 
+@pytest.mark.slow
 def test_json_output(tmp_path, capsys):
     if not LOG.exists():
         pytest.skip(f"shared flight data not found at {LOG}")

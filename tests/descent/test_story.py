@@ -82,6 +82,7 @@ def story_is_one(r) -> None:
         assert not repeated_numbers([p.summary]), p.summary
 
 
+@pytest.mark.slow
 def test_an_empty_feasible_set_tells_each_number_once(tmp_path):
     path = RP / "lince" / "main_data.csv"
     if not path.exists():

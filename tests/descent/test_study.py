@@ -141,6 +141,7 @@ def test_twin_json_has_the_documented_fields(adds_result):
         assert p["cds_pareto"][0] <= p["cds"] <= p["cds_pareto"][1]
 
 
+@pytest.mark.slow
 def test_the_same_log_under_the_other_convention_gives_the_total(adds_log, tmp_path):
     # "replaces" calls the whole drag area under the main the main's: drogue + main of truth
     path, _, _ = adds_log
@@ -149,6 +150,7 @@ def test_the_same_log_under_the_other_convention_gives_the_total(adds_log, tmp_p
     assert r.phase("drogue").cds == pytest.approx(0.5, rel=0.03)
 
 
+@pytest.mark.slow
 def test_diameters_give_drag_coefficients(adds_log, tmp_path):
     path, _, _ = adds_log
     d_main = 2.0  # m: area pi

@@ -124,6 +124,7 @@ def _cli(args, capsys) -> tuple[int, str, str]:
     return code, out.out, out.err
 
 
+@pytest.mark.slow
 def test_unseen_logs_give_the_clean_answer_end_to_end(variants, tmp_path, capsys):
     """Two of them through the verb, against the clean log: the same drag area."""
 

@@ -303,6 +303,7 @@ sys.exit(code)
 """
 
 
+@pytest.mark.long
 @pytest.mark.slow
 def test_a_200_mb_log(tmp_path):
     """A clear answer within 2 GB (the goal: and 2 minutes on 2 cores): the main's drag area

@@ -113,6 +113,7 @@ def _truth_in_d(spec, truth) -> bool:
     return bool(np.all(F[0] <= np.array([c.limit for c in spec.criteria])))
 
 
+@pytest.mark.long
 def test_noise_floors_cover_the_truth(tmp_path):
     """Whether the truth is in D depends on the limits only (not on the sampled trials): over
     100 twins it must be in at least 90 % (the floors aim at 95 %)."""
@@ -123,6 +124,7 @@ def test_noise_floors_cover_the_truth(tmp_path):
     assert in_d / n >= 0.9, f"coverage {in_d}/{n}"
 
 
+@pytest.mark.long
 def test_identified_ranges_hold_the_truth(tmp_path):
     """Twenty twins run through the two-step's step: a variable called identified holds its
     truth in the final box always, and in its feasible range whenever the truth is in D."""
@@ -147,6 +149,7 @@ def test_identified_ranges_hold_the_truth(tmp_path):
     assert x6_identified / n >= 0.85, f"x6 identified in {x6_identified}/{n}"
 
 
+@pytest.mark.long
 def test_richer_truth_needs_the_discrepancy_allowance(tmp_path):
     n, bare, allowed = 12, 0, 0
     for i in range(n):

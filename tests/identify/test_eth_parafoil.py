@@ -80,6 +80,7 @@ def test_eth_flights_glide_and_turn_control(tmp_path):
     assert [v.name for v in r["step"].verdicts] == a.spec.space.names
 
 
+@pytest.mark.long
 @pytest.mark.slow
 def test_eth_flights_reach_the_physical_floor_not_a_misfit(tmp_path_factory):
     """Issue 22 on the real flights, as docs/identification.md runs them (its slow block, run
@@ -105,6 +106,7 @@ def test_eth_flights_reach_the_physical_floor_not_a_misfit(tmp_path_factory):
         assert "pressed against the box" in line and "Cnr" in line, line
 
 
+@pytest.mark.long
 @pytest.mark.slow
 @pytest.mark.skipif(not (DATA / "flight1_states.csv").exists(), reason=f"no data at {DATA}")
 def test_a_held_out_flight_is_predicted_with_the_json_of_vectorid_predict(tmp_path, capsys):

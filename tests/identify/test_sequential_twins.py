@@ -102,6 +102,7 @@ def test_a_parachute_twin_with_15_free_parameters(tmp_path):
     assert inside, (outside, s.describe())
 
 
+@pytest.mark.long
 @pytest.mark.slow
 def test_twenty_parachute_twins_hold_their_truth(tmp_path):
     n, held = 20, 0
@@ -112,6 +113,7 @@ def test_twenty_parachute_twins_hold_their_truth(tmp_path):
     assert held / n >= 0.9, f"truth inside D's ranges in {held}/{n} twins"
 
 
+@pytest.mark.long
 @pytest.mark.slow
 def test_ten_times_less_noisy_twin(tmp_path):
     quiet = {k: v / 10.0 for k, v in NOISE.items()}

@@ -30,6 +30,7 @@ def _walk(item):
             yield from _walk(child)
 
 
+@pytest.mark.long
 @pytest.mark.slow  # about 110 s here: a 4,000-trial report drawn and printed by Chromium
 def test_the_report_prints_on_a4_at_8_pt_and_more(tmp_path):
     store = many_axes_store(tmp_path, 4000)

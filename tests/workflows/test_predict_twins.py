@@ -92,6 +92,7 @@ def coverage(folder, i: int, variables) -> tuple[float, str]:
     return float(pos.coverage_with_noise), p.describe()
 
 
+@pytest.mark.long
 @pytest.mark.slow
 def test_the_with_noise_band_holds_a_second_drop_of_the_truth(tmp_path):
     """Twenty twins, ten with 3 parameters free and ten with all 15 (about 7 s each)."""
