@@ -92,6 +92,7 @@ def problems(draw, values=SMALL_INTS, max_k=6, max_n=40, nan_rows=True):
     return F, senses
 
 
+@pytest.mark.slow
 @settings(max_examples=400, deadline=None)
 @given(problems())
 def test_matches_brute_force_on_small_integer_grids(problem):

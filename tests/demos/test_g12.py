@@ -4,11 +4,14 @@ from __future__ import annotations
 
 import json
 
+import pytest
+
 from vectorid.cli import main
 from vectorid.demos.g12 import DEMO_DATA, identification_toml
 from vectorid.spec import StudySpec
 
 
+@pytest.mark.slow
 def test_demo_end_to_end_reduced(tmp_path, capsys):
     out = tmp_path / "demo"
     code = main(["demo", "--out", str(out), "--trials", "128", "--quiet"])

@@ -267,6 +267,7 @@ def _vectorid(*args: object, env: dict | None = None, **kw) -> subprocess.Popen:
     )
 
 
+@pytest.mark.slow
 def test_repair_killed_at_random_moments_leaves_old_or_repaired_store(tmp_path):
     study = write_user_study(tmp_path / "s", trials=320)
     ref = tmp_path / "ref.db"

@@ -37,6 +37,7 @@ def test_stated_set_as_model_options_reproduces_the_stated_apparent_masses():
     assert m.geometry.canopy_mass + m.geometry.payload_mass == pytest.approx(1.2)
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not (DATA / "flight1_states.csv").exists(), reason=f"no data at {DATA}")
 def test_eth_flights_glide_and_turn_control(tmp_path):
     eth = _example("eth_parafoil")

@@ -76,6 +76,7 @@ def test_draws_outside_the_box_are_refused_unevaluated():
     assert 0 < len(draws) < 500 and np.all(np.diff(parents) > 0)
 
 
+@pytest.mark.slow
 def test_banana_in_24_dimensions_is_reached_and_covered(tmp_path):
     """2.6e-10 of the box, curved: the moves reach D at the stated limits, every member lies
     in D, the particles cover its free axes end to end and its curve from end to end."""
