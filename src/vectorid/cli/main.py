@@ -138,6 +138,14 @@ def add_executor_options(
         sp.add_argument("--timeout", type=positive_float, metavar="SECONDS", help=TIMEOUT_HELP)
 
 
+def _progress(args: argparse.Namespace) -> bool:
+    """Progress bars for a verb that runs a model: on a terminal or in a notebook, unless
+    ``--quiet``; none in a pipe or a log file (:func:`vectorid.run.loop.progress_wanted`)."""
+    from ..run.loop import progress_wanted
+
+    return not args.quiet and progress_wanted()
+
+
 def executor_of(args: argparse.Namespace) -> str | None:
     """The executor the options name: ``--executor``, else dask with ``--scheduler``."""
     executor = getattr(args, "executor", None)
@@ -632,7 +640,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
                     executor=executor,
                     workers=args.workers,
                     batch_size=args.batch_size,
-                    progress=not args.quiet,
+                    progress=_progress(args),
                     keep_going=args.keep_going,
                     budget=args.budget,
                     population=args.population,
@@ -874,7 +882,7 @@ def _cmd_repair(args: argparse.Namespace) -> int:
             Path(args.store),
             executor=executor_of(args),
             workers=args.workers,
-            progress=not args.quiet,
+            progress=_progress(args),
             study=args.study,
         )
     if args.json:
@@ -1037,12 +1045,12 @@ def _cmd_demo(args: argparse.Namespace) -> int:
         from ..demos.parafoil import run_parafoil_demo
 
         return run_parafoil_demo(
-            Path(args.out), trials=args.trials or 4096, progress=not args.quiet,
+            Path(args.out), trials=args.trials or 4096, progress=_progress(args),
             budget=args.budget, population=args.population, executor=args.executor,
             workers=args.workers,
         )  # fmt: skip
     return run_demo(
-        Path(args.out), trials=args.trials or 2048, progress=not args.quiet,
+        Path(args.out), trials=args.trials or 2048, progress=_progress(args),
         analytic=args.analytic, executor=args.executor, workers=args.workers,
     )  # fmt: skip
 
