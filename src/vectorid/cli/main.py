@@ -139,11 +139,10 @@ def add_executor_options(
 
 
 def _progress(args: argparse.Namespace) -> bool:
-    """Progress bars for a verb that runs a model: on a terminal or in a notebook, unless
-    ``--quiet``; none in a pipe or a log file (:func:`vectorid.run.loop.progress_wanted`)."""
-    from ..run.loop import progress_wanted
-
-    return not args.quiet and progress_wanted()
+    """Progress for a verb that runs a model, unless ``--quiet``: the sampler's lines always
+    (they belong in a log too), the bar only on a terminal or in a notebook
+    (:func:`vectorid.run.loop.run_store`), so a log file does not fill with bars."""
+    return not args.quiet
 
 
 def executor_of(args: argparse.Namespace) -> str | None:

@@ -324,9 +324,10 @@ def run_store(
     batch_size : int, optional
         Trials per batch (default: the study's, else chosen from the work size).
     progress : bool, file or None
-        Show progress (on stderr, or on the given file): a bar over the trials of the plain
-        table, one line per generation of the sequential sampler. None: where someone
-        watches (:func:`progress_wanted`: a terminal or a notebook), else silent.
+        Show progress (on stderr, or on the given file): one line per generation of the
+        sequential sampler, and a bar over the trials of the plain table where someone
+        watches it (:func:`progress_wanted`: a terminal or a notebook; a pipe or a log file
+        gets the lines, not the bar). None: all of it where someone watches, else silent.
     keep_going : bool
         Store the first batches even when every one of their trials failed (see the module
         docstring); default False: stop with :class:`~vectorid.errors.RunFailedError`.
@@ -387,7 +388,7 @@ def run_store(
                 rnd = None
             planned = rnd is not None
             while rnd is not None:
-                if rnd.bar and progress and bar is None and settings.work:
+                if rnd.bar and progress and bar is None and settings.work and progress_wanted(out):
                     bar = tqdm(total=stored_before + settings.work, initial=stored_before,
                                unit="trial", file=out, dynamic_ncols=True,
                                smoothing=0.1)  # fmt: skip
