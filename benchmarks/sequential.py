@@ -94,9 +94,12 @@ REFERENCE_BUDGET = {"parachute3": 400_000, "parachute15": 1_000_000,
                     "parachute15quiet": 1_000_000, "parafoil33": 65_536}  # fmt: skip
 #: Family-wise level of the per-parameter KS test (Bonferroni over the parameters).
 KS_LEVEL = 0.01
-#: The sequential sampler's first generation (Sobol trials; ``--first``): None keeps the
-#: twin's ``trials`` (1024).
+#: The sequential sampler's first generation (Sobol trials; ``--first``): None takes the
+#: sampler's default for a study that does not state ``trials``
+#: (:func:`vectorid.spec.first_generation_size`: 256 for a population of 200).
 FIRST: int | None = None
+#: The seed of the sequential study and of every anchor (``--seed``).
+SEED: int = 1
 SOBOL_BATCH = 1024
 VARS3 = (("x6", 0.3, 1.0), ("x8", 0.75, 1.5), ("x11", 0.06, 0.13))
 NOISE = {"position_h": 1.5, "position_v": 3.0, "velocity": 0.15, "euler_deg": 0.5, "rates": 0.01}
@@ -296,11 +299,13 @@ def run_sequential(p: Problem, folder: Path, population: int, budget: int) -> Ou
     import dataclasses
 
     from vectorid import Study
+    from vectorid.spec import first_generation_size
 
     try:
         spec = dataclasses.replace(p.spec, sampler="sequential", budget=int(budget),
                                    population=int(population),
-                                   trials=int(FIRST or p.spec.trials))  # fmt: skip
+                                   trials=int(FIRST or first_generation_size(population)),
+                                   seed=int(SEED))  # fmt: skip
     except Exception as exc:  # a vectorid without the sequential sampler
         return Outcome("sequential", 0, 0.0, 0, 0.0, None, False, f"not available: {exc}")
     store = folder / f"{p.name}-sequential.db"
@@ -415,7 +420,7 @@ def _anchor(method: str):
 
         target = _anchors.Target(p.spec)
         t0 = time.perf_counter()
-        s = getattr(_anchors, f"run_{method}")(target, population, budget)
+        s = getattr(_anchors, f"run_{method}")(target, population, budget, seed=SEED)
         wall = time.perf_counter() - t0
         if not len(s.X):
             return Outcome(method, s.evaluations, wall, 0, 0.0, None, False, s.note)
@@ -621,7 +626,14 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--first",
         type=int,
-        help="the sequential sampler's first generation, Sobol trials (default: the twin's 1024)",
+        help="the sequential sampler's first generation, Sobol trials (default: the sampler's "
+        "own for a study that does not state trials, 256 for a population of 200)",
+    )
+    ap.add_argument(
+        "--seed",
+        type=int,
+        default=1,
+        help="the seed of the sequential sampler's study and of every anchor (default 1)",
     )
     ap.add_argument(
         "--reference",
@@ -649,8 +661,9 @@ def main(argv: list[str] | None = None) -> int:
         print(f"error: --first takes a number of Sobol trials >= 1, got {args.first}",
               file=sys.stderr)  # fmt: skip
         return 2
-    global FIRST
+    global FIRST, SEED
     FIRST = args.first
+    SEED = args.seed
     if args.quick:
         problems = ["parachute3"] if args.problems == ",".join(PROBLEMS) else problems
         population = min(population, 50)

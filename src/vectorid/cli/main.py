@@ -188,7 +188,12 @@ def _parser() -> argparse.ArgumentParser:
 
     r = sub.add_parser("run", help="run, resume or extend a study")
     r.add_argument("study", help="study file (.toml) or an existing store (.db) to resume/extend")
-    r.add_argument("--trials", type=positive_int, help="total number of trials the study holds")
+    r.add_argument(
+        "--trials",
+        type=positive_int,
+        help="total number of trials the study holds; sequential sampler: the size of "
+        "generation 0 (default: the population rounded up to a power of two)",
+    )
     r.add_argument("--store", help="store path (default: the study's, else STUDY.db)")
     add_executor_options(r)
     r.add_argument("--batch-size", type=positive_int, help="trials per batch (default: auto)")

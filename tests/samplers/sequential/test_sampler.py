@@ -434,3 +434,30 @@ def test_every_executor_gives_the_same_trials(tmp_path):
     np.testing.assert_array_equal(ta.X, tb.X)
     np.testing.assert_array_equal(ta.F, tb.F)
     assert (sa.members, sa.evaluations) == (sb.members, sb.evaluations)
+
+
+@pytest.mark.parametrize(("population", "first"), [(100, 128), (200, 256), (50, 64), (20, 64)])
+def test_generation_0_defaults_to_the_population_as_a_power_of_two(tmp_path, population, first):
+    path = write_slab_study(tmp_path / "d", population=population)
+    text = path.read_text().replace("trials = 512\n", "")
+    path.write_text(text, encoding="utf-8")
+    spec = load_study(path)
+    assert spec.trials == first
+    with Store.create(tmp_path / "d.db", spec) as st:
+        run_store(st, executor="inline", progress=False, budget=first)
+        gens = generations(st)
+    assert gens[0].n == first and st.spec.trials == first
+
+
+def test_a_stated_trials_is_generation_0_and_a_plain_table_keeps_1024(tmp_path):
+    spec = load_study(write_slab_study(tmp_path / "s", trials=300))
+    assert spec.trials == 300
+    plain = write_slab_study(tmp_path / "p")
+    plain.write_text(
+        plain.read_text()
+        .replace('sampler = "sequential"\n', "")
+        .replace("trials = 512\n", "")
+        .replace("budget = 4000\npopulation = 100\n", ""),
+        encoding="utf-8",
+    )
+    assert load_study(plain).trials == 1024

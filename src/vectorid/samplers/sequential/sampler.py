@@ -6,7 +6,8 @@ the run driver (:mod:`vectorid.run`), evaluated as batches through the study's e
 (in-process, processes or Dask) and stored like any trial.
 
 1. Generation 0 is the plain Sobol table of the study's ``trials`` first points (so a
-   sequential store starts exactly like a plain one).
+   sequential store starts exactly like a plain one); a study that does not state ``trials``
+   gets :func:`vectorid.spec.first_generation_size` of its population (256 for 200).
 2. After each generation the sampler computes D at the stated limits: its members, their
    importance weights (:mod:`.weights`) and Kish's effective sample size (ESS). It stops when
    D holds at least ``population`` members with an ESS of at least ``population``
