@@ -25,17 +25,35 @@ from .. import analytic
 from .._toml import toml_value
 from ..run.executors import executor_options
 
-__all__ = ["DEMO_EXECUTOR", "DEMO_PROBLEM", "run_analytic_demo", "run_demo", "study_toml"]
+__all__ = [
+    "DEMO_EXECUTOR",
+    "DEMO_PROBLEM",
+    "DEMO_RUN_EXECUTOR",
+    "run_analytic_demo",
+    "run_demo",
+    "study_toml",
+]
 
 DEMO_PROBLEM = "binh-korn"
-#: Where the demos' trials run unless ``--executor`` says otherwise: ``"serial"``, one model
-#: process whose compiled kernel (numba, parallel over a batch's trials) keeps every core busy
-#: for the ~85 % of a flight model's time it spends there. ``"processes"`` gains only the rest
-#: (its criteria in Python) and pays each worker's start-up (a fresh interpreter that loads
-#: the model, about 2 CPU-s per worker and stage): the same wall time on 2 cores, measured in
-#: docs/performance.md ("Demos on every core"). A model of your own that runs in Python gains
-#: from ``processes``, which ``vectorid run`` uses by default.
+#: The executor the study files the demos write name, for the runs a user starts from them:
+#: ``"serial"``, one model process whose compiled kernel (numba, parallel over a batch's
+#: trials) keeps every core busy for the ~85 % of a flight model's time it spends there.
+#: ``"processes"`` gains only the rest (its criteria in Python) and pays each worker's
+#: start-up (a fresh interpreter that loads the model, about 2 CPU-s per worker and stage):
+#: the same wall time on 2 cores (docs/performance.md, "Demos and the test suite").
+#: A model of your own that runs in Python gains from ``processes``, which ``vectorid run``
+#: uses by default.
 DEMO_EXECUTOR = "serial"
+#: Where the demos run their own stages (this process) unless ``--executor`` says otherwise:
+#: ``"inline"``. The built-in kernel is compiled (or loaded) here once and runs each batch on
+#: every core; a model process per stage would be a fresh interpreter (spawned, as numba's
+#: threads are running here by then) that imports vectorid and loads the kernel again, about
+#: 3 s per stage on 2 cores and six stages in the G-12 demo — a third of its time after the
+#: first compile (measured: 2.4 s of trials in 20 s of stage runs). What ``inline`` gives up,
+#: a timeout and a crash isolated from the run, the built-in kernels do not need: a trial
+#: that diverges is a status, not a crash. The study files the demos write keep
+#: :data:`DEMO_EXECUTOR` for the runs a user starts.
+DEMO_RUN_EXECUTOR = "inline"
 
 
 def _num(v: float) -> str:
@@ -195,8 +213,8 @@ def run_demo(
     report : bool
         Write the HTML reports (needs plotly; skipped with a note when it is missing).
     executor, workers : optional
-        Where the trials run (default ``"serial"``: one model process, whose compiled kernel
-        runs a batch's trials on every core, see :data:`DEMO_EXECUTOR`) and how many worker
+        Where the trials run (default ``"inline"``: this process, whose compiled kernel runs
+        a batch's trials on every core, see :data:`DEMO_RUN_EXECUTOR`) and how many worker
         processes (``"processes"``, ``"dask"``).
 
     Returns
@@ -596,9 +614,12 @@ def run_identification_demo(
             out,
             trials=trials,
             coarse=coarse,
-            executor=executor or DEMO_EXECUTOR,
+            executor=executor or DEMO_RUN_EXECUTOR,
             progress=progress,
             control_step=True,
+            # the control step identifies x15 alone: a 1-D box needs no 2048 trials (512
+            # spaced 0.003 apart on its [0.5, 2] box, after the coarse run)
+            control_trials=coarse,
             control_box=False,
             auto_quantile=None,
             hints=DEMO_HINTS,
