@@ -75,7 +75,7 @@ from ..run.executors import executor_options
 from ..workflows.reduction import propose_reduction
 from ..workflows.stages import IdentificationStage, print_stage_limits, print_verdicts, run_stage
 from ..workflows.truth import check_truth
-from .g12 import DEMO_EXECUTOR
+from .g12 import DEMO_EXECUTOR, DEMO_RUN_EXECUTOR
 
 __all__ = ["DEMO_DATA", "DEMO_DISCREPANCY", "run_parafoil_demo", "stage_toml"]
 
@@ -842,8 +842,8 @@ def run_parafoil_demo(
     population : int
         Members of D wanted per stage (with an effective sample size as large).
     executor, workers : optional
-        Where every stage's trials run (default ``"serial"``, see
-        :data:`vectorid.demos.g12.DEMO_EXECUTOR`) and how many worker processes.
+        Where every stage's trials run (default ``"inline"``, this process, see
+        :data:`vectorid.demos.g12.DEMO_RUN_EXECUTOR`) and how many worker processes.
 
     Returns
     -------
@@ -854,7 +854,7 @@ def run_parafoil_demo(
         return _run_parafoil_demo(
             Path(out), trials=trials, stage1_trials=stage1_trials, stage3_trials=stage3_trials,
             progress=progress, budget=budget, population=population, report=report,
-            executor=executor or DEMO_EXECUTOR,
+            executor=executor or DEMO_RUN_EXECUTOR,
         )  # fmt: skip
 
 
