@@ -594,6 +594,8 @@ class _PlanDrop:
                     E[:, :, j] = cn.draw(self.times[c], m, rng)
             data[c] = Y + E
         L = np.array([limits[c.name] for c in self.criteria])
+        fns = [get_criterion(c.use if c.operator is None else f"{c.use}:{c.operator}").fn
+               for c in self.criteria]  # fmt: skip
         rows = np.flatnonzero(self.ok)
         for i in rows:
             sims = {c: v[rows] for c, v in self.sim.items()}
@@ -605,11 +607,12 @@ class _PlanDrop:
                     sims[c] = sims[c] + np.einsum("s,stk->tk", delta, self.J[c])[None]
             meas = {c: self.W[c] @ data[c][i].reshape(data[c].shape[1], -1)
                     for c in self.sim}  # fmt: skip
-            F = np.column_stack([
-                get_criterion(c.use if c.operator is None else f"{c.use}:{c.operator}").fn(
-                    sims[c.channel], meas[c.channel], self.grid)
-                for c in self.criteria
-            ])  # fmt: skip
+            F = np.column_stack(
+                [
+                    fn(sims[c.channel], meas[c.channel], self.grid)
+                    for c, fn in zip(self.criteria, fns)
+                ]
+            )
             K[i, rows] = np.all(F <= L[None, :], axis=1)
         return K
 
