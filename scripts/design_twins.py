@@ -240,9 +240,16 @@ def run(twins: int, folder: Path, out=None) -> list[dict]:
 def summary(res: list[dict]) -> dict:
     """Counts over the twins: how many flying told apart, how many of those the estimate
     ordered as flying did; how often a plan the estimate says would reject the truth emptied
-    D when flown (kept 0), and how often a plan it calls sound did."""
+    D when flown (kept 0), and how often a plan it calls sound did; the pairs of sound plans
+    flying told apart, and how many of them the estimate ordered as flying did."""
     apart = [r for r in res if r["verdict"] != "tie"]
     plans = [v for r in res for v in r["plans"].values()]
+    # the pairs of sound plans (neither said to reject the truth) that flying told apart
+    sound_pairs = []
+    for r in res:
+        p = [v for v in r["plans"].values() if not v["rejects_truth"]]
+        sound_pairs += [(a, b) for k, a in enumerate(p) for b in p[k + 1 :]
+                        if _apart(a, b, r["n_d1"])]  # fmt: skip
     rej = [v for v in plans if v["rejects_truth"]]
     sound = [v for v in plans if not v["rejects_truth"]]
     return {
@@ -253,6 +260,10 @@ def summary(res: list[dict]) -> dict:
         "rejects_emptied": sum(v["flown"] == 0.0 for v in rej),
         "sound": len(sound),
         "sound_emptied": sum(v["flown"] == 0.0 for v in sound),
+        "sound_pairs_apart": len(sound_pairs),
+        "sound_pairs_agree": sum(
+            (a["estimate"] < b["estimate"]) == (a["flown"] < b["flown"]) for a, b in sound_pairs
+        ),
     }
 
 
@@ -266,7 +277,9 @@ def main() -> None:
         f"flying told the plans apart in {s['apart']} of {s['twins']} twins; the estimate "
         f"ordered them as flying did in {s['agree']} of those {s['apart']}; plans said to reject "
         f"the truth: {s['rejects']}, of which flying emptied D in {s['rejects_emptied']}; sound "
-        f"plans: {s['sound']}, of which flying emptied D in {s['sound_emptied']}"
+        f"plans: {s['sound']}, of which flying emptied D in {s['sound_emptied']}; pairs of "
+        f"sound plans flying told apart: {s['sound_pairs_apart']}, ordered as flying did: "
+        f"{s['sound_pairs_agree']}"
     )
 
 
