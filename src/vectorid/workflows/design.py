@@ -146,6 +146,19 @@ class Candidate:
         Weighted share of the truths under which the plan keeps fewer than max(10, 2p + 1)
         of the flown members: too few to show which gains it identifies (never counted as
         identified); more members (``members=``) resolve them.
+    notes : list of str
+        What the judgement could not do as a study would (a start taken as known, a window
+        cut where a member lands, a criterion left out for want of noise).
+    n_flown : int
+        Members that flew every drop of the plan (the truths).
+    criteria : dict
+        The plan's criteria (``use@drop``) -> ``{"limit", "unit", "from"}``: the limit the
+        study would set, its unit, the study criterion it comes from.
+    limit_rule : str
+        How the limits were set (the joint coverage over how many criteria, or the quantile).
+    truth_kept : float
+        Weighted share of the truths kept under their own records (about the coverage, 95 %,
+        for a sound plan; see :attr:`rejects_truth`).
     """
 
     name: str
