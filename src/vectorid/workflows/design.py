@@ -379,6 +379,17 @@ def _study_criteria(spec: Any) -> list[tuple[str, str, str | None]]:
     return out
 
 
+def _channels_read(spec: Any) -> set[str]:
+    """The channels the study's library criteria read."""
+    out = set()
+    for _, use, op in _study_criteria(spec):
+        try:
+            out.add(get_criterion(use if op is None else f"{use}:{op}").channel)
+        except CriterionError:  # not a library criterion (a Python-function study's own)
+            continue
+    return out
+
+
 def _plan_criteria(
     spec: Any, drop: DropToPredict, channels: Sequence[str]
 ) -> tuple[list[_PlanCriterion], dict[str, str], list[str]]:
@@ -437,8 +448,7 @@ class _PlanDrop:
         self.criteria, self.source, notes = _plan_criteria(spec, drop, chans)
         self.notes += notes
         if not self.criteria:
-            used = sorted({get_criterion(u if o is None else f"{u}:{o}").channel
-                           for _, u, o in _study_criteria(spec)})  # fmt: skip
+            used = sorted(_channels_read(spec)) or ["no library channel"]
             raise StudyDefinitionError(
                 f"{drop.name}.channels",
                 f"the plan carries {', '.join(chans) or 'no channel'}, and no criterion of the "
