@@ -15,7 +15,7 @@ import pytest
 from tests.workflows.predict_helpers import MAPPING, ORIGIN, drop_file, kinematic_store, planned
 from vectorid.spec import StudySpec
 from vectorid.study import Study
-from vectorid.workflows.design import COVERAGE, FLOOR_SEED_OFFSET, design
+from vectorid.workflows.design import COVERAGE, FLOOR_SEED_OFFSET, _rank, design
 
 GPS = {"position_h": 2.0, "position_v": 3.0}  # m
 
@@ -115,3 +115,23 @@ def test_a_plan_that_pins_both_speeds_names_them(plans):
     assert d.identified_now == [] and not c.notes
     assert c.newly_identified == ["vn", "ve"] and c.identified_share["vn"] > 0.6
     assert "newly identified: vn, ve" in d.describe()
+
+
+def test_plans_that_reject_the_truth_are_ranked_last_and_said_so(plans):
+    """A plan under which the truth fails its own limits in most records (its start cannot be
+    fitted as the study would) is no information, however little of D it keeps."""
+    from dataclasses import replace
+
+    _, _, _, d = plans
+    by = {c.name: c for c in d.candidates}
+    broken = replace(by["short"], name="broken", expected_fraction_kept=0.0, truth_kept=0.1)
+    assert broken.rejects_truth and not broken.below_resolution
+    long = replace(by["long"])
+    mixed = replace(d, candidates=[broken, long])
+    _rank(mixed.candidates)
+    assert (long.rank, broken.rank) == (1, 2)
+    text = mixed.describe()
+    assert "would reject the truth" in text and "Most informative: long" in text
+    alone = replace(d, candidates=[broken])
+    assert "No plan keeps the truth" in alone.describe()
+    assert alone.to_dict()["none_keeps_truth"] is True

@@ -265,6 +265,7 @@ class Design:
             "coverage": COVERAGE,
             "no_shrink_above": NO_SHRINK,
             "none_shrinks": self.none_shrinks,
+            "none_keeps_truth": all(c.rejects_truth for c in self.candidates),
             "identified_now": list(self.identified_now),
             "combinations_identified_now": int(self.combinations_now),
             "seed": int(self.seed),
@@ -333,7 +334,16 @@ class Design:
                 "members cannot show which of them would keep less, so their order among "
                 "themselves means nothing; fly more members (--members) or compare shorter plans."
             )
-        if self.none_shrinks:
+        if all(c.rejects_truth for c in self.candidates):
+            lines.append(
+                "No plan keeps the truth: under each, the truth itself fails the limits the "
+                "study would set in most of its records, so flying any of them and identifying "
+                "as the study does would most likely empty D, and what they keep says nothing "
+                "about their worth. Give the plans the sensors that fix their start (an IMU for "
+                "the attitude and rates, a GPS for the position), or grant the model a "
+                "discrepancy allowance, before comparing them."
+            )
+        elif self.none_shrinks:
             lines.append(
                 f"No plan would shrink D: with any that keeps the truth at least {NO_SHRINK:.0%} "
                 "of D's "
@@ -784,6 +794,16 @@ def _candidate(
     )
 
 
+def _rank(cands: Sequence[Candidate]) -> None:
+    """Set each plan's rank: the sound plans first, the one that keeps the least of D first
+    (more newly identified breaks a tie), then the plans that would reject the truth."""
+    order = sorted(
+        cands, key=lambda c: (c.rejects_truth, c.expected_fraction_kept, -len(c.newly_identified))
+    )
+    for k, c in enumerate(order, 1):
+        c.rank = k
+
+
 def _settings(spec: Any, predictor: Predictor) -> dict[str, Any]:
     """The study's noise-limit rule (coverage, quantile, draws, seed, discrepancy) and its
     reference vector (nominal values, else the middle of the box), as the study's own noise
@@ -912,12 +932,7 @@ def design(
         if note:
             for c in cands:
                 c.notes.append(note)
-        order = sorted(
-            cands,
-            key=lambda c: (c.rejects_truth, c.expected_fraction_kept, -len(c.newly_identified)),
-        )
-        for k, c in enumerate(order, 1):
-            c.rank = k
+        _rank(cands)
         return Design(
             str(st.store.path),
             mem,
