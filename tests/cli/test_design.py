@@ -48,7 +48,7 @@ def test_design_text_and_json(store, tmp_path, capsys):
     [
         (planned(channels={"pressure": 2.0}, noise=NOISE), "no channel 'pressure'"),
         (planned(duration=0.0, noise=NOISE), "duration"),
-        (planned(channels={"velocity": 2.0}), "no channel of plan drop(s) next has a stated noise"),
+        (planned(channels={"velocity": 2.0}), "no criterion of the study reads one of them"),
         (
             {
                 "name": "old",

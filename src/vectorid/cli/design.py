@@ -34,9 +34,12 @@ def add_parsers(sub: Any) -> None:
         help="rank planned drops by how much of D their data would keep",
         description="Fly D's members over each planned drop; let each member play the truth, "
         "its outputs plus the stated noise being the data; count the members that would still "
-        "meet noise-grounded limits. Prints, per plan, the expected share of D kept with a "
-        "bootstrap interval and the gains and combinations it would newly identify, ranked "
-        "(1: the most informative), and says plainly when no plan would shrink D. The store "
+        "meet the study's own criteria (those that read the plan's sensors) within the "
+        "noise-floor limits the study would set for them. Prints, per plan, the expected "
+        "share of D kept with a bootstrap interval, the criteria and limits it is judged by, "
+        "how often the truth itself meets them, and the gains and combinations it would newly "
+        "identify, ranked (1: the most informative; a plan that would reject the truth last), "
+        "and says plainly when no plan would shrink D. The store "
         "is only read.",
     )
     add_store_argument(p)
