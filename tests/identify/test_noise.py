@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 import pytest
 
 from vectorid import Study
 from vectorid.descent import RocketDescent
-from vectorid.errors import StudyDefinitionError
+from vectorid.errors import StudyDefinitionError, VectoridNote
 from vectorid.identify import Identification
 from vectorid.identify.flight import FlightChannel, FlightData
 from vectorid.identify.noise import (
@@ -486,3 +487,40 @@ def test_index_criteria_are_evaluated_in_two_batched_calls_with_the_same_values(
     got = noise_mod._per_draw(cdef, SimpleNamespace(use="peak_roll", operator=None), sims, meas, t)
     want = np.array([cdef.fn(sims[r][None], meas[r], t)[0] for r in range(len(sims))])
     np.testing.assert_allclose(got, want)
+
+
+def _parachute_floor(channels: tuple[str, ...]):
+    """The noise floor of a 20-s parachute twin whose record keeps only ``channels``."""
+    import dataclasses
+
+    from vectorid import models
+    from vectorid.identify.twins import twin_drop
+    from vectorid.models import WindProfile
+
+    wind = WindProfile.from_speed_direction([0.0, 3000.0], [4.0, 8.0], [250.0, 280.0])
+    ini = InitialState(altitude=1600.0, velocity=(2.0, 1.0, 7.0), euler=(0.05, 0.0, 0.2))
+    stated = {"position_h": 1.5, "position_v": 2.5, "velocity": 0.15, "euler_deg": 0.3,
+              "rates": 0.01}  # fmt: skip
+    fl = twin_drop(models.get("parachute6dof"), {}, initial=ini, duration=22.0, noise=stated,
+                   seed=4, wind=wind, origin_altitude=1000.0)  # fmt: skip
+    fl = dataclasses.replace(fl, channels={k: v for k, v in fl.channels.items() if k in channels})
+    drop = {"name": "gps", "window": [1.0, 21.0], "origin_altitude": 1000.0}
+    table = {"dt": 0.05, "output_dt": 0.25, "init_span": 1.0, "drops": [drop]}
+    ident = Identification.from_table(
+        table, variables=["x6"], criteria=["pos_h_abs", "vel_h_abs"], flights={"gps": fl},
+        default_model="parachute6dof",
+    )  # fmt: skip
+    keep = {k: v for k, v in stated.items() if k.split("_")[0] in channels}
+    return lambda: noise_floor(ident, parse_noise(keep), draws=200, seed=1)
+
+
+def test_a_drop_without_attitude_says_the_floor_leaves_its_start_out():
+    """A GPS-only record: the fitted start assumes a level, non-rotating canopy, an error
+    the floor does not contain — said as a note with the size it has; with the IMU, silent."""
+    with pytest.warns(VectoridNote, match=r"drop 'gps' records no attitude \(euler\) and body "
+                      r"rates \(rates\): its fitted start assumes a level attitude and no "
+                      r"rotation.*moves the simulated (position|velocity) by up to"):  # fmt: skip
+        _parachute_floor(("position", "velocity"))()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", VectoridNote)
+        _parachute_floor(("position", "velocity", "euler", "rates"))()

@@ -7,6 +7,7 @@ the records of a model of your own), and its quantiles (:class:`NoiseFloor`). Se
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
@@ -15,7 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vectorid._hints import waiting
-from vectorid.errors import StudyDefinitionError, plural, suggest
+from vectorid.errors import StudyDefinitionError, VectoridNote, plural, suggest
 from vectorid.identify.criteria import INDICES, OPERATORS, get_criterion, spectral_defs
 from vectorid.identify.drops import fit_initial_state
 from vectorid.identify.flight import FlightChannel, FlightData
@@ -374,6 +375,8 @@ def _noise_floor(ident, noise, *, draws, seed, params, discrepancy, criteria, li
                 base_res = truth_res if w is d.wind else _simulate(ident, P, d, w, d.initial)
                 base = _sim_channels(base_res, chans, d.origin_altitude)
                 jac = _jacobian(ident, P, d, w, chans)
+                if w is winds[0]:
+                    _say_unfitted_start(d, jac, on_grid)
                 sims = {
                     ch: base[ch][0][None]
                     + (delta @ jac[ch].reshape(len(jac[ch]), -1)).reshape(draws, *jac[ch].shape[1:])
@@ -418,6 +421,51 @@ def _noise_floor(ident, noise, *, draws, seed, params, discrepancy, criteria, li
 
 
 _FIT_CHANNELS = ("position", "velocity", "euler", "rates", "altitude")
+
+#: How far off an unrecorded start is taken to be when it is said to matter: attitude, rad
+#: (about 3°), and body rates, rad/s.
+UNFITTED_START = {"euler": 0.05, "rates": 0.05}
+
+
+def _say_unfitted_start(d, jac: Mapping[str, NDArray], on_grid: Mapping[str, NDArray]) -> None:
+    """A note when drop ``d`` records no attitude or no body rates, so that its fitted start
+    assumes a level attitude or no rotation (:func:`~vectorid.identify.drops.fit_initial_state`),
+    and the channels the criteria read depend on that assumption by more than their noise: the
+    floor flies the truth from the fitted start, so it leaves this error out and D at the
+    limits it sets can miss a truth that started otherwise."""
+    missing = [s for s in UNFITTED_START if s not in d.flight.channels]
+    if not missing:
+        return
+    rows = [i for i, (name, _, _) in enumerate(_STATE) if name in missing]
+    worst = None
+    for ch, J in jac.items():
+        if ch not in on_grid:
+            continue
+        noise = float(np.median(np.std(on_grid[ch], axis=0))) if on_grid[ch].size else 0.0
+        shift = max(float(np.max(np.abs(J[i]))) * UNFITTED_START[_STATE[i][0]] for i in rows)
+        if shift > max(noise, 1e-12) and (worst is None or shift / max(noise, 1e-12) > worst[0]):
+            worst = (shift / max(noise, 1e-12), ch, shift, noise)
+    if worst is None:
+        return
+    _, ch, shift, noise = worst
+    unit = str(getattr(d.flight.channels.get(ch), "unit", "") or "")
+    unit = f" {unit}" if unit else ""
+    labels = {"euler": "attitude (euler)", "rates": "body rates (rates)"}
+    assumed = {"euler": "a level attitude", "rates": "no rotation"}
+    units = {"euler": "rad", "rates": "rad/s"}
+    what = " and ".join(labels[m] for m in missing)
+    off = " / ".join(f"{UNFITTED_START[m]:g} {units[m]}" for m in missing)
+    warnings.warn(
+        VectoridNote(
+            f"drop {d.name!r} records no {what}: its fitted start assumes "
+            f"{' and '.join(assumed[m] for m in missing)}, and a start {off} off moves the "
+            f"simulated {ch} by up to {shift:.3g}{unit} (its noise: {noise:.3g}{unit}); the "
+            "noise floor leaves this error out, so D at its limits can miss a truth that "
+            "started otherwise — record attitude and rates, or allow for it with a "
+            "discrepancy allowance on the criteria that read this drop"
+        ),
+        stacklevel=4,
+    )
 
 
 def needed_channels(ident, d) -> list[str]:
