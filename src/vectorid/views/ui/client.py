@@ -21,6 +21,11 @@ comes back in a fraction of the time the former in-page scan held the page froze
   - ``vid.readState(hash)`` / ``vid.writeState(state, defaults)``: the view's state to and
     from the URL's fragment (``#lim.f1=20&tab=parallel&trial=110&...``, see
     :data:`STATE_KEYS`);
+  - ``vid.lazyRows(ids, figs, rev)``: the rows of a figure grid (the refine view's
+    histograms: nine rows of four panels at 33 variables) drawn by plotly.js into the
+    elements ``ids``, each once it is shown and within 300 px of the window, one row a task,
+    top first; ``vid.lazyIdle()`` says whether every row on screen shows the latest answer
+    (each drawn row's element carries ``data-rev`` and ``data-at``);
   - ``window.__vidLongTasks``: durations (ms) of the main thread's tasks over 50 ms
     (``PerformanceObserver`` ``longtask``), read by ``benchmarks/ui.py``.
 """
@@ -618,8 +623,64 @@ setInterval(() => {
   }
 }, 300);
 
+// -- rows of a figure grid drawn when they come near the screen -----------------------------
+// ``lazyRows(ids, figs, rev)``: row r's figure is drawn into the element ``ids[r]`` (plotly.js,
+// no Dash graph) once that element is shown (its tab selected) and within LAZY_MARGIN px of
+// the window, one row a task, top first; a row on screen is redrawn at once with a new
+// answer, one off screen when it comes near, one whose tab was left and shown again (Dash
+// mounts the tab's elements anew) too. Each drawn row's element carries ``data-rev`` (the
+// answer drawn) and ``data-at`` (performance.now() when drawn).
+const LAZY_MARGIN = 300;
+const lazy = {want: new Map(), busy: false, timer: 0};
+function lazyNear(el) {
+  if (!el || !el.offsetParent) return false;
+  const r = el.getBoundingClientRect();
+  return r.bottom > -LAZY_MARGIN && r.top < window.innerHeight + LAZY_MARGIN;
+}
+function lazyDue(id, job) {
+  const el = document.getElementById(id);
+  return el && el.dataset.rev !== String(job.rev) && lazyNear(el) ? el : null;
+}
+function lazyNext() {
+  if (lazy.busy) return;
+  for (const [id, job] of lazy.want) {
+    const el = lazyDue(id, job);
+    if (!el) continue;
+    lazy.busy = true;
+    setTimeout(function() {  // a task of its own
+      const done = function() {
+        el.dataset.rev = job.rev; el.dataset.at = performance.now();
+        lazy.busy = false; setTimeout(lazyNext, 0);
+      };
+      try {
+        const f = job.fig || {data: [], layout: {}};
+        Promise.resolve(Plotly.react(el, f.data, f.layout,
+          {displaylogo: false, responsive: true})).then(done, done);
+      } catch (e) { console.error(e); done(); }
+    }, 0);
+    return;
+  }
+}
+function lazyRows(ids, figs, rev) {
+  ids.forEach(function(id, r) { lazy.want.set(id, {fig: figs[r], rev: rev}); });
+  lazyNext();
+  if (!lazy.timer) {  // scrolled, resized, a tab shown or a table above grown: look again
+    lazy.timer = setInterval(lazyNext, 250);
+    const look = function() { requestAnimationFrame(lazyNext); };
+    document.addEventListener('scroll', look, {capture: true, passive: true});
+    window.addEventListener('resize', look);
+  }
+}
+// whether every row on screen (or within LAZY_MARGIN of it) shows the latest answer
+function lazyIdle() {
+  if (lazy.busy) return false;
+  for (const [id, job] of lazy.want) { if (lazyDue(id, job)) return false; }
+  return true;
+}
+
 window.vid = {ranges: ranges, readState: readState, writeState: writeState,
-  parRender: parRender, parDraw: parDraw, parOrder: setOrder, textWidth: textWidth};
+  parRender: parRender, parDraw: parDraw, parOrder: setOrder, textWidth: textWidth,
+  lazyRows: lazyRows, lazyIdle: lazyIdle};
 })();
 """
 
