@@ -195,12 +195,17 @@ def server_side(path: Path, changes: int) -> None:
 
 # -- in the browser ------------------------------------------------------------------------------
 
-#: Every row of the histogram grid drawn from one answer (``layout.meta.rev``), with ND
-#: ``nd`` when given (a page without rows, an older one, passes).
+#: Every row of the histogram grid on screen (or within the 300 px the page draws ahead,
+#: ``vid.lazyIdle``) drawn from one answer (``layout.meta.rev``), with ND ``nd`` when given
+#: (a page without rows, an older one, passes). The page draws a row below the fold only
+#: when it is scrolled to (``scroll -> last histogram row`` times that).
 _HIST_DONE = """
 function histDone(nd) {
-  const gs = Array.from(document.querySelectorAll('.vid-hist .js-plotly-plot'));
+  const near = g => { const r = g.getBoundingClientRect();
+    return r.bottom > -300 && r.top < window.innerHeight + 300; };
+  const gs = Array.from(document.querySelectorAll('.vid-hist .js-plotly-plot')).filter(near);
   if (!gs.length) return true;
+  if (window.vid && window.vid.lazyIdle && !window.vid.lazyIdle()) return false;
   const meta = g => g._fullLayout && g._fullLayout.meta;
   const m0 = meta(gs[0]);
   return !!m0 && gs.every(g => meta(g) && meta(g).rev === m0.rev &&
@@ -308,10 +313,16 @@ _TAB_DRAWN = """
 const done = arguments[arguments.length - 1];
 const lines = arguments[0];
 let last = window.__t0;
-function drawnAt() {
-  if (!lines) return window.__t0;
+function drawnAt() {  // rows on screen drawn (vid.lazyRows), and the lines when asked
+  if (window.vid && window.vid.lazyIdle && !window.vid.lazyIdle()) return null;
+  let at = window.__t0;
+  for (const e of document.querySelectorAll('.vid-lazy-row[data-at], .vid-hist > [id][data-at]')) {
+    at = Math.max(at, Number(e.dataset.at));
+  }
+  if (!lines) return at;
   const c = document.querySelector('#par-graph canvas.vid-lines');
-  return c && Number(c.dataset.lines || 0) > 0 && c.dataset.at ? Number(c.dataset.at) : null;
+  return c && Number(c.dataset.lines || 0) > 0 && c.dataset.at ?
+    Math.max(at, Number(c.dataset.at)) : null;
 }
 function check() {
   const now = performance.now();
@@ -322,6 +333,23 @@ function check() {
   } else if (now - window.__t0 > 60000) { done(-1); } else { requestAnimationFrame(check); }
 }
 check();
+"""
+
+#: The last row of a lazily drawn grid (``arguments[0]``: the rows' CSS selector) scrolled
+#: into view: ms to it drawn with every other row on screen (``vid.lazyIdle``); -1 after 60 s.
+_SCROLL_LAST = """
+const done = arguments[arguments.length - 1];
+const rows = document.querySelectorAll(arguments[0]);
+if (!rows.length) { done(-2); return; }
+const last = rows[rows.length - 1], t0 = performance.now();
+last.scrollIntoView();
+function check() {
+  if (window.vid.lazyIdle() && last.dataset.rev) {
+    requestAnimationFrame(() => requestAnimationFrame(() => {
+      const ms = performance.now() - t0; window.scrollTo(0, 0); done(ms); }));
+  } else if (performance.now() - t0 > 60000) { done(-1); } else { requestAnimationFrame(check); }
+}
+requestAnimationFrame(check);
 """
 
 #: After Enter in a limit field (``window.__t0``): [ms to the new N/ND/NP, ms to everything
@@ -455,6 +483,7 @@ def browser_latency(
         "limit -> everything": [],
         "loosen -> counts": [],
         "loosen -> everything": [],
+        "scroll -> last histogram row": [],
         "brush -> counts": [],
         "brush -> lines redrawn": [],
         "longest task, page load (ms)": [],
@@ -476,6 +505,9 @@ def browser_latency(
             out["longest task, page load (ms)"].append(drv.execute_script(_LONGEST))
             if i:
                 out["page load"].append(t / 1e3 if t >= 0 else float("nan"))
+                ms = drv.execute_async_script(_SCROLL_LAST, ".vid-hist > [id]")
+                out["scroll -> last histogram row"].append(ms / 1e3 if ms >= 0 else float("nan"))
+                drv.execute_async_script(_QUIET)
         time.sleep(1)
         drv.execute_script(_RESET_LONG)
         for k, value in enumerate(changes):
@@ -507,6 +539,11 @@ def browser_latency(
                 _click_tab(drv, label)
                 ms = drv.execute_async_script(_TAB_DRAWN, label.startswith("Parallel"))
                 out[key].append(ms / 1e3 if ms >= 0 else float("nan"))
+                if label.startswith("Refine"):
+                    ms = drv.execute_async_script(_SCROLL_LAST, "#ref-hist .vid-lazy-row")
+                    out.setdefault("scroll -> last Refine histogram row", []).append(
+                        ms / 1e3 if ms >= 0 else float("nan")
+                    )
         _click_tab(drv, "Parallel")
         deadline = time.monotonic() + 120
         while not drv.find_elements(By.CSS_SELECTOR, "#par-graph .vid-hit"):

@@ -11,7 +11,17 @@ import re
 import numpy as np
 import pytest
 
-from tests.views.browser import ARTIFACTS, By, chrome, serve, tab, text_of, type_into, until
+from tests.views.browser import (
+    ARTIFACTS,
+    ActionChains,
+    By,
+    chrome,
+    serve,
+    tab,
+    text_of,
+    type_into,
+    until,
+)
 from tests.views.many_axes import CRITERIA, GAIN_UNITS, GAINS, many_axes_store
 from vectorid import Study
 
@@ -159,5 +169,58 @@ def test_refine_histograms_drawn_when_scrolled_to(server):
         drv.execute_script("window.scrollTo(0, document.body.scrollHeight);")
         until(drv, lambda d: d.execute_script(_ROWS)[-1]["nd"] == nd, "the last row, redrawn")
         assert drv.execute_script(_ROWS)[-1]["all"] == a.n
+        errors = [e for e in drv.get_log("browser") if e["level"] == "SEVERE"]
+        assert not errors, errors
+
+
+#: Each row of the explorer's histogram grid: its place, the answer drawn (``data-rev``), the
+#: ND its figure was drawn for and its panels' titles.
+_HIST_ROWS = """
+return [...document.querySelectorAll('.vid-hist > [id]')].map(el => {
+  const r = el.getBoundingClientRect(), gd = el.querySelector('.js-plotly-plot');
+  const fl = gd && gd._fullLayout, m = fl && fl.meta;
+  return {id: el.id, top: r.top, rev: el.dataset.rev || null, nd: m ? m.nd : null,
+    titles: m ? fl.annotations.map(a => a.text) : []};
+});
+"""
+
+
+#: The offset (px) from the centre of a row's first panel to the second vertex of its first
+#: trace (all trials: a step's corner, where a click picks that bin).
+_VERTEX = """
+const gd = document.querySelector('#' + arguments[0] + ' .js-plotly-plot');
+const t = gd._fullData[0], xa = gd._fullLayout.xaxis, ya = gd._fullLayout.yaxis;
+const box = gd.querySelector('.nsewdrag').getBoundingClientRect(), g = gd.getBoundingClientRect();
+const px = g.left + xa._offset + xa.l2p(t.x[1]), py = g.top + ya._offset + ya.l2p(t.y[1]);
+return [Math.round(px - (box.left + box.width / 2)), Math.round(py - (box.top + box.height / 2))];
+"""
+
+
+def test_explorer_histograms_drawn_when_scrolled_to(server):
+    """The explorer's 33 histograms (nine rows, each a Dash graph): the rows below the fold
+    are drawn only when scrolled to, with every panel, and a click on a step of the last
+    row selects that bin's trials as on the first row."""
+    url, store = server
+    with Study.open(store) as st:
+        a = st.analysis()
+    with chrome(url, size="1500,1000") as drv:
+        until(drv, lambda d: [r for r in d.execute_script(_HIST_ROWS) if r["rev"]], "a row drawn")
+        until(drv, lambda d: d.execute_script("return window.vid.lazyIdle();"), "rows on screen")
+        rows = drv.execute_script(_HIST_ROWS)
+        assert len(rows) == 9
+        height = drv.execute_script("return window.innerHeight;")
+        for r in rows:
+            assert (r["rev"] is not None) == (r["top"] < height + 300), (r, height)
+        assert rows[-1]["rev"] is None
+        for k in range(len(rows)):  # scrolled through: every panel, in the gains' order
+            drv.execute_script(f"document.getElementById('{rows[k]['id']}').scrollIntoView();")
+            until(drv, lambda d, k=k: d.execute_script(_HIST_ROWS)[k]["rev"], rows[k]["id"])
+        rows = drv.execute_script(_HIST_ROWS)
+        assert [t for r in rows for t in r["titles"]] == SHORT
+        assert {r["nd"] for r in rows} == {a.n_feasible} and len({r["rev"] for r in rows}) == 1
+        area = drv.find_element(By.CSS_SELECTOR, "#hist-graph-9 .nsewdrag")
+        dx, dy = drv.execute_script(_VERTEX, "hist-graph-9")
+        ActionChains(drv).move_to_element_with_offset(area, dx, dy).pause(0.3).click().perform()
+        until(drv, lambda d: "trials" in text_of(d, "#vid-sel"), "a bin of the last row selected")
         errors = [e for e in drv.get_log("browser") if e["level"] == "SEVERE"]
         assert not errors, errors

@@ -624,12 +624,16 @@ setInterval(() => {
 }, 300);
 
 // -- rows of a figure grid drawn when they come near the screen -----------------------------
-// ``lazyRows(ids, figs, rev)``: row r's figure is drawn into the element ``ids[r]`` (plotly.js,
-// no Dash graph) once that element is shown (its tab selected) and within LAZY_MARGIN px of
-// the window, one row a task, top first; a row on screen is redrawn at once with a new
-// answer, one off screen when it comes near, one whose tab was left and shown again (Dash
-// mounts the tab's elements anew) too. Each drawn row's element carries ``data-rev`` (the
-// answer drawn) and ``data-at`` (performance.now() when drawn).
+// ``lazyRows(ids, figs, rev, graph)``: row r's figure is drawn into the element ``ids[r]``
+// once that element is shown (its tab selected) and within LAZY_MARGIN px of the window,
+// one row a task, top first; a row on screen is redrawn at once with a new answer, one off
+// screen when it comes near, one whose tab was left and shown again (Dash mounts the tab's
+// elements anew) too. ``graph``: the elements are Dash graphs (their clicks go to the
+// server): the figure is set as the graph's ``figure`` (``dash_clientside.set_props``), with
+// the sets hidden in the first row's legend hidden in it too, and the row counts as drawn
+// once the graph shows it (its ``layout.meta.rev``); otherwise plotly.js draws into the
+// element. Each drawn row's element carries ``data-rev`` (the answer drawn) and ``data-at``
+// (performance.now() when drawn).
 const LAZY_MARGIN = 300;
 const lazy = {want: new Map(), busy: false, timer: 0};
 function lazyNear(el) {
@@ -640,6 +644,31 @@ function lazyNear(el) {
 function lazyDue(id, job) {
   const el = document.getElementById(id);
   return el && el.dataset.rev !== String(job.rev) && lazyNear(el) ? el : null;
+}
+function lazyLegend(job) {
+  const gd = document.querySelector('#' + job.first + ' .js-plotly-plot');
+  if (job.id === job.first || !gd || !gd._fullData) return job.fig;
+  const hidden = new Set(gd._fullData.filter(t => t.visible === 'legendonly')
+    .map(t => t.legendgroup));
+  if (!hidden.size) return job.fig;
+  return Object.assign({}, job.fig, {data: job.fig.data.map(t => hidden.has(t.legendgroup) ?
+    Object.assign({}, t, {visible: 'legendonly'}) : t)});
+}
+function lazyDraw(el, job, done) {
+  const f = job.fig || {data: [], layout: {}};
+  if (!job.graph) {
+    Promise.resolve(Plotly.react(el, f.data, f.layout,
+      {displaylogo: false, responsive: true})).then(done, done);
+    return;
+  }
+  dash_clientside.set_props(job.id, {figure: lazyLegend(job)});
+  const t0 = performance.now();
+  (function shown() {
+    const gd = el.querySelector('.js-plotly-plot');
+    const m = gd && gd._fullLayout && gd._fullLayout.meta;
+    if ((m && m.rev === job.rev) || !f.layout.meta || performance.now() - t0 > 5000) done();
+    else setTimeout(shown, 4);
+  })();
 }
 function lazyNext() {
   if (lazy.busy) return;
@@ -652,17 +681,15 @@ function lazyNext() {
         el.dataset.rev = job.rev; el.dataset.at = performance.now();
         lazy.busy = false; setTimeout(lazyNext, 0);
       };
-      try {
-        const f = job.fig || {data: [], layout: {}};
-        Promise.resolve(Plotly.react(el, f.data, f.layout,
-          {displaylogo: false, responsive: true})).then(done, done);
-      } catch (e) { console.error(e); done(); }
+      try { lazyDraw(el, job, done); } catch (e) { console.error(e); done(); }
     }, 0);
     return;
   }
 }
-function lazyRows(ids, figs, rev) {
-  ids.forEach(function(id, r) { lazy.want.set(id, {fig: figs[r], rev: rev}); });
+function lazyRows(ids, figs, rev, graph) {
+  ids.forEach(function(id, r) {
+    lazy.want.set(id, {id: id, first: ids[0], fig: figs[r], rev: rev, graph: !!graph});
+  });
   lazyNext();
   if (!lazy.timer) {  // scrolled, resized, a tab shown or a table above grown: look again
     lazy.timer = setInterval(lazyNext, 250);
