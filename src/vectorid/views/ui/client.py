@@ -635,7 +635,7 @@ setInterval(() => {
 // element. Each drawn row's element carries ``data-rev`` (the answer drawn) and ``data-at``
 // (performance.now() when drawn).
 const LAZY_MARGIN = 300;
-const lazy = {want: new Map(), busy: false, timer: 0};
+const lazy = {want: new Map(), busy: false, timer: 0, plots: new Map()};
 function lazyNear(el) {
   if (!el || !el.offsetParent) return false;
   const r = el.getBoundingClientRect();
@@ -657,6 +657,9 @@ function lazyLegend(job) {
 function lazyDraw(el, job, done) {
   const f = job.fig || {data: [], layout: {}};
   if (!job.graph) {
+    const old = lazy.plots.get(job.id);  // a plot in an element the tab no longer holds
+    if (old && old !== el) { try { Plotly.purge(old); } catch (e) { /* gone already */ } }
+    lazy.plots.set(job.id, el);
     Promise.resolve(Plotly.react(el, f.data, f.layout,
       {displaylogo: false, responsive: true})).then(done, done);
     return;
