@@ -135,6 +135,12 @@ def test_refine_histograms_drawn_when_scrolled_to(server):
     with chrome(url + "#tab=refine", size=f"1500,{win}") as drv:
         until(drv, lambda d: "volume ratio" in text_of(d, "#ref-summary"), "the proposal")
         until(drv, lambda d: d.execute_script("return window.vid.lazyIdle();"), "rows on screen")
+        # the verdict table (one element holding its markup): a row per gain, with its verdict
+        until(
+            drv,
+            lambda d: len(d.find_elements(By.CSS_SELECTOR, "#ref-verdicts tr[data-verdict]")) == 33,
+            "the 33 verdict rows",
+        )
         rows = drv.execute_script(_ROWS)
         assert [r["id"] for r in rows] == ["ref-graph"] + [f"ref-graph-{k}" for k in range(2, 10)]
         height = drv.execute_script("return window.innerHeight;")

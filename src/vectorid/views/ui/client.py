@@ -708,6 +708,19 @@ function lazyIdle() {
   return true;
 }
 
+// -- markup sent whole (a table of 33 rows as one element, not ~600 Dash components) ---------
+// every ``.vid-html`` element shows its ``data-html`` (escaped by the server), whenever Dash
+// mounts it or changes the attribute
+function fillHtml() {
+  for (const el of document.querySelectorAll('.vid-html[data-html]')) {
+    if (el.__vidHtml === el.dataset.html) continue;
+    el.__vidHtml = el.dataset.html;
+    el.innerHTML = el.dataset.html;
+  }
+}
+new MutationObserver(fillHtml).observe(document.documentElement,
+  {subtree: true, childList: true, attributes: true, attributeFilter: ['data-html']});
+
 window.vid = {ranges: ranges, readState: readState, writeState: writeState,
   parRender: parRender, parDraw: parDraw, parOrder: setOrder, textWidth: textWidth,
   lazyRows: lazyRows, lazyIdle: lazyIdle};
