@@ -27,12 +27,14 @@ and max printed, the verdict against the issue's goal on the max). Measured in t
 the action to the redrawn DOM (two animation frames after the last change):
 
 * ``page load``: navigation start to the counts, the criterion plot and the histograms (every
-  row of the grid) drawn (the first load, which fills the browser's cache, not counted);
+  row of the grid on screen; a row below the fold is drawn when scrolled to) drawn (the
+  first load, which fills the browser's cache, not counted);
 * ``limit -> counts``: Enter in the first criterion's limit field (``#vid-limit-f1``) to
   N/ND/NP redrawn (``#vid-counts``);
-* ``limit -> everything``: the same change to the criterion plot's title and the histograms'
-  legend showing the new ND, every row of the histogram grid drawn from the new answer (its
-  ``layout.meta``), and nothing loading any more;
+* ``limit -> everything``: the same change to the criterion plot's title showing the new ND,
+  every row of the histogram grid on screen drawn from the new answer with the new ND (its
+  ``layout.meta``: the first row's legend among them when it is on screen), and nothing
+  loading any more;
 * ``brush -> counts``: releasing the mouse (``pointerup``) after a brush on an axis of the
   parallel coordinates (a band from a quarter of the axis to below its middle, one axis
   after the other, each on its own) to the selection's counts in the header (``#vid-sel``).
@@ -46,8 +48,13 @@ the action to the redrawn DOM (two animation frames after the last change):
   (as ``limit -> everything``), both from the same key press; only the loosening is timed;
 * ``first draw, <tab>``: each tab but the first clicked once after a fresh page load (its
   first draw; the first tab's is the page load): the click to the last callback answered
-  and applied (nothing loading for 0.8 s after it) and, for the parallel coordinates, their
-  lines drawn (the worker's canvas); ``--repeats`` page loads per tab;
+  and applied (nothing loading for 0.8 s after it), every histogram row on screen drawn
+  (``vid.lazyIdle``; the rows below the fold are drawn when scrolled to) and, for the
+  parallel coordinates, their lines drawn (the worker's canvas); ``--repeats`` page loads
+  per tab;
+* ``scroll -> last histogram row`` (explorer, after each page load) and ``scroll -> last
+  Refine histogram row`` (after the Refine tab's first draw): the last row of the grid
+  scrolled into view to it drawn with every row then on screen;
 * ``longest task``: the longest main-thread task (``PerformanceObserver`` ``longtask``,
   recorded by the page itself) during page loads, typed limits and brushes;
 * ``MB per page load``: bytes transferred (document, scripts, callback answers; compressed
@@ -195,12 +202,17 @@ def server_side(path: Path, changes: int) -> None:
 
 # -- in the browser ------------------------------------------------------------------------------
 
-#: Every row of the histogram grid drawn from one answer (``layout.meta.rev``), with ND
-#: ``nd`` when given (a page without rows, an older one, passes).
+#: Every row of the histogram grid on screen (or within the 300 px the page draws ahead,
+#: ``vid.lazyIdle``) drawn from one answer (``layout.meta.rev``), with ND ``nd`` when given
+#: (a page without rows, an older one, passes). The page draws a row below the fold only
+#: when it is scrolled to (``scroll -> last histogram row`` times that).
 _HIST_DONE = """
 function histDone(nd) {
-  const gs = Array.from(document.querySelectorAll('.vid-hist .js-plotly-plot'));
+  const near = g => { const r = g.getBoundingClientRect();
+    return r.bottom > -300 && r.top < window.innerHeight + 300; };
+  const gs = Array.from(document.querySelectorAll('.vid-hist .js-plotly-plot')).filter(near);
   if (!gs.length) return true;
+  if (window.vid && window.vid.lazyIdle && !window.vid.lazyIdle()) return false;
   const meta = g => g._fullLayout && g._fullLayout.meta;
   const m0 = meta(gs[0]);
   return !!m0 && gs.every(g => meta(g) && meta(g).rev === m0.rev &&
@@ -226,10 +238,8 @@ function check() {
     ok = nd !== null && (nd !== prev || window.__countsDone !== null);
   }
   if (ok && what === 'all') {
-    const title = text('#scatter .gtitle') || '';
-    const legend = text('#hist-graph .legend') || '';
-    ok = title.includes(fmt(nd)) && legend.includes(fmt(nd)) && !busy() &&
-      histDone(Number(nd.replace(/,/g, '')));
+    const title = text('#scatter .gtitle') || '';  // the rows on screen: their meta.nd
+    ok = title.includes(fmt(nd)) && !busy() && histDone(Number(nd.replace(/,/g, '')));
   }
   if (ok) {
     requestAnimationFrame(() => requestAnimationFrame(() => done(performance.now() - window.__t0)));
@@ -258,7 +268,6 @@ ${HIST_DONE}
 function check() {
   const ok = document.querySelector('#count-nd') &&
     document.querySelector('#scatter .gtitle') &&
-    document.querySelector('#hist-graph .legend') &&
     !document.querySelector('[data-dash-is-loading="true"]') && histDone(null);
   const t = performance.now();
   if (ok) { requestAnimationFrame(() => requestAnimationFrame(() => done(performance.now()))); }
@@ -308,10 +317,16 @@ _TAB_DRAWN = """
 const done = arguments[arguments.length - 1];
 const lines = arguments[0];
 let last = window.__t0;
-function drawnAt() {
-  if (!lines) return window.__t0;
+function drawnAt() {  // rows on screen drawn (vid.lazyRows), and the lines when asked
+  if (window.vid && window.vid.lazyIdle && !window.vid.lazyIdle()) return null;
+  let at = window.__t0;
+  for (const e of document.querySelectorAll('.vid-lazy-row[data-at], .vid-hist > [id][data-at]')) {
+    at = Math.max(at, Number(e.dataset.at));
+  }
+  if (!lines) return at;
   const c = document.querySelector('#par-graph canvas.vid-lines');
-  return c && Number(c.dataset.lines || 0) > 0 && c.dataset.at ? Number(c.dataset.at) : null;
+  return c && Number(c.dataset.lines || 0) > 0 && c.dataset.at ?
+    Math.max(at, Number(c.dataset.at)) : null;
 }
 function check() {
   const now = performance.now();
@@ -322,6 +337,23 @@ function check() {
   } else if (now - window.__t0 > 60000) { done(-1); } else { requestAnimationFrame(check); }
 }
 check();
+"""
+
+#: The last row of a lazily drawn grid (``arguments[0]``: the rows' CSS selector) scrolled
+#: into view: ms to it drawn with every other row on screen (``vid.lazyIdle``); -1 after 60 s.
+_SCROLL_LAST = """
+const done = arguments[arguments.length - 1];
+const rows = document.querySelectorAll(arguments[0]);
+if (!rows.length || !window.vid.lazyIdle) { done(-2); return; }  // every row drawn at once
+const last = rows[rows.length - 1], t0 = performance.now();
+last.scrollIntoView();
+function check() {
+  if (window.vid.lazyIdle() && last.dataset.rev) {
+    requestAnimationFrame(() => requestAnimationFrame(() => {
+      const ms = performance.now() - t0; window.scrollTo(0, 0); done(ms); }));
+  } else if (performance.now() - t0 > 60000) { done(-1); } else { requestAnimationFrame(check); }
+}
+requestAnimationFrame(check);
 """
 
 #: After Enter in a limit field (``window.__t0``): [ms to the new N/ND/NP, ms to everything
@@ -342,10 +374,8 @@ function check() {
   }
   let ok = counts !== null;
   if (ok) {
-    const title = text('#scatter .gtitle') || '';
-    const legend = text('#hist-graph .legend') || '';
-    ok = title.includes(fmt(nd)) && legend.includes(fmt(nd)) && !busy() &&
-      histDone(Number(nd.replace(/,/g, '')));
+    const title = text('#scatter .gtitle') || '';  // the rows on screen: their meta.nd
+    ok = title.includes(fmt(nd)) && !busy() && histDone(Number(nd.replace(/,/g, '')));
   }
   if (ok) {
     requestAnimationFrame(() => requestAnimationFrame(
@@ -455,6 +485,7 @@ def browser_latency(
         "limit -> everything": [],
         "loosen -> counts": [],
         "loosen -> everything": [],
+        "scroll -> last histogram row": [],
         "brush -> counts": [],
         "brush -> lines redrawn": [],
         "longest task, page load (ms)": [],
@@ -476,6 +507,9 @@ def browser_latency(
             out["longest task, page load (ms)"].append(drv.execute_script(_LONGEST))
             if i:
                 out["page load"].append(t / 1e3 if t >= 0 else float("nan"))
+                ms = drv.execute_async_script(_SCROLL_LAST, ".vid-hist > [id]")
+                out["scroll -> last histogram row"].append(ms / 1e3 if ms >= 0 else float("nan"))
+                drv.execute_async_script(_QUIET)
         time.sleep(1)
         drv.execute_script(_RESET_LONG)
         for k, value in enumerate(changes):
@@ -507,6 +541,11 @@ def browser_latency(
                 _click_tab(drv, label)
                 ms = drv.execute_async_script(_TAB_DRAWN, label.startswith("Parallel"))
                 out[key].append(ms / 1e3 if ms >= 0 else float("nan"))
+                if label.startswith("Refine"):
+                    ms = drv.execute_async_script(_SCROLL_LAST, "#ref-hist .vid-lazy-row")
+                    out.setdefault("scroll -> last Refine histogram row", []).append(
+                        ms / 1e3 if ms >= 0 else float("nan")
+                    )
         _click_tab(drv, "Parallel")
         deadline = time.monotonic() + 120
         while not drv.find_elements(By.CSS_SELECTOR, "#par-graph .vid-hit"):

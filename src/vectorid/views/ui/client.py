@@ -21,6 +21,11 @@ comes back in a fraction of the time the former in-page scan held the page froze
   - ``vid.readState(hash)`` / ``vid.writeState(state, defaults)``: the view's state to and
     from the URL's fragment (``#lim.f1=20&tab=parallel&trial=110&...``, see
     :data:`STATE_KEYS`);
+  - ``vid.lazyRows(ids, figs, rev)``: the rows of a figure grid (the refine view's
+    histograms: nine rows of four panels at 33 variables) drawn by plotly.js into the
+    elements ``ids``, each once it is shown and within 300 px of the window, one row a task,
+    top first; ``vid.lazyIdle()`` says whether every row on screen shows the latest answer
+    (each drawn row's element carries ``data-rev`` and ``data-at``);
   - ``window.__vidLongTasks``: durations (ms) of the main thread's tasks over 50 ms
     (``PerformanceObserver`` ``longtask``), read by ``benchmarks/ui.py``.
 """
@@ -618,8 +623,107 @@ setInterval(() => {
   }
 }, 300);
 
+// -- rows of a figure grid drawn when they come near the screen -----------------------------
+// ``lazyRows(ids, figs, rev, graph)``: row r's figure is drawn into the element ``ids[r]``
+// once that element is shown (its tab selected) and within LAZY_MARGIN px of the window,
+// one row a task, top first; a row on screen is redrawn at once with a new answer, one off
+// screen when it comes near, one whose tab was left and shown again (Dash mounts the tab's
+// elements anew) too. ``graph``: the elements are Dash graphs (their clicks go to the
+// server): the figure is set as the graph's ``figure`` (``dash_clientside.set_props``), with
+// the sets hidden in the first row's legend hidden in it too, and the row counts as drawn
+// once the graph shows it (its ``layout.meta.rev``); otherwise plotly.js draws into the
+// element. Each drawn row's element carries ``data-rev`` (the answer drawn) and ``data-at``
+// (performance.now() when drawn).
+const LAZY_MARGIN = 300;
+const lazy = {want: new Map(), busy: false, timer: 0, plots: new Map()};
+function lazyNear(el) {
+  if (!el || !el.offsetParent) return false;
+  const r = el.getBoundingClientRect();
+  return r.bottom > -LAZY_MARGIN && r.top < window.innerHeight + LAZY_MARGIN;
+}
+function lazyDue(id, job) {
+  const el = document.getElementById(id);
+  return el && el.dataset.rev !== String(job.rev) && lazyNear(el) ? el : null;
+}
+function lazyLegend(job) {
+  const gd = document.querySelector('#' + job.first + ' .js-plotly-plot');
+  if (job.id === job.first || !gd || !gd._fullData) return job.fig;
+  const hidden = new Set(gd._fullData.filter(t => t.visible === 'legendonly')
+    .map(t => t.legendgroup));
+  if (!hidden.size) return job.fig;
+  return Object.assign({}, job.fig, {data: job.fig.data.map(t => hidden.has(t.legendgroup) ?
+    Object.assign({}, t, {visible: 'legendonly'}) : t)});
+}
+function lazyDraw(el, job, done) {
+  const f = job.fig || {data: [], layout: {}};
+  if (!job.graph) {
+    const old = lazy.plots.get(job.id);  // a plot in an element the tab no longer holds
+    if (old && old !== el) { try { Plotly.purge(old); } catch (e) { /* gone already */ } }
+    lazy.plots.set(job.id, el);
+    Promise.resolve(Plotly.react(el, f.data, f.layout,
+      {displaylogo: false, responsive: true})).then(done, done);
+    return;
+  }
+  dash_clientside.set_props(job.id, {figure: lazyLegend(job)});
+  const t0 = performance.now();
+  (function shown() {
+    const gd = el.querySelector('.js-plotly-plot');
+    const m = gd && gd._fullLayout && gd._fullLayout.meta;
+    if ((m && m.rev === job.rev) || !f.layout.meta || performance.now() - t0 > 5000) done();
+    else setTimeout(shown, 4);
+  })();
+}
+function lazyNext() {
+  if (lazy.busy) return;
+  for (const [id, job] of lazy.want) {
+    const el = lazyDue(id, job);
+    if (!el) continue;
+    lazy.busy = true;
+    setTimeout(function() {  // a task of its own
+      const done = function() {
+        el.dataset.rev = job.rev; el.dataset.at = performance.now();
+        lazy.busy = false; setTimeout(lazyNext, 0);
+      };
+      try { lazyDraw(el, job, done); } catch (e) { console.error(e); done(); }
+    }, 0);
+    return;
+  }
+}
+function lazyRows(ids, figs, rev, graph) {
+  ids.forEach(function(id, r) {
+    lazy.want.set(id, {id: id, first: ids[0], fig: figs[r], rev: rev, graph: !!graph});
+  });
+  lazyNext();
+  if (!lazy.timer) {  // scrolled, resized, a tab shown or a table above grown: look again
+    lazy.timer = setInterval(lazyNext, 250);
+    const look = function() { requestAnimationFrame(lazyNext); };
+    document.addEventListener('scroll', look, {capture: true, passive: true});
+    window.addEventListener('resize', look);
+  }
+}
+// whether every row on screen (or within LAZY_MARGIN of it) shows the latest answer
+function lazyIdle() {
+  if (lazy.busy) return false;
+  for (const [id, job] of lazy.want) { if (lazyDue(id, job)) return false; }
+  return true;
+}
+
+// -- markup sent whole (a table of 33 rows as one element, not ~600 Dash components) ---------
+// every ``.vid-html`` element shows its ``data-html`` (escaped by the server), whenever Dash
+// mounts it or changes the attribute
+function fillHtml() {
+  for (const el of document.querySelectorAll('.vid-html[data-html]')) {
+    if (el.__vidHtml === el.dataset.html) continue;
+    el.__vidHtml = el.dataset.html;
+    el.innerHTML = el.dataset.html;
+  }
+}
+new MutationObserver(fillHtml).observe(document.documentElement,
+  {subtree: true, childList: true, attributes: true, attributeFilter: ['data-html']});
+
 window.vid = {ranges: ranges, readState: readState, writeState: writeState,
-  parRender: parRender, parDraw: parDraw, parOrder: setOrder, textWidth: textWidth};
+  parRender: parRender, parDraw: parDraw, parOrder: setOrder, textWidth: textWidth,
+  lazyRows: lazyRows, lazyIdle: lazyIdle};
 })();
 """
 

@@ -136,6 +136,8 @@ def fast_histograms(ctx: UIContext, a: Analysis, min_trials: int = 50_000) -> li
 
 #: Panels per row of the histogram grid (:func:`histogram_rows`).
 HIST_COLUMNS = 4
+#: Heights (px) of the first row of a histogram grid (title, legend) and of the others.
+ROW_HEIGHTS = (300, 226)
 
 
 def histogram_rows(fig: Mapping[str, Any], cols: int = HIST_COLUMNS) -> list[dict[str, Any]]:
@@ -171,7 +173,7 @@ def histogram_rows(fig: Mapping[str, Any], cols: int = HIST_COLUMNS) -> list[dic
             if sh.get("xref") in names
         ]
         # the rows below the first: their panel titles under the mode bar, not behind it
-        out_lay["height"] = 300 if r == 0 else 226
+        out_lay["height"] = ROW_HEIGHTS[r > 0]
         out_lay["margin"] = dict(lay.get("margin", {}), t=100 if r == 0 else 44, b=36)
         if r:
             out_lay.pop("title", None)
@@ -179,7 +181,7 @@ def histogram_rows(fig: Mapping[str, Any], cols: int = HIST_COLUMNS) -> list[dic
         data = [
             dict(t, xaxis=names[t["xaxis"]], yaxis=names[t["yaxis"]])
             for t in fig["data"]
-            if t.get("xaxis", "x") in names
+            if t.get("xaxis") in names
         ]
         if r == 0:  # traces of no panel (a legend's entries)
             data += [t for t in fig["data"] if "xaxis" not in t]

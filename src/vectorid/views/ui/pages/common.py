@@ -3,6 +3,7 @@ tables, and how an exception becomes a one-line message."""
 
 from __future__ import annotations
 
+import html as _html
 import logging
 import re
 import traceback
@@ -186,16 +187,52 @@ def range_bar(ranges: dict[str, Any], value: float | None = None) -> Any:
     return html.Div(parts, className="rangebar", title="box (grey), D (blue), Pareto (green)")
 
 
+def _range_bar_html(ranges: dict[str, Any], value: float | None = None) -> str:
+    """:func:`range_bar` as HTML text (for :func:`verdict_table`)."""
+    lo, hi = ranges["box"]
+    w = hi - lo if hi > lo else 1.0
+
+    def at(x: float) -> float:
+        return max(0.0, min(100.0, 100.0 * (x - lo) / w))
+
+    parts = []
+    for kind, top, height in (("feasible", 1, 10), ("pareto", 5, 2)):
+        r = ranges.get(kind)
+        if r is None:
+            continue
+        left, right = at(r[0]), at(r[1])
+        parts.append(
+            f'<div class="rb-{kind}" style="left: {left:.2f}%; width: max(2px, '
+            f"{right - left:.2f}%); top: {top}px; height: {height}px; background: "
+            f'{_RANGE_COLOURS[kind]};"></div>'
+        )
+    if value is not None:
+        parts.append(
+            f'<div class="rb-trial" style="left: {at(value):.2f}%; background: '
+            f'{_RANGE_COLOURS["trial"]};"></div>'
+        )
+    return (
+        '<div class="rangebar" title="box (grey), D (blue), Pareto (green)">'
+        + "".join(parts)
+        + "</div>"
+    )
+
+
 def verdict_table(rows: list[dict[str, Any]], prefix: str, *, trial: bool = False) -> Any:
     """The identifiability verdicts as an HTML table, one row per design variable with the
     stable id ``<prefix>-<variable>`` and ``data-verdict``: the variable (meaning, unit), its
     verdict, (``trial``: how the chosen trial shows it: a value only where identified, and
     the nominal), its ranges drawn and written (D, Pareto set, box), the constraints that
-    cut it, and why / what would identify it."""
+    cut it, and why / what would identify it.
+
+    The table is one Dash component holding its markup (every text escaped), not one per
+    cell: at 33 variables the ~600 components of a table built cell by cell took Dash's
+    renderer 1.2-2.8 s of one main-thread task to mount (the Refine tab's first draw)."""
     from dash import html
 
     if not rows:
         return html.P("no design variable", className="muted")
+    esc = _html.escape
     head = ["variable", "verdict"]
     if trial:
         head += ["this trial", "nominal"]
@@ -210,35 +247,42 @@ def verdict_table(rows: list[dict[str, Any]], prefix: str, *, trial: bool = Fals
     body = []
     for r in rows:
         unit = f" [{r['unit']}]" if r.get("unit") else ""
-        name = [html.B(r["name"]), html.Span(unit, className="muted")]
+        name = f'<b>{esc(str(r["name"]))}</b><span class="muted">{esc(unit)}</span>'
         if r.get("meaning"):
-            name += [html.Br(), html.Span(r["meaning"], className="muted small")]
-        cls = "verdict v-" + r["verdict"].replace(" ", "-")
-        cells = [html.Td(name), html.Td(html.Span(r["verdict"], className=cls))]
+            name += f'<br><span class="muted small">{esc(str(r["meaning"]))}</span>'
+        verdict = esc(str(r["verdict"]))
+        cls = "verdict v-" + verdict.replace(" ", "-")
+        cells = [name, f'<span class="{cls}">{verdict}</span>']
+        extra = ["", ""]
         if trial:
-            cells += [
-                html.Td(r["shown"], className="shown"),
-                html.Td("" if r.get("nominal") is None else f"{r['nominal']:.5g}"),
-            ]
+            nominal = "" if r.get("nominal") is None else f"{r['nominal']:.5g}"
+            cells += [esc(str(r["shown"])), nominal]
+            extra += ["shown", ""]
         todo = r["reason"] + (f"; to identify it: {r['suggestion']}" if r["suggestion"] else "")
         cells += [
-            html.Td(range_bar(r["ranges"], r.get("value") if trial else None)),
-            html.Td(r["feasible"], className="num"),
-            html.Td(r["pareto"], className="num"),
-            html.Td(r["box"], className="num"),
-            html.Td(r["constrained_by"]),
-            html.Td(todo, className="small"),
+            _range_bar_html(r["ranges"], r.get("value") if trial else None),
+            esc(str(r["feasible"])),
+            esc(str(r["pareto"])),
+            esc(str(r["box"])),
+            esc(str(r["constrained_by"])),
+            esc(str(todo)),
         ]
-        body.append(
-            html.Tr(cells, id=f"{prefix}-{safe(r['name'])}", **{"data-verdict": r["verdict"]})
+        extra += ["", "num", "num", "num", "", "small"]
+        tds = "".join(
+            f'<td class="{c}">{v}</td>' if c else f"<td>{v}</td>" for v, c in zip(cells, extra)
         )
-    return html.Div(
-        html.Table(
-            [html.Thead(html.Tr([html.Th(h) for h in head])), html.Tbody(body)],
-            className="vtable",
-        ),
-        className="scroll",
+        rid = esc(f"{prefix}-{safe(r['name'])}")
+        body.append(f'<tr id="{rid}" data-verdict="{verdict}">{tds}</tr>')
+    markup = (
+        '<div class="scroll"><table class="vtable"><thead><tr>'
+        + "".join(f"<th>{esc(h)}</th>" for h in head)
+        + "</tr></thead><tbody>"
+        + "".join(body)
+        + "</tbody></table></div>"
     )
+    # the page puts the markup in place (``vid.js``: every ``.vid-html`` element's
+    # ``data-html``, whenever it changes)
+    return html.Div(className="vid-html", **{"data-html": markup})
 
 
 #: Combinations shown on the first screen before the rest are folded away (every identified

@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import itertools
 from typing import Any
 
 from ..context import UIContext
+from ..explore import HIST_COLUMNS, ROW_HEIGHTS, histogram_rows
 from ..overview import overview_view
 from ..refine import refine_view
 from ..trial import drop_names, trial_view
@@ -247,9 +249,32 @@ def refine_layout(ctx: UIContext) -> Any:
                     html.Div(id="ref-verdicts"),
                 ],
             ),
-            dcc.Graph(id="ref-graph", config={"displaylogo": False}),
+            # the ranges' histograms, one figure per row of four panels, each drawn by the
+            # page when it comes near the screen (``vid.lazyRows``): the rows below the fold
+            # cost nothing until scrolled to; each row's box keeps its height meanwhile
+            html.Div(
+                id="ref-hist",
+                className="vid-lazy",
+                children=[
+                    html.Div(
+                        id=gid,
+                        className="vid-lazy-row",
+                        style={"height": f"{ROW_HEIGHTS[r > 0]}px"},
+                    )
+                    for r, gid in enumerate(ref_graph_ids(ctx))
+                ],
+            ),
+            dcc.Store(id="ref-fig"),
+            dcc.Store(id="ref-lazy"),
         ]
     )
+
+
+def ref_graph_ids(ctx: UIContext) -> list[str]:
+    """The ids of the refine view's histogram rows (:data:`~vectorid.views.ui.explore.
+    HIST_COLUMNS` panels a row): ``ref-graph``, ``ref-graph-2``, ..."""
+    rows = max(1, -(-len(ctx.spec.space) // HIST_COLUMNS))
+    return ["ref-graph"] + [f"ref-graph-{r + 1}" for r in range(1, rows)]
 
 
 def overview_layout(ctx: UIContext) -> Any:
@@ -261,6 +286,8 @@ def overview_layout(ctx: UIContext) -> Any:
 def register(app: Any, ctx: UIContext, w: Wiring) -> None:
     from dash import Input, Output, State, dcc, html
     from dash.exceptions import PreventUpdate
+
+    revs = itertools.count(1)
 
     def cols(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
         return [{"id": k, "name": k} for k in (rows[0] if rows else {})]
@@ -334,7 +361,7 @@ def register(app: Any, ctx: UIContext, w: Wiring) -> None:
         Output("ref-summary", "children"),
         Output("ref-table", "columns"),
         Output("ref-table", "data"),
-        Output("ref-graph", "figure"),
+        Output("ref-fig", "data"),
         w.gate(app, "refine"),
         State("tabs", "value"),
         Input("ref-basis", "value"),
@@ -349,7 +376,7 @@ def register(app: Any, ctx: UIContext, w: Wiring) -> None:
         try:
             v = refine_view(ctx, texts, roles, basis, q, margin, pairs)
         except Exception as exc:
-            return err(exc), "", [], [], {"data": [], "layout": {}}
+            return err(exc), "", [], [], {"rev": next(revs), "rows": []}
         columns = [
             {"id": k, "name": k, "editable": k in ("new_low", "new_high")}
             | (
@@ -359,7 +386,19 @@ def register(app: Any, ctx: UIContext, w: Wiring) -> None:
             )
             for k in v["rows"][0]
         ]
-        return "", v["summary"], columns, v["rows"], v["figure"]
+        rev = next(revs)
+        fig = v["figure"]
+        fig["layout"]["meta"] = dict(fig["layout"].get("meta") or {}, rev=rev)
+        return "", v["summary"], columns, v["rows"], {"rev": rev, "rows": histogram_rows(fig)}
+
+    # the rows drawn by the page as they come near the screen, each in a task of its own
+    app.clientside_callback(
+        "function(f) { if (!f) { return dash_clientside.no_update; } "
+        f"window.vid.lazyRows({ref_graph_ids(ctx)!r}, f.rows, f.rev); return f.rev; }}",
+        Output("ref-lazy", "data"),
+        Input("ref-fig", "data"),
+        prevent_initial_call=True,
+    )
 
     @app.callback(
         Output("ref-verdicts", "children"),

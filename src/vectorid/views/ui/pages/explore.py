@@ -12,6 +12,7 @@ from ..context import UIContext, fmt
 from ..data import bounds_text, limits_text, parse_constraints
 from ..explore import (
     HIST_COLUMNS,
+    ROW_HEIGHTS,
     box_to_limits,
     counts_view,
     histogram_rows,
@@ -232,39 +233,6 @@ def hist_graph_ids(ctx: UIContext) -> list[str]:
     return ["hist-graph"] + [f"hist-graph-{r + 1}" for r in range(1, rows)]
 
 
-#: Draws one row of the histogram grid: the first row at once, each other row once the row
-#: before it is drawn (its ``meta.rev`` is this answer's), each in a task of its own, with
-#: the sets hidden in the first row's legend hidden in it too.
-_HIST_ROW_JS = """
-function(figs) {
-  const R = %d, PREV = %s;
-  if (!figs || !figs[R]) { return dash_clientside.no_update; }
-  const fig = figs[R], rev = fig.layout.meta && fig.layout.meta.rev, t0 = performance.now();
-  function drawn() {
-    if (PREV === null) { return true; }
-    const gd = document.querySelector('#' + PREV + ' .js-plotly-plot');
-    const m = gd && gd._fullLayout && gd._fullLayout.meta;
-    return !gd || (m && m.rev === rev);
-  }
-  function withLegend(f) {
-    const gd = document.querySelector('#hist-graph .js-plotly-plot');
-    if (R === 0 || !gd || !gd._fullData) { return f; }
-    const hidden = new Set(gd._fullData.filter(t => t.visible === 'legendonly')
-      .map(t => t.legendgroup));
-    if (!hidden.size) { return f; }
-    return Object.assign({}, f, {data: f.data.map(t => hidden.has(t.legendgroup) ?
-      Object.assign({}, t, {visible: 'legendonly'}) : t)});
-  }
-  return new Promise(function(done) {
-    (function wait() {
-      if (drawn() || performance.now() - t0 > 5000) {
-        setTimeout(function() { done(withLegend(fig)); }, 0);
-      } else { setTimeout(wait, 4); }
-    })();
-  });
-}
-"""
-
 #: A set shown or hidden in the first row's legend: the same in the other rows.
 _HIST_LEGEND_JS = """
 function(ev) {
@@ -380,18 +348,25 @@ def layout(ctx: UIContext) -> Any:
                                 "hide or show a set.",
                                 className="muted",
                             ),
-                            # one graph per row of the grid, each drawn in a task of its
-                            # own (see histogram_rows); the first holds the legend
+                            # one graph per row of the grid (see histogram_rows), each
+                            # drawn in a task of its own once it comes near the screen
+                            # (vid.lazyRows): the rows below the fold wait until scrolled
+                            # to; the first holds the legend
                             html.Div(
                                 className="vid-hist",
                                 children=[
-                                    dcc.Graph(id=gid, config={"displaylogo": False})
-                                    for gid in hist_graph_ids(ctx)
+                                    dcc.Graph(
+                                        id=gid,
+                                        config={"displaylogo": False},
+                                        style={"height": f"{ROW_HEIGHTS[r > 0]}px"},
+                                    )
+                                    for r, gid in enumerate(hist_graph_ids(ctx))
                                 ],
                             ),
                             # the histograms' row figures pass through here so that the
                             # page draws them after the criterion plot's, one by one
                             dcc.Store(id="hist-fig"),
+                            dcc.Store(id="hist-lazy"),
                             dcc.Store(id="hist-legend"),
                         ],
                     ),
@@ -633,16 +608,17 @@ def register(app: Any, ctx: UIContext, w: Wiring, tokens: Any) -> None:
     # after a zero-delay timer, it is drawn in a task of its own instead of in the same
     # task as the criterion plot when both answers arrive together (the main thread's
     # longest task after a limit).
-    # Each row of the grid is a graph of its own, drawn after the one above it.
+    # Each row of the grid is a graph of its own, drawn after the one above it, and only
+    # once it comes near the screen (the rows below the fold when scrolled to).
     hist_ids = hist_graph_ids(ctx)
-    for r, gid in enumerate(hist_ids):
-        prev = "null" if r == 0 else f"'{hist_ids[r - 1]}'"
-        app.clientside_callback(
-            _HIST_ROW_JS % (r, prev),
-            Output(gid, "figure"),
-            Input("hist-fig", "data"),
-            prevent_initial_call=True,
-        )
+    app.clientside_callback(
+        "function(figs) { if (!figs || !figs.length) { return dash_clientside.no_update; } "
+        "const m = figs[0].layout.meta || {}; "
+        f"window.vid.lazyRows({hist_ids!r}, figs, m.rev, true); return m.rev; }}",
+        Output("hist-lazy", "data"),
+        Input("hist-fig", "data"),
+        prevent_initial_call=True,
+    )
     app.clientside_callback(
         _HIST_LEGEND_JS,
         Output("hist-legend", "data"),
