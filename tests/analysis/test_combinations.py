@@ -148,3 +148,23 @@ def test_thin_d_is_at_most_weak():
 
 def test_docstring_example_runs():
     assert doctest.testmod(combinations_module).failed == 0
+
+
+def test_a_large_d_reads_its_moments_from_a_spread_subsample_and_holds_every_member(monkeypatch):
+    """Above STATS_MEMBERS members the directions and margins come from an even subsample:
+    every member still lies inside every range, and the answer matches the full computation."""
+    rng = np.random.default_rng(5)
+    n, p = 12_000, 6
+    Z = rng.random((n, p))
+    Z[:, 0] = 0.5 + 0.04 * (Z[:, 0] - 0.5) + 0.3 * (Z[:, 1] - 0.5)
+    names = [f"x{i}" for i in range(p)]
+    full = combinations_of(Z, names)
+    monkeypatch.setattr(combinations_module, "STATS_MEMBERS", 3_000)
+    part = combinations_of(Z, names)
+    assert len(part) == len(full) == 1
+    u = np.array([part[0].loadings.get(k, 0.0) for k in names])
+    t = Z @ u
+    assert part[0].range[0] <= t.min() and t.max() <= part[0].range[1]
+    assert part[0].members_range == pytest.approx((t.min(), t.max()))
+    assert part[0].verdict == full[0].verdict
+    assert part[0].range == pytest.approx(full[0].range, abs=0.01)

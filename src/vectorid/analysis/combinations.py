@@ -264,6 +264,11 @@ class Combination:
         }
 
 
+#: Most members whose moments give the directions and the margins (evenly spread over the
+#: trial order; a weighted covariance and kurtosis from 50,000 are as good as from a million).
+STATS_MEMBERS = 50_000
+
+
 def _wstats(t: np.ndarray, w: np.ndarray) -> tuple[float, float, float, float]:
     """Weighted mean, standard deviation, excess kurtosis of ``t`` (weights sum to 1) and the
     kurtosis's asymptotic variance times n (delta method, symmetric terms:
@@ -423,9 +428,16 @@ def combinations_of(
     n = len(Z)
     if n < 2 or w.sum() <= 0:
         return []
-    wn = w / w.sum()
-    mu = wn @ Z
-    D = Z - mu
+    # the directions and the moments come from at most STATS_MEMBERS members, spread evenly
+    # over the trial order (a million-trial store answers a limit change in the UI at once);
+    # the ranges still hold every member (their extremes are taken over all of them)
+    sub = np.linspace(0, n - 1, STATS_MEMBERS).round().astype(int) if n > STATS_MEMBERS else None
+    Zs, ws = (Z, w) if sub is None else (Z[sub], w[sub])
+    if ws.sum() <= 0:
+        Zs, ws, sub = Z, w, None
+    wn = ws / ws.sum()
+    mu = wn @ Zs
+    D = Zs - mu
     cov = (D * wn[:, None]).T @ D
     evals, evecs = np.linalg.eigh(cov)
     spans = np.ones(p) if spans is None else np.asarray(spans, dtype=float)
@@ -454,7 +466,7 @@ def combinations_of(
         if any(abs(float(u @ s)) > 0.95 for s in seen):
             continue  # the same readable combination as a narrower direction's
         seen.append(u)
-        t = Z @ u
+        t = Zs @ u
         extent = (float(np.minimum(u, 0).sum()), float(np.maximum(u, 0).sum()))
         found.append((u, t, extent))
     # D's ellipsoid dimension pooled over the directions its members keep off the box (there
@@ -472,7 +484,13 @@ def combinations_of(
     )
     out: list[Combination] = []
     for u, t, extent in found:
-        rng, f = widened_range(t, w, p=p, extent=extent, m_floor=m_pool)
+        rng, f = widened_range(t, ws, p=p, extent=extent, m_floor=m_pool)
+        if sub is not None:  # every member inside, not only those the moments came from
+            t_all = Z @ u
+            lo_all, hi_all = float(t_all.min()), float(t_all.max())
+            rng = (max(min(rng[0], lo_all), extent[0]), min(max(rng[1], hi_all), extent[1]))
+        else:
+            lo_all, hi_all = float(t.min()), float(t.max())
         width = rng[1] - rng[0]
         verdict, reason = _judge(
             width, rng, extent, n, limited, identified, weak, int(min_feasible)
@@ -485,7 +503,7 @@ def combinations_of(
             Combination(
                 loadings={names[j]: float(u[j]) for j in idx},
                 range=rng,
-                members_range=(float(t.min()), float(t.max())),
+                members_range=(lo_all, hi_all),
                 width_fraction=float(width),
                 verdict=verdict,
                 reason=reason,
