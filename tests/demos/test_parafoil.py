@@ -5,6 +5,7 @@ from __future__ import annotations
 import importlib.util
 import json
 import re
+import shutil
 import tomllib
 from pathlib import Path
 
@@ -232,3 +233,66 @@ def test_discrepancy_allowance_covers_twins_of_the_generator(tmp_path):
         need = mod.twin_needs(seed, tmp_path / str(seed), draws=2000)
         for crit, (key, _) in mod.KEYS.items():
             assert need[crit] <= DEMO_DISCREPANCY.get(key, 0.0) + 1e-9, (seed, crit)
+
+
+def _truth() -> dict:
+    return json.loads((DEMO_DATA / "truth.json").read_text(encoding="utf-8"))
+
+
+def test_next_drop_plans_are_drop_files_vectorid_design_reads(tmp_path):
+    """The planned second drops the demo writes parse as drop files of the 8-DoF model: the
+    four manoeuvres with the demo drop's sensors and noise, and the canopy sensor on one."""
+    from vectorid import models
+    from vectorid.demos.parafoil import NEXT_DROPS, write_next_drops
+    from vectorid.identify.planned import read_drop_file
+
+    shutil.copytree(DEMO_DATA, tmp_path / "data")
+    paths = write_next_drops(tmp_path, _truth())
+    assert [p.stem for p in paths] == [f"next-{n}" for n, _, _ in NEXT_DROPS] + [
+        "next-asym-large-canopy"
+    ]
+    model = models.get("parafoil8dof", attitude="payload")
+    flaps = set()
+    for p in paths:
+        (drop,) = read_drop_file(p, model, output_dt=0.2)
+        assert drop.kind == "planned" and drop.noise is not None
+        assert {"position", "velocity", "euler", "rates"} <= set(drop.channels)
+        assert ("rel_pitch" in drop.channels) == ("canopy" in p.stem)
+        doc = tomllib.loads(p.read_text(encoding="utf-8"))["identification"]["drops"][0]
+        c = doc["controls"]
+        flaps.add((max(c["flap_left"]), max(c["flap_right"])))
+    # symmetric steps, two asymmetric amplitudes and a spiral: different programs
+    assert {(0.6, 0.6), (0.25, 0.25), (0.7, 0.7), (0.8, 0.0)} <= flaps
+
+
+def _design(kept, truth_kept, new=()):
+    from vectorid.workflows.design import Candidate, Design, _rank
+    from vectorid.workflows.predict import Members
+
+    cands = [
+        Candidate(f"next-{n}", f"next-{n}.toml", [n], ["position"], k, (k - 0.01, k + 0.01),
+                  newly_identified=list(g), identified_share={x: 0.6 for x in g}, n_flown=150,
+                  truth_kept=t, criteria={"pos_h_abs@" + n: {"limit": 1.0, "unit": "m"}})
+        for n, k, t, g in zip(("brakes", "spiral"), kept, truth_kept, new, strict=False)
+    ]  # fmt: skip
+    _rank(cands)
+    mem = Members.__new__(Members)
+    return Design("s.db", mem, cands, [], 0, 1)
+
+
+def test_next_drop_table_says_plainly_when_plans_reject_the_truth(capsys):
+    from vectorid.demos.parafoil import print_design
+
+    print_design(_design((0.05, 0.4), (0.1, 0.2), ((), ())), {"next-brakes": "steps"})
+    text = capsys.readouterr().out
+    assert text.count("REJECTS THE TRUTH") == 2
+    assert "no plan keeps the truth" in text and "most informative" not in text
+    print_design(_design((0.3, 0.95), (0.95, 0.94), (("A2", "CD0"), ())), {})
+    text = capsys.readouterr().out
+    assert "REJECTS" not in text and "would not shrink D" in text
+    rows = [ln.split() for ln in text.splitlines() if re.match(r"^ +[12] +next-", ln)]
+    assert [r[1] for r in rows] == ["next-brakes", "next-spiral"]
+    assert rows[0][2] == "30.0" and "2 / 0" in " ".join(rows[0]) and "(A2, CD0)" in text
+    assert "most informative: next-brakes (keeps 30.0 % of D)" in text
+    print_design(_design((0.93, 0.96), (0.95, 0.94), ((), ())), {})
+    assert "no plan would shrink D" in capsys.readouterr().out
