@@ -61,6 +61,9 @@ def test_parafoil_demo_end_to_end_reduced(tmp_path, capsys):
         "R50 ",  # the landing radii with their bootstrap intervals
         "R95 ",
         "gust realisations it lands inside R95 in",
+        "Which second drop would tell the most? 5 planned drops",
+        "truth kept %",
+        "vectorid design parafoil-stage2.db next-brakes.toml",
     ):
         assert needle in text, needle
     # no chosen vector shows a value for a gain its verdict does not call identified
@@ -86,6 +89,15 @@ def test_parafoil_demo_end_to_end_reduced(tmp_path, capsys):
         assert (out / f"parafoil-{name}.db").exists() == made
         assert (out / f"parafoil-{name}.toml").exists() == made
         assert (out / f"parafoil-{name}.html").exists() == (made and name in ("stage2", "stage3"))
+    # the planned second drops: files the printed command reruns, one table row each, and a
+    # plan that rejects the truth is said so on its row
+    for stem in ("brakes", "asym-small", "asym-large", "spiral", "asym-large-canopy"):
+        assert (out / f"next-{stem}.toml").exists(), stem
+    rows = [ln for ln in text.splitlines() if re.match(r"^ +[1-5] +next-", ln)]
+    assert sorted(int(r.split()[0]) for r in rows) == [1, 2, 3, 4, 5]
+    for r in rows:
+        kept = float(r.split()[5])  # truth kept, % (after the interval "[lo, hi]")
+        assert (kept < 50) == ("REJECTS THE TRUTH" in r), r
     spec6 = load_study(out / "parafoil-6dof.toml")
     # the reduced set: fewer gains where stage 2's D does not depend on some; the 6-DoF study
     # has the same set, with the fixed gains under parameters
