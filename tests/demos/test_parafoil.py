@@ -146,6 +146,9 @@ def test_stage_files_state_the_noise_and_the_allowance():
     pos_h = next(c for c in later["criteria"] if c["name"] == "pos_h")
     assert pos_h["limit"] == 4000.0 and pos_h["limit_source"] == "noise"
     assert "limits" not in later["identification"]
+    # the allowance the carried limits were computed with is stated, so that vectorid design
+    # and predict set a planned drop's limits as the study's were set
+    assert later["identification"]["discrepancy"] == DEMO_DISCREPANCY
     assert later["x-identifiability"]["reference"] == {"CD0": [0.2, 2.0]}
     # without limits: the noise is stated, nothing is limited
     free = tomllib.loads(stage_toml("s", [("CD0", 0.2, 2.0)], truth=truth, trials=8,

@@ -302,8 +302,10 @@ def stage_toml(
     disc = DEMO_DISCREPANCY if discrepancy is None else discrepancy
     if limits and limits_from:
         lines += [
-            "# the criteria's limits above are the noise floors computed for stage 1 with",
-            f"# discrepancy = {toml_value(dict(disc))}",
+            "# the criteria's limits above are the noise floors computed for stage 1 with this",
+            "# allowance (stated, not used again for them: vectorid design and vectorid predict",
+            "# read it to set a planned drop's limits and spread as the study's were set):",
+            f"discrepancy = {toml_value(dict(disc))}",
         ]
     elif limits:
         lines += [
@@ -1477,7 +1479,10 @@ def _run_parafoil_demo(
     (out / "summary.json").write_text(json.dumps(summary, indent=1) + "\n", encoding="utf-8")
     print(f"  (per stage: verdicts, limits and the truth check in {out / 'summary.json'})")
     print()
-    print(f"Done in {time.perf_counter() - t_start:.1f} s. Next:")
+    print(
+        f"Done in {time.perf_counter() - t_start:.1f} s ({t_design:.0f} s of it ranking the "
+        "second drops). Next:"
+    )
     last = r3 if r3 is not None else r2
     print(f"  vectorid identifiability {last.store}")
     print(f"  vectorid table       {r2.store} --top 7")
