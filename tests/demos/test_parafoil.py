@@ -302,8 +302,11 @@ def test_next_drop_table_says_plainly_when_plans_reject_the_truth(capsys):
     text = capsys.readouterr().out
     assert text.count("REJECTS THE TRUTH") == 2
     assert "no plan keeps the truth" in text and "most informative" not in text
-    print_design(_design((0.3, 0.95), (0.95, 0.94), (("A2", "CD0"), ())), {})
+    d = _design((0.3, 0.95), (0.95, 0.94), (("A2", "CD0"), ()))
+    d.candidates[1].thin_share = 0.67
+    print_design(d, {})
     text = capsys.readouterr().out
+    assert text.count("of the truths it keeps too few") == 1 and "under 67 %" in text
     assert "REJECTS" not in text and "would not shrink D" in text
     rows = [ln.split() for ln in text.splitlines() if re.match(r"^ +[12] +next-", ln)]
     assert [r[1] for r in rows] == ["next-brakes", "next-spiral"]

@@ -918,6 +918,13 @@ def print_design(d: Any, what: Mapping[str, str]) -> None:
     print("   sound plan; a plan below 50 % would reject the truth: ranked last, no information)")
     for c in sorted(d.candidates, key=lambda c: c.rank):
         print(f"  {c.name}: {what.get(c.name, '')}; judged by {', '.join(c.criteria) or 'nothing'}")
+        if c.thin_share > 0.05:
+            print(
+                f"    under {100 * c.thin_share:.0f} % of the truths it keeps too few of the "
+                f"{c.n_flown} members flown to show which gains it would identify (counted as "
+                "none):\n    a newly identified count of 0 there is a lower bound; rerun with "
+                "more members (--members)"
+            )
         for note in c.notes:
             print(f"    note: {note}")
     canopy = [c for c in d.candidates if "canopy" in c.name]
