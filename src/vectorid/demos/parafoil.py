@@ -917,7 +917,9 @@ def print_design(d: Any, what: Mapping[str, str]) -> None:
     print("   of those truths that meet the limits under their own noisy record, about 95 % for a")
     print("   sound plan; a plan below 50 % would reject the truth: ranked last, no information)")
     for c in sorted(d.candidates, key=lambda c: c.rank):
-        print(f"  {c.name}: {what.get(c.name, '')}; judged by {', '.join(c.criteria) or 'nothing'}")
+        crit = [k.rsplit("@", 1)[0] for k in c.criteria]
+        print(f"  {c.name}: {what.get(c.name, '')}")
+        print(f"    judged by {', '.join(crit) or 'nothing'} on its drop")
         if c.thin_share > 0.05:
             print(
                 f"    under {100 * c.thin_share:.0f} % of the truths it keeps too few of the "
@@ -941,8 +943,8 @@ def print_design(d: Any, what: Mapping[str, str]) -> None:
             )
             print(
                 f"  the canopy-attitude sensor of {c.name} adds no information here: no criterion "
-                "of the study reads\n  rel_pitch or rel_yaw, and a plan is judged by the study's "
-                f"own criteria{same}; valuing it\n  needs a criterion on the canopy's relative "
+                "of the study\n  reads rel_pitch or rel_yaw, and a plan is judged by the study's "
+                f"own criteria{same};\n  valuing it needs a criterion on the canopy's relative "
                 "attitude in the study (none in the library yet)"
             )
     if all(c.rejects_truth for c in d.candidates):
@@ -981,9 +983,9 @@ def _next_drops(out: Path, truth: Mapping[str, Any], st: IdentificationStage) ->
         f"{NEXT_DROP_MEMBERS} members of "
         + ("D" if stated else f"the set at the limits relaxed x{st.factor:g} (last resort: D at "
            "the stated limits was not reached), not D")
-        + f" flown, each playing the truth against the others: cost grows\n  with the square of "
-        f"the members, so {NEXT_DROP_MEMBERS} keep the demo near its time; a share kept below "
-        f"about {200 / NEXT_DROP_MEMBERS:.1f} % is not resolved)"
+        + f" flown, each playing the truth against the others:\n  cost grows with the square "
+        f"of the members, so {NEXT_DROP_MEMBERS} keep the demo near its time; a share kept\n  "
+        f"below about {200 / NEXT_DROP_MEMBERS:.1f} % is not resolved)"
     )  # fmt: skip
     limits = None if stated else r.analysis.limits
     try:
