@@ -984,8 +984,8 @@ def _next_drops(out: Path, truth: Mapping[str, Any], st: IdentificationStage) ->
         + ("D" if stated else f"the set at the limits relaxed x{st.factor:g} (last resort: D at "
            "the stated limits was not reached), not D")
         + f" flown, each playing the truth against the others:\n  cost grows with the square "
-        f"of the members, so {NEXT_DROP_MEMBERS} keep the demo near its time; a share kept\n  "
-        f"below about {200 / NEXT_DROP_MEMBERS:.1f} % is not resolved)"
+        f"of the members, so the demo flies only {NEXT_DROP_MEMBERS}; a share kept below\n  "
+        f"about {200 / NEXT_DROP_MEMBERS:.1f} % is not resolved: rerun with more for finer ones)"
     )  # fmt: skip
     limits = None if stated else r.analysis.limits
     try:
