@@ -5,6 +5,7 @@ from __future__ import annotations
 import importlib.util
 import json
 import re
+import shutil
 import tomllib
 from pathlib import Path
 
@@ -60,6 +61,9 @@ def test_parafoil_demo_end_to_end_reduced(tmp_path, capsys):
         "R50 ",  # the landing radii with their bootstrap intervals
         "R95 ",
         "gust realisations it lands inside R95 in",
+        "Which second drop would tell the most? 5 planned drops",
+        "truth kept %",
+        "vectorid design parafoil-stage2.db next-brakes.toml",
     ):
         assert needle in text, needle
     # no chosen vector shows a value for a gain its verdict does not call identified
@@ -85,6 +89,15 @@ def test_parafoil_demo_end_to_end_reduced(tmp_path, capsys):
         assert (out / f"parafoil-{name}.db").exists() == made
         assert (out / f"parafoil-{name}.toml").exists() == made
         assert (out / f"parafoil-{name}.html").exists() == (made and name in ("stage2", "stage3"))
+    # the planned second drops: files the printed command reruns, one table row each, and a
+    # plan that rejects the truth is said so on its row
+    for stem in ("brakes", "asym-small", "asym-large", "spiral", "asym-large-canopy"):
+        assert (out / f"next-{stem}.toml").exists(), stem
+    rows = [ln for ln in text.splitlines() if re.match(r"^ +[1-5] +next-", ln)]
+    assert sorted(int(r.split()[0]) for r in rows) == [1, 2, 3, 4, 5]
+    for r in rows:
+        kept = float(r.split()[5])  # truth kept, % (after the interval "[lo, hi]")
+        assert (kept < 50) == ("REJECTS THE TRUTH" in r), r
     spec6 = load_study(out / "parafoil-6dof.toml")
     # the reduced set: fewer gains where stage 2's D does not depend on some; the 6-DoF study
     # has the same set, with the fixed gains under parameters
@@ -133,6 +146,9 @@ def test_stage_files_state_the_noise_and_the_allowance():
     pos_h = next(c for c in later["criteria"] if c["name"] == "pos_h")
     assert pos_h["limit"] == 4000.0 and pos_h["limit_source"] == "noise"
     assert "limits" not in later["identification"]
+    # the allowance the carried limits were computed with is stated, so that vectorid design
+    # and predict set a planned drop's limits as the study's were set
+    assert later["identification"]["discrepancy"] == DEMO_DISCREPANCY
     assert later["x-identifiability"]["reference"] == {"CD0": [0.2, 2.0]}
     # without limits: the noise is stated, nothing is limited
     free = tomllib.loads(stage_toml("s", [("CD0", 0.2, 2.0)], truth=truth, trials=8,
@@ -232,3 +248,69 @@ def test_discrepancy_allowance_covers_twins_of_the_generator(tmp_path):
         need = mod.twin_needs(seed, tmp_path / str(seed), draws=2000)
         for crit, (key, _) in mod.KEYS.items():
             assert need[crit] <= DEMO_DISCREPANCY.get(key, 0.0) + 1e-9, (seed, crit)
+
+
+def _truth() -> dict:
+    return json.loads((DEMO_DATA / "truth.json").read_text(encoding="utf-8"))
+
+
+def test_next_drop_plans_are_drop_files_vectorid_design_reads(tmp_path):
+    """The planned second drops the demo writes parse as drop files of the 8-DoF model: the
+    four manoeuvres with the demo drop's sensors and noise, and the canopy sensor on one."""
+    from vectorid import models
+    from vectorid.demos.parafoil import NEXT_DROPS, write_next_drops
+    from vectorid.identify.planned import read_drop_file
+
+    shutil.copytree(DEMO_DATA, tmp_path / "data")
+    paths = write_next_drops(tmp_path, _truth())
+    assert [p.stem for p in paths] == [f"next-{n}" for n, _, _ in NEXT_DROPS] + [
+        "next-asym-large-canopy"
+    ]
+    model = models.get("parafoil8dof", attitude="payload")
+    flaps = set()
+    for p in paths:
+        (drop,) = read_drop_file(p, model, output_dt=0.2)
+        assert drop.kind == "planned" and drop.noise is not None
+        assert {"position", "velocity", "euler", "rates"} <= set(drop.channels)
+        assert ("rel_pitch" in drop.channels) == ("canopy" in p.stem)
+        doc = tomllib.loads(p.read_text(encoding="utf-8"))["identification"]["drops"][0]
+        c = doc["controls"]
+        flaps.add((max(c["flap_left"]), max(c["flap_right"])))
+    # symmetric steps, two asymmetric amplitudes and a spiral: different programs
+    assert {(0.6, 0.6), (0.25, 0.25), (0.7, 0.7), (0.8, 0.0)} <= flaps
+
+
+def _design(kept, truth_kept, new=()):
+    from vectorid.workflows.design import Candidate, Design, _rank
+    from vectorid.workflows.predict import Members
+
+    cands = [
+        Candidate(f"next-{n}", f"next-{n}.toml", [n], ["position"], k, (k - 0.01, k + 0.01),
+                  newly_identified=list(g), identified_share={x: 0.6 for x in g}, n_flown=150,
+                  truth_kept=t, criteria={"pos_h_abs@" + n: {"limit": 1.0, "unit": "m"}})
+        for n, k, t, g in zip(("brakes", "spiral"), kept, truth_kept, new, strict=False)
+    ]  # fmt: skip
+    _rank(cands)
+    mem = Members.__new__(Members)
+    return Design("s.db", mem, cands, [], 0, 1)
+
+
+def test_next_drop_table_says_plainly_when_plans_reject_the_truth(capsys):
+    from vectorid.demos.parafoil import print_design
+
+    print_design(_design((0.05, 0.4), (0.1, 0.2), ((), ())), {"next-brakes": "steps"})
+    text = capsys.readouterr().out
+    assert text.count("REJECTS THE TRUTH") == 2
+    assert "no plan keeps the truth" in text and "most informative" not in text
+    d = _design((0.3, 0.95), (0.95, 0.94), (("A2", "CD0"), ()))
+    d.candidates[1].thin_share = 0.67
+    print_design(d, {})
+    text = capsys.readouterr().out
+    assert text.count("of the truths it keeps too few") == 1 and "under 67 %" in text
+    assert "REJECTS" not in text and "would not shrink D" in text
+    rows = [ln.split() for ln in text.splitlines() if re.match(r"^ +[12] +next-", ln)]
+    assert [r[1] for r in rows] == ["next-brakes", "next-spiral"]
+    assert rows[0][2] == "30.0" and "2 / 0" in " ".join(rows[0]) and "(A2, CD0)" in text
+    assert "most informative: next-brakes (keeps 30.0 % of D)" in text
+    print_design(_design((0.93, 0.96), (0.95, 0.94), ((), ())), {})
+    assert "no plan would shrink D" in capsys.readouterr().out

@@ -153,6 +153,30 @@ PLANNED_YAW_DEG = 220.0  # initial heading, deg from north
 PLANNED_DURATION = 320.0  # s simulated: every member lands before
 PLANNED_MEMBERS = 400  # members of D flown (drawn keeping their weights)
 PLANNED_GUSTS = 20  # gust realisations the generator's truth is flown in
+#: Planned manoeuvres for a second drop, ranked by their worth for stage 2's D
+#: (:mod:`vectorid.workflows.design`): (file stem, what, control knots (s, left, right) held
+#: with 1-s ramps). Each: 120 s from 1000 m above the landing zone, heading as the planned
+#: manoeuvre, in the dropsonde's wind, seen by the demo drop's sensors (GPS position and
+#: velocity at 4 Hz, payload IMU attitude and rates at 10 Hz) with the generator's noise.
+NEXT_DROPS = (
+    ("brakes", "symmetric brake steps 60 % (20-35 s, 60-75 s)",
+     ((0.0, 0.0, 0.0), (20.0, 0.6, 0.6), (35.0, 0.0, 0.0), (60.0, 0.6, 0.6), (75.0, 0.0, 0.0))),
+    ("asym-small", "asymmetric steps 25 % (left 20-40 s, right 60-80 s)",
+     ((0.0, 0.0, 0.0), (20.0, 0.25, 0.0), (40.0, 0.0, 0.0), (60.0, 0.0, 0.25), (80.0, 0.0, 0.0))),
+    ("asym-large", "asymmetric steps 70 % (left 20-40 s, right 60-80 s)",
+     ((0.0, 0.0, 0.0), (20.0, 0.7, 0.0), (40.0, 0.0, 0.0), (60.0, 0.0, 0.7), (80.0, 0.0, 0.0))),
+    ("spiral", "spiral: left flap 80 % from 20 s to 100 s",
+     ((0.0, 0.0, 0.0), (20.0, 0.8, 0.0), (100.0, 0.0, 0.0))),
+)  # fmt: skip
+#: The same drop as the large asymmetric steps with a canopy-attitude sensor added: the 8-DoF
+#: model's relative pitch and yaw of canopy and payload (rad) at 10 Hz.
+NEXT_DROP_SENSOR = ("asym-large+canopy", "asymmetric steps 70 % + canopy-attitude sensor")
+NEXT_DROP_CANOPY_HZ = 10.0
+NEXT_DROP_DURATION = 120.0  # s
+#: Members of D flown for the ranking: each plays the truth against every other, so the cost
+#: grows with its square; 150 keeps the default demo near its time goal and still resolves a
+#: share kept down to about 2/150 (1.3 %), the truth's own record among them.
+NEXT_DROP_MEMBERS = 150
 
 
 # -- study files --------------------------------------------------------------------------------
@@ -278,8 +302,10 @@ def stage_toml(
     disc = DEMO_DISCREPANCY if discrepancy is None else discrepancy
     if limits and limits_from:
         lines += [
-            "# the criteria's limits above are the noise floors computed for stage 1 with",
-            f"# discrepancy = {toml_value(dict(disc))}",
+            "# the criteria's limits above are the noise floors computed for stage 1 with this",
+            "# allowance (stated, not used again for them: vectorid design and vectorid predict",
+            "# read it to set a planned drop's limits and spread as the study's were set):",
+            f"discrepancy = {toml_value(dict(disc))}",
         ]
     elif limits:
         lines += [
@@ -806,6 +832,175 @@ def _planned_manoeuvre(out: Path, truth: Mapping[str, Any], st: IdentificationSt
     )
 
 
+def next_drop_toml(
+    truth: Mapping[str, Any],
+    name: str,
+    what: str,
+    program: Sequence[tuple[float, float, float]],
+    *,
+    canopy: bool = False,
+) -> str:
+    """The drop file of one planned second drop (:data:`NEXT_DROPS`), for ``vectorid design``
+    in the demo's folder: the demo drop's sensors and the generator's noise; ``canopy`` adds
+    the 8-DoF model's relative pitch and yaw of canopy and payload (rad)."""
+    kt, kl, kr = _knots(program)
+    origin = float(truth["origin_altitude_m"])
+    yaw = math.radians(PLANNED_YAW_DEG)
+    channels = {"position": 4.0, "velocity": 4.0, "euler": 10.0, "rates": 10.0}
+    if canopy:
+        channels |= {"rel_pitch": NEXT_DROP_CANOPY_HZ, "rel_yaw": NEXT_DROP_CANOPY_HZ}
+    return "\n".join([
+        f"# vectorid demo parafoil: a planned second drop ({what}), no data;",
+        "# its worth for stage 2's D: vectorid design parafoil-stage2.db THIS.toml",
+        "[identification]",
+        'model = "parafoil8dof"',
+        "",
+        "[[identification.drops]]",
+        f"name = {toml_value(name)}",
+        f"initial = {{ altitude = {origin + PLANNED_HEIGHT!r}, euler = [0.0, 0.0, {yaw!r}] }}",
+        f"origin = [32.85, -114.39, {origin!r}]   # the landing zone: the ground",
+        f"duration = {NEXT_DROP_DURATION!r}",
+        f"channels = {toml_value(channels)}   # Hz",
+        'wind = "data/wind.csv"',
+        'wind_format = "dropsonde"',
+        'wind_options = { altitude = "altitude_m", u = "u_ms", v = "v_ms" }',
+        f"controls = {{ time = {toml_value(kt.tolist())}, flap_left = {toml_value(kl.tolist())}, "
+        f"flap_right = {toml_value(kr.tolist())} }}",
+        "interpolation = \"linear\"",
+        f"noise = {toml_value(truth['sensor_noise'])}",
+        "",
+    ])  # fmt: skip
+
+
+def write_next_drops(out: Path, truth: Mapping[str, Any]) -> list[Path]:
+    """Write the planned second drops (:data:`NEXT_DROPS` and :data:`NEXT_DROP_SENSOR`) into
+    ``out`` as ``next-<name>.toml``; returns their paths, in that order."""
+    paths = []
+    for name, what, program in NEXT_DROPS:
+        f = out / f"next-{name}.toml"
+        f.write_text(next_drop_toml(truth, name, what, program), encoding="utf-8")
+        paths.append(f)
+    base = {n: (w, p) for n, w, p in NEXT_DROPS}["asym-large"]
+    name, what = NEXT_DROP_SENSOR
+    f = out / "next-asym-large-canopy.toml"
+    f.write_text(
+        next_drop_toml(truth, name.replace("+", "-"), what, base[1], canopy=True),
+        encoding="utf-8",
+    )
+    paths.append(f)
+    return paths
+
+
+def print_design(d: Any, what: Mapping[str, str]) -> None:
+    """The ranking of the planned drops (a :class:`vectorid.workflows.design.Design`) as a
+    table with units, and what it means in plain words."""
+    print(
+        f"  {'rank':>4}  {'plan':<22}{'D kept %':>9} {'[95 % interval]':<16}{'truth kept %':>13}"
+        "  newly identified (gains / combinations)"
+    )
+    for c in sorted(d.candidates, key=lambda c: c.rank):
+        lo, hi = c.interval
+        gains = [n for n in c.newly_identified if n in c.identified_share]
+        ncomb = len(c.newly_identified) - len(gains)
+        tag = (
+            "  REJECTS THE TRUTH"
+            if c.rejects_truth
+            else ("" if c.shrinks else "  would not shrink D")
+        )
+        new = f"{len(gains)} / {ncomb}" + (f" ({', '.join(gains[:6])})" if gains else "")
+        print(
+            f"  {c.rank:>4}  {c.name:<22}{100 * c.expected_fraction_kept:9.1f} "
+            f"{f'[{100 * lo:.1f}, {100 * hi:.1f}]':<16}{100 * c.truth_kept:13.0f}  {new}{tag}"
+        )
+    print("  (D kept: expected share of D's members, weighted, that would still meet every limit")
+    print("   with the plan's data, each flown member playing the truth in turn; truth kept: share")
+    print("   of those truths that meet the limits under their own noisy record, about 95 % for a")
+    print("   sound plan; a plan below 50 % would reject the truth: ranked last, no information)")
+    for c in sorted(d.candidates, key=lambda c: c.rank):
+        crit = [k.rsplit("@", 1)[0] for k in c.criteria]
+        print(f"  {c.name}: {what.get(c.name, '')}")
+        print(f"    judged by {', '.join(crit) or 'nothing'} on its drop")
+        if c.thin_share > 0.05:
+            print(
+                f"    under {100 * c.thin_share:.0f} % of the truths it keeps too few of the "
+                f"{c.n_flown} members flown to show which gains it would identify (counted as "
+                "none):\n    a newly identified count of 0 there is a lower bound; rerun with "
+                "more members (--members)"
+            )
+        for note in c.notes:
+            print(f"    note: {note}")
+    canopy = [c for c in d.candidates if "canopy" in c.name]
+    plain = {c.name: c for c in d.candidates}
+    for c in canopy:
+        read = [k for k in c.criteria if "rel_" in k]
+        if not read:
+            twin = plain.get(c.name.replace("-canopy", ""))
+            same = (
+                f" (it keeps {100 * c.expected_fraction_kept:.1f} % against "
+                f"{100 * twin.expected_fraction_kept:.1f} % without it)"
+                if twin is not None
+                else ""
+            )
+            print(
+                f"  the canopy-attitude sensor of {c.name} adds no information here: no criterion "
+                "of the study\n  reads rel_pitch or rel_yaw, and a plan is judged by the study's "
+                f"own criteria{same};\n  valuing it needs a criterion on the canopy's relative "
+                "attitude in the study (none in the library yet)"
+            )
+    if all(c.rejects_truth for c in d.candidates):
+        print(
+            "  no plan keeps the truth: under each the truth itself fails the limits the study "
+            "would set in most\n  of its records, so what they keep says nothing about their worth "
+            "(see the note below the table)"
+        )
+    elif d.none_shrinks:
+        print("  no plan would shrink D: its data would not tell D's members apart")
+    else:
+        best = min(d.candidates, key=lambda c: c.rank)
+        print(
+            f"  most informative: {best.name} (keeps {100 * best.expected_fraction_kept:.1f} % "
+            "of D)"
+        )
+
+
+def _next_drops(out: Path, truth: Mapping[str, Any], st: IdentificationStage) -> Any:
+    """Rank the planned second drops for stage 2's D (``vectorid design``), print the table
+    and the command that reruns it; returns the Design (None where D is empty)."""
+    from ..workflows.design import design
+    from ..workflows.predict import EmptySetError
+
+    r = st.result
+    t0 = time.perf_counter()
+    plans = write_next_drops(out, truth)
+    what = {f"next-{n}": w for n, w, _ in NEXT_DROPS}
+    what["next-asym-large-canopy"] = NEXT_DROP_SENSOR[1]
+    stated = st.n_noise_feasible > 0
+    print()
+    print(
+        f"Which second drop would tell the most? {len(plans)} planned drops ranked by their "
+        f"worth for stage 2's D\n  ({NEXT_DROP_DURATION:g} s from {PLANNED_HEIGHT:g} m, the "
+        "demo drop's sensors and the generator's noise;\n  "
+        f"{NEXT_DROP_MEMBERS} members of "
+        + ("D" if stated else f"the set at the limits relaxed x{st.factor:g} (last resort: D at "
+           "the stated limits was not reached), not D")
+        + f" flown, each playing the truth against the others:\n  cost grows with the square "
+        f"of the members, so the demo flies only {NEXT_DROP_MEMBERS}; a share kept below\n  "
+        f"about {200 / NEXT_DROP_MEMBERS:.1f} % is not resolved: rerun with more for finer ones)"
+    )  # fmt: skip
+    limits = None if stated else r.analysis.limits
+    try:
+        d = design(r.store, plans, members=NEXT_DROP_MEMBERS, seed=1, limits=limits)
+    except EmptySetError as exc:
+        print(f"  no ranking: {exc}")
+        return None
+    print(f"  identified now: {len(d.identified_now)} gain(s), {d.combinations_now} combination(s)")
+    print_design(d, what)
+    rel = " ".join(p.name for p in plans)
+    print(f"  rerun (more members, --json): cd {out} && vectorid design {Path(r.store).name} {rel}")
+    print(f"  ({time.perf_counter() - t0:.0f} s for the ranking)")
+    return d
+
+
 def run_parafoil_demo(
     out: Path,
     *,
@@ -1025,6 +1220,12 @@ def _run_parafoil_demo(
 
     # ---- what stage 2's D predicts for a planned manoeuvre ------------------------------
     _planned_manoeuvre(out, truth, st2)
+    sys.stdout.flush()
+
+    # ---- which second drop would tell the most (issue 34) ------------------------------
+    t_design = time.perf_counter()
+    _next_drops(out, truth, st2)
+    t_design = time.perf_counter() - t_design
     sys.stdout.flush()
 
     # ---- Figure 14 -> tie / fix proposal -> stage 3 --------------------------------------
@@ -1287,7 +1488,10 @@ def _run_parafoil_demo(
     (out / "summary.json").write_text(json.dumps(summary, indent=1) + "\n", encoding="utf-8")
     print(f"  (per stage: verdicts, limits and the truth check in {out / 'summary.json'})")
     print()
-    print(f"Done in {time.perf_counter() - t_start:.1f} s. Next:")
+    print(
+        f"Done in {time.perf_counter() - t_start:.1f} s ({t_design:.0f} s of it ranking the "
+        "second drops). Next:"
+    )
     last = r3 if r3 is not None else r2
     print(f"  vectorid identifiability {last.store}")
     print(f"  vectorid table       {r2.store} --top 7")
