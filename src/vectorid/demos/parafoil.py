@@ -691,12 +691,38 @@ def _lagged(t: np.ndarray, u: np.ndarray, tau: float) -> np.ndarray:
     return y
 
 
+def _planned_drop_lines(
+    truth: Mapping[str, Any],
+    program: Sequence[tuple[float, float, float]],
+    duration: float,
+    channels_line: str,
+) -> list[str]:
+    """The keys of a planned drop of the demo (after its name): released
+    :data:`PLANNED_HEIGHT` m above the landing zone on the heading :data:`PLANNED_YAW_DEG`,
+    in the dropsonde's wind, flying ``program`` for ``duration`` s with the generator's
+    noise on the channels ``channels_line`` states."""
+    kt, kl, kr = _knots(program)
+    origin = float(truth["origin_altitude_m"])
+    yaw = math.radians(PLANNED_YAW_DEG)
+    return [
+        f"initial = {{ altitude = {origin + PLANNED_HEIGHT!r}, euler = [0.0, 0.0, {yaw!r}] }}",
+        f"origin = [32.85, -114.39, {origin!r}]   # the landing zone: the ground",
+        f"duration = {duration!r}",
+        channels_line,
+        'wind = "data/wind.csv"',
+        'wind_format = "dropsonde"',
+        'wind_options = { altitude = "altitude_m", u = "u_ms", v = "v_ms" }',
+        f"controls = {{ time = {toml_value(kt.tolist())}, flap_left = {toml_value(kl.tolist())}, "
+        f"flap_right = {toml_value(kr.tolist())} }}",
+        'interpolation = "linear"',
+        f"noise = {toml_value(truth['sensor_noise'])}",
+        "",
+    ]
+
+
 def planned_manoeuvre_toml(truth: Mapping[str, Any]) -> str:
     """The drop file (:mod:`vectorid.identify.planned`) of the planned manoeuvre, for
     ``vectorid predict`` in the demo's folder."""
-    kt, kl, kr = _knots(PLANNED_PROGRAM)
-    origin = float(truth["origin_altitude_m"])
-    yaw = math.radians(PLANNED_YAW_DEG)
     return "\n".join([
         "# vectorid demo parafoil: a second, planned manoeuvre (no data) for stage 2's D",
         "[identification]",
@@ -704,18 +730,8 @@ def planned_manoeuvre_toml(truth: Mapping[str, Any]) -> str:
         "",
         "[[identification.drops]]",
         'name = "planned-manoeuvre"',
-        f"initial = {{ altitude = {origin + PLANNED_HEIGHT!r}, euler = [0.0, 0.0, {yaw!r}] }}",
-        f"origin = [32.85, -114.39, {origin!r}]   # the landing zone: the ground",
-        f"duration = {PLANNED_DURATION!r}",
-        "channels = { position = 1.0, velocity = 1.0 }",
-        'wind = "data/wind.csv"',
-        'wind_format = "dropsonde"',
-        'wind_options = { altitude = "altitude_m", u = "u_ms", v = "v_ms" }',
-        f"controls = {{ time = {toml_value(kt.tolist())}, flap_left = {toml_value(kl.tolist())}, "
-        f"flap_right = {toml_value(kr.tolist())} }}",
-        "interpolation = \"linear\"",
-        f"noise = {toml_value(truth['sensor_noise'])}",
-        "",
+        *_planned_drop_lines(truth, PLANNED_PROGRAM, PLANNED_DURATION,
+                             "channels = { position = 1.0, velocity = 1.0 }"),
     ])  # fmt: skip
 
 
@@ -843,9 +859,6 @@ def next_drop_toml(
     """The drop file of one planned second drop (:data:`NEXT_DROPS`), for ``vectorid design``
     in the demo's folder: the demo drop's sensors and the generator's noise; ``canopy`` adds
     the 8-DoF model's relative pitch and yaw of canopy and payload (rad)."""
-    kt, kl, kr = _knots(program)
-    origin = float(truth["origin_altitude_m"])
-    yaw = math.radians(PLANNED_YAW_DEG)
     channels = {"position": 4.0, "velocity": 4.0, "euler": 10.0, "rates": 10.0}
     if canopy:
         channels |= {"rel_pitch": NEXT_DROP_CANOPY_HZ, "rel_yaw": NEXT_DROP_CANOPY_HZ}
@@ -857,18 +870,8 @@ def next_drop_toml(
         "",
         "[[identification.drops]]",
         f"name = {toml_value(name)}",
-        f"initial = {{ altitude = {origin + PLANNED_HEIGHT!r}, euler = [0.0, 0.0, {yaw!r}] }}",
-        f"origin = [32.85, -114.39, {origin!r}]   # the landing zone: the ground",
-        f"duration = {NEXT_DROP_DURATION!r}",
-        f"channels = {toml_value(channels)}   # Hz",
-        'wind = "data/wind.csv"',
-        'wind_format = "dropsonde"',
-        'wind_options = { altitude = "altitude_m", u = "u_ms", v = "v_ms" }',
-        f"controls = {{ time = {toml_value(kt.tolist())}, flap_left = {toml_value(kl.tolist())}, "
-        f"flap_right = {toml_value(kr.tolist())} }}",
-        "interpolation = \"linear\"",
-        f"noise = {toml_value(truth['sensor_noise'])}",
-        "",
+        *_planned_drop_lines(truth, program, NEXT_DROP_DURATION,
+                             f"channels = {toml_value(channels)}   # Hz"),
     ])  # fmt: skip
 
 

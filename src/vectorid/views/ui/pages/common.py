@@ -148,74 +148,54 @@ class Wiring:
 _RANGE_COLOURS = {"feasible": "rgba(31,119,180,0.45)", "pareto": "#2ca02c", "trial": "#ff7f0e"}
 
 
+def _range_bar_parts(ranges: dict[str, Any], value: float | None) -> list[tuple[str, dict]]:
+    """The pieces of a range bar: (CSS class, style) for D, the Pareto set and the trial."""
+    lo, hi = ranges["box"]
+    w = hi - lo if hi > lo else 1.0
+
+    def at(x: float) -> float:
+        return max(0.0, min(100.0, 100.0 * (x - lo) / w))
+
+    parts = []
+    for kind, top, height in (("feasible", 1, 10), ("pareto", 5, 2)):
+        r = ranges.get(kind)
+        if r is None:
+            continue
+        left, right = at(r[0]), at(r[1])
+        style = {
+            "left": f"{left:.2f}%",
+            "width": f"max(2px, {right - left:.2f}%)",
+            "top": f"{top}px",
+            "height": f"{height}px",
+            "background": _RANGE_COLOURS[kind],
+        }
+        parts.append((f"rb-{kind}", style))
+    if value is not None:
+        parts.append(
+            ("rb-trial", {"left": f"{at(value):.2f}%", "background": _RANGE_COLOURS["trial"]})
+        )
+    return parts
+
+
+_RANGE_BAR_TITLE = "box (grey), D (blue), Pareto (green)"
+
+
 def range_bar(ranges: dict[str, Any], value: float | None = None) -> Any:
     """A small drawing of one variable's ranges over its box: D (blue band), the Pareto
     set (green line) and, when given, the chosen trial's value (orange tick)."""
     from dash import html
 
-    lo, hi = ranges["box"]
-    w = hi - lo if hi > lo else 1.0
-
-    def at(x: float) -> float:
-        return max(0.0, min(100.0, 100.0 * (x - lo) / w))
-
-    parts = []
-    for kind, top, height in (("feasible", 1, 10), ("pareto", 5, 2)):
-        r = ranges.get(kind)
-        if r is None:
-            continue
-        left, right = at(r[0]), at(r[1])
-        parts.append(
-            html.Div(
-                className=f"rb-{kind}",
-                style={
-                    "left": f"{left:.2f}%",
-                    "width": f"max(2px, {right - left:.2f}%)",
-                    "top": f"{top}px",
-                    "height": f"{height}px",
-                    "background": _RANGE_COLOURS[kind],
-                },
-            )
-        )
-    if value is not None:
-        parts.append(
-            html.Div(
-                className="rb-trial",
-                style={"left": f"{at(value):.2f}%", "background": _RANGE_COLOURS["trial"]},
-            )
-        )
-    return html.Div(parts, className="rangebar", title="box (grey), D (blue), Pareto (green)")
+    parts = [html.Div(className=c, style=st) for c, st in _range_bar_parts(ranges, value)]
+    return html.Div(parts, className="rangebar", title=_RANGE_BAR_TITLE)
 
 
 def _range_bar_html(ranges: dict[str, Any], value: float | None = None) -> str:
     """:func:`range_bar` as HTML text (for :func:`verdict_table`)."""
-    lo, hi = ranges["box"]
-    w = hi - lo if hi > lo else 1.0
-
-    def at(x: float) -> float:
-        return max(0.0, min(100.0, 100.0 * (x - lo) / w))
-
-    parts = []
-    for kind, top, height in (("feasible", 1, 10), ("pareto", 5, 2)):
-        r = ranges.get(kind)
-        if r is None:
-            continue
-        left, right = at(r[0]), at(r[1])
-        parts.append(
-            f'<div class="rb-{kind}" style="left: {left:.2f}%; width: max(2px, '
-            f"{right - left:.2f}%); top: {top}px; height: {height}px; background: "
-            f'{_RANGE_COLOURS[kind]};"></div>'
-        )
-    if value is not None:
-        parts.append(
-            f'<div class="rb-trial" style="left: {at(value):.2f}%; background: '
-            f'{_RANGE_COLOURS["trial"]};"></div>'
-        )
-    return (
-        '<div class="rangebar" title="box (grey), D (blue), Pareto (green)">'
-        + "".join(parts)
-        + "</div>"
+    divs = "".join(
+        f'<div class="{c}" style="{"; ".join(f"{k}: {v}" for k, v in st.items())};"></div>'
+        for c, st in _range_bar_parts(ranges, value)
     )
+    return f'<div class="rangebar" title="{_RANGE_BAR_TITLE}">{divs}</div>'
 
 
 def verdict_table(rows: list[dict[str, Any]], prefix: str, *, trial: bool = False) -> Any:
