@@ -223,3 +223,19 @@ def test_dropout():
         dropout(sim, meas, -1.0)
     with pytest.raises(CriterionError, match="band"):
         dropout(sim, meas, np.ones(5))
+
+
+@pytest.mark.parametrize("name", ["speed_profile", "heading_profile", "control_response"])
+def test_profile_criteria_take_one_measurement_per_simulation(name):
+    # the noise floor's draws: simulation r against measurement r in one call, the same as
+    # one call per pair
+    c = get_criterion(name)
+    rng = np.random.default_rng(3)
+    t = np.linspace(0.0, 20.0, 101)
+    S = rng.normal(2.0, 1.0, (5, t.size, 3))
+    M = rng.normal(2.0, 1.0, (5, t.size, 3))
+    one_each = np.array([c.fn(S[r : r + 1], M[r], t)[0] for r in range(5)])
+    np.testing.assert_allclose(c.fn(S, M, t), one_each, rtol=1e-12)
+    # one measurement against every simulation, as before
+    single = [c.fn(S[r : r + 1], M[0], t)[0] for r in range(5)]
+    np.testing.assert_allclose(c.fn(S, M[0], t), single, rtol=1e-12)

@@ -210,19 +210,26 @@ def _index_absdiff(index: Callable[[Array, Array], Array]) -> Callable[..., Arra
     return fn
 
 
+def _paired(meas: Array) -> Array:
+    """``meas`` as (1, T, m) for one measurement against every simulation, or as given when
+    it is (n, T, m): one measurement per simulation (the noise floor's draws)."""
+    return meas if meas.ndim == 3 else meas[None]
+
+
 def _speed_profile(sim: Array, meas: Array, t: Array) -> Array:
-    return integrate(np.abs(_hnorm(sim) - _hnorm(meas[None])), t)
+    return integrate(np.abs(_hnorm(sim) - _hnorm(_paired(meas))), t)
 
 
 def _heading_profile(sim: Array, meas: Array, t: Array) -> Array:
+    m = _paired(meas)
     chi = np.arctan2(sim[:, :, 1], sim[:, :, 0])
-    chi_m = np.arctan2(meas[:, 1], meas[:, 0])
-    mask = (_hnorm(meas[None])[0] >= HEADING_MIN_SPEED).astype(float)
-    return integrate(np.abs(wrap_angle(chi - chi_m[None])) * mask[None], t)
+    chi_m = np.arctan2(m[:, :, 1], m[:, :, 0])
+    mask = (_hnorm(m) >= HEADING_MIN_SPEED).astype(float)
+    return integrate(np.abs(wrap_angle(chi - chi_m)) * mask, t)
 
 
 def _control_response(sim: Array, meas: Array, t: Array) -> Array:
-    return integrate(np.abs(_yaw_rate(sim, t) - _yaw_rate(meas[None], t)), t)
+    return integrate(np.abs(_yaw_rate(sim, t) - _yaw_rate(_paired(meas), t)), t)
 
 
 def _vz_abs(sim: Array, meas: Array, t: Array) -> Array:

@@ -348,7 +348,10 @@ def _noise_floor(ident, noise, *, draws, seed, params, discrepancy, criteria, li
             w = np.where(dt_ > 0, (grid - c.t[i]) / np.where(dt_ > 0, dt_, 1.0), 0.0)
             pi, pj = np.searchsorted(need[ch], i), np.searchsorted(need[ch], j)
             arr = samples[ch]
-            on_grid[ch] = (1 - w)[None, :, None] * arr[:, pi] + w[None, :, None] * arr[:, pj]
+            g = arr[:, pi]
+            g *= (1 - w)[None, :, None]
+            g += w[None, :, None] * arr[:, pj]
+            on_grid[ch] = g
         # initial-state error: the identification's own fit applied to the noise alone
         fit_in = {
             ch: (d.flight[ch], idx[ch][2], np.searchsorted(need[ch], idx[ch][2]))
@@ -500,13 +503,25 @@ def _per_draw(cdef, c, sims: NDArray, meas: NDArray, grid: NDArray) -> NDArray:
     def direct(r: int) -> float:
         return float(cdef.fn(sims[r][None], meas[r], grid)[0])
 
+    def checked(v: NDArray) -> bool:
+        check = [direct(r) for r in range(min(3, len(v)))]
+        return np.allclose(check, v[: len(check)], rtol=1e-9, atol=1e-12, equal_nan=True)
+
     form = _index_form(c.use, c.operator)
     if form is not None:
         index, op = form
         v = np.asarray(op(index(sims, grid), index(meas, grid)), dtype=float)
-        check = [direct(r) for r in range(min(3, len(v)))]
-        if np.allclose(check, v[: len(check)], rtol=1e-9, atol=1e-12, equal_nan=True):
+        if checked(v):
             return v
+    # a criterion that takes one measurement per simulation (the profile criteria: the
+    # measurement as (draws, T, m)) in one call; any other answers wrongly or raises here,
+    # and is evaluated draw by draw below, where a real error is raised
+    try:
+        v = np.asarray(cdef.fn(sims, meas, grid), dtype=float)
+        if v.shape == (sims.shape[0],) and checked(v):
+            return v
+    except Exception:  # the draw-by-draw path below decides
+        pass
     return np.array([direct(r) for r in range(sims.shape[0])])
 
 
