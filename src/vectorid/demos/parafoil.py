@@ -1066,7 +1066,7 @@ def run_parafoil_demo(
         Write the HTML reports of stages 2 and 3 (the others: ``vectorid report STORE``).
     budget : int
         Stage 2's most model evaluations (stage 1: a tenth, stage 3: half; the 6-DoF model:
-        what stage 3 used, or stage 2 where stage 3 is not run: nothing fixed or tied).
+        half what stage 3 used, or stage 2 where stage 3 is not run: nothing fixed or tied).
     population : int
         Members of D wanted per stage (with an effective sample size as large).
     executor, workers : optional
