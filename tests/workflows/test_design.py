@@ -15,7 +15,7 @@ import pytest
 from tests.workflows.predict_helpers import MAPPING, ORIGIN, drop_file, kinematic_store, planned
 from vectorid.spec import StudySpec
 from vectorid.study import Study
-from vectorid.workflows.design import COVERAGE, FLOOR_SEED_OFFSET, _rank, design
+from vectorid.workflows.design import COVERAGE, FLOOR_SEED_OFFSET, _rank, design, kept_interval
 
 GPS = {"position_h": 2.0, "position_v": 3.0}  # m
 
@@ -135,3 +135,19 @@ def test_plans_that_reject_the_truth_are_ranked_last_and_said_so(plans):
     alone = replace(d, candidates=[broken])
     assert "No plan keeps the truth" in alone.describe()
     assert alone.to_dict()["none_keeps_truth"] is True
+
+
+def test_the_interval_counts_the_members_judged_as_well_as_the_truths():
+    # every truth keeps the same half of the members: resampling the truths alone would give
+    # an interval of zero width, yet another draw of members from D would keep another share
+    rng = np.random.default_rng(5)
+    n = 200
+    K = np.zeros((n, n), dtype=bool)
+    K[:, rng.permutation(n)[: n // 2]] = True
+    p = np.full(n, 1.0 / n)
+    lo, hi = kept_interval(K, p, np.random.default_rng(1))
+    se = np.sqrt(0.25 / n)  # binomial standard error of a share of 1/2 over n members
+    assert lo < 0.5 < hi
+    assert 2.5 * se < hi - lo < 5.5 * se  # about 2 x 1.96 standard errors
+    # a plan that keeps everything keeps everything in every resample
+    assert kept_interval(np.ones((n, n), dtype=bool), p, np.random.default_rng(1)) == (1.0, 1.0)

@@ -38,12 +38,14 @@ sensors: :mod:`vectorid.identify.planned`, shared with ``vectorid predict``). Fo
    member); the members whose criteria all meet their limits against those data are those
    flying the plan would keep. The **expected fraction kept** is the weighted share of D's
    members kept, averaged over the members as truths; its **interval** the 2.5–97.5 % range
-   of that average over a seeded bootstrap of the truths. A plan without information keeps
-   about 95 %; one that would cut D keeps less. Plans are ranked by it, smallest first
-   (rank 1: the most informative) — except that a plan under which the truth itself meets
-   the limits in fewer than half of its records (``truth_kept``; a sound plan: about 95 %)
-   would reject the truth, not inform: its data cannot fix what the study fits, flying it
-   would likely empty D, and it is ranked after every sound plan and said so.
+   of that average over a seeded two-way bootstrap of the members flown, resampled both as
+   the truths and as the members judged (Owen's bootstrap of a crossed table). A plan
+   without information keeps about 95 %; one that would cut D keeps less. Plans are ranked
+   by it, smallest first (rank 1: the most informative) — except that a plan under which
+   the truth itself meets the limits in fewer than half of its records (``truth_kept``; a
+   sound plan: about 95 %) would reject the truth, not inform: its data cannot fix what the
+   study fits, flying it would likely empty D, and it is ranked after every sound plan and
+   said so.
 4. **Newly identified**: per truth, the kept members' range of each gain (and of each of D's
    combinations, :mod:`vectorid.analysis.combinations`, with its margin) is judged by the
    verdict rules (width at most 25 % of the box, off its edges, at least max(10, 2p + 1)
@@ -103,7 +105,7 @@ COVERAGE = 0.95
 NO_SHRINK = 0.9
 #: Noise draws that set each plan's limits.
 LIMIT_DRAWS = 400
-#: Bootstrap resamples of the truths for the interval.
+#: Bootstrap resamples (truths and members) for the interval.
 BOOTSTRAP = 1000
 #: The plan's noise floor draws with the study's ``noise_seed`` plus this (independent of
 #: the draws of the study's own drops, as a second drop's noise is).
@@ -666,6 +668,22 @@ class _PlanDrop:
         return K
 
 
+def kept_interval(
+    K: NDArray, p: NDArray, rng: np.random.Generator, draws: int = BOOTSTRAP
+) -> tuple[float, float]:
+    """2.5–97.5 % bootstrap interval of the expected share kept, from ``K`` (n, n) bool (row:
+    the member playing the truth, column: the member judged) and the members' probabilities
+    ``p`` (n,). The members flown are a sample of D twice over, as the truths and as the
+    members judged, so both are resampled (a two-way, "pigeonhole" bootstrap of the crossed
+    table, Owen 2007); resampling the truths alone leaves out how the share depends on which
+    members were drawn."""
+    n = K.shape[0]
+    rows = rng.choice(n, size=(draws, n), p=p)
+    cols = rng.choice(n, size=(draws, n), p=p)
+    means = np.array([K[r][:, c].mean() for r, c in zip(rows, cols, strict=True)])
+    return float(np.quantile(means, 0.025)), float(np.quantile(means, 0.975))
+
+
 def _limits_for(
     plan: Sequence[_PlanDrop], study: Any, settings: Mapping[str, Any]
 ) -> tuple[dict[str, float], str]:
@@ -743,9 +761,7 @@ def _candidate(
     expected = float(w[truths] @ frac[truths])
     boot_rng = np.random.default_rng([seed, 35])
     pw = w[truths] / w[truths].sum()
-    draws = boot_rng.choice(truths.size, size=(BOOTSTRAP, truths.size), p=pw)
-    means = frac[truths][draws].mean(axis=1)
-    interval = (float(np.quantile(means, 0.025)), float(np.quantile(means, 0.975)))
+    interval = kept_interval(K[np.ix_(truths, truths)], pw, boot_rng)
     truth_kept = float(pw @ np.diag(K)[truths])
     # what the kept members would identify
     X = members.X
