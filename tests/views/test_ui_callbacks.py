@@ -384,6 +384,22 @@ def test_a_tightened_constraint_narrows_the_memoised_analysis(bk):
     assert b.narrowed({"f1": 40.0}, {"f2": "pseudo"}) is None  # other roles
 
 
+def test_a_loosened_constraint_widens_the_memoised_analysis(bk):
+    """Loosening a limit beyond every memoised D is computed from the largest memoised D it
+    holds (the trials between the old and new bounds checked), equal to a fresh analysis."""
+    from vectorid.views.ui.data import Constraints
+
+    cache = StoreCache(bk)
+    roles = {"f1": "pure", "f2": "pure"}
+    for limits in ({"f1": 40.0, "f2": 20.0}, {"f1": 80.0, "f2": 20.0}, {"f1": 100.0, "f2": None}):
+        got = cache.analysis(Constraints(dict(limits), roles, {}))
+        want = _direct(bk, limits)
+        assert np.array_equal(got.feasible, want.feasible), limits
+        assert np.array_equal(got.pareto, want.pareto), limits
+        assert got.n_feasible > 0
+    assert (cache.widened, cache.narrowed) == (2, 0)
+
+
 def test_history_counts_grow_with_the_trials(ctx, bk):
     fig = _fig(cb.history_view(ctx, ["40", ""], PURE2))
     n, nd, npar = (np.asarray(t.y, float) for t in fig.data[:3])

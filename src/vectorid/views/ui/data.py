@@ -298,6 +298,7 @@ class StoreCache:
         self._tables: OrderedDict[tuple, list[TestTable]] = OrderedDict()
         self.loads = 0  # how many times the trials were read from disk
         self.narrowed = 0  # analyses computed from a memoised one (a constraint tightened)
+        self.widened = 0  # analyses computed from a memoised one (a constraint loosened)
         with self.open() as st:
             self._spec = st.spec
 
@@ -368,7 +369,9 @@ class StoreCache:
 
     def analysis(self, c: Constraints | None = None) -> Analysis:
         """The :class:`~vectorid.analysis.Analysis` of the current trials under ``c``
-        (memoised per constraint set and store version)."""
+        (memoised per constraint set and store version): computed from a memoised one where
+        ``c`` only tightens (:meth:`~vectorid.analysis.Analysis.narrowed`) or only loosens
+        (:meth:`~vectorid.analysis.Analysis.widened`) its bounds, else from the trials."""
         c = c or Constraints({}, {}, {})
         with self._lock:
             key, trials, _ = self.state()
@@ -385,6 +388,15 @@ class StoreCache:
                     if a is not None:
                         self.narrowed += 1
                         break
+            # a loosened one: from the largest memoised D it holds (only the trials between
+            # the old and the new bounds are checked, and the Pareto set grows from the old)
+            if a is None:
+                for (k, _), prev in sorted(self._memo.items(), key=lambda kv: -kv[1].n_feasible):
+                    if k == key:
+                        a = prev.widened(c.overrides, c.roles)
+                        if a is not None:
+                            self.widened += 1
+                            break
             if a is None:
                 a = Analysis(self.spec, trials, c.overrides, c.roles, self._weighting)
             self._memo[full] = a
