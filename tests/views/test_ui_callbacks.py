@@ -1080,3 +1080,32 @@ def test_verdict_table_is_one_element_with_every_text_escaped():
     assert "gain &quot;a&quot; &amp; &lt;b&gt;b&lt;/b&gt;" in markup and "<b>b</b>" not in markup
     assert "k&lt;1&gt;" in markup and "&lt;of&gt;" in markup
     assert 'class="rb-feasible" style="left: 25.00%; width: max(2px, 40.00%)' in markup
+
+
+def test_the_server_limits_blas_to_one_thread():
+    """``vectorid ui`` sets every loaded OpenBLAS to one thread (its requests run in
+    threads); read back through the library's own getter, in a process of its own."""
+    import subprocess
+    import sys
+
+    code = """
+import ctypes, numpy as np
+from vectorid.views.ui.data import limit_blas_threads
+libs = {l.split()[-1] for l in open("/proc/self/maps") if "openblas" in l.lower()}
+if not libs:
+    print("none"); raise SystemExit
+lib = ctypes.CDLL(sorted(libs)[0])
+get = next(getattr(lib, n) for n in ("scipy_openblas_get_num_threads64_",
+    "scipy_openblas_get_num_threads", "openblas_get_num_threads64_", "openblas_get_num_threads")
+    if hasattr(lib, n))
+before = get()
+done = limit_blas_threads(1)
+print(before, get(), len(done))
+"""
+    env = {**__import__("os").environ, "OPENBLAS_NUM_THREADS": "2"}
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
+    assert out.returncode == 0, out.stderr[-2000:]
+    if out.stdout.strip() == "none":
+        pytest.skip("no OpenBLAS loaded by numpy here")
+    before, after, n = map(int, out.stdout.split())
+    assert (before, after) == (2, 1) and n >= 1
