@@ -178,3 +178,40 @@ def test_zdt1_pareto_trials_approach_the_known_pareto_set(tmp_path):
     assert q90[0] > q90[2]
     assert medians[2] < 0.1  # g within 10 % of 1 for most Pareto trials at N = 4096
     assert counts[2] > counts[0]  # the front is resolved more finely
+
+
+def test_a_widened_analysis_equals_a_fresh_one():
+    """Loosening bounds from a memoised analysis (the UI's first loosening at 1e6 trials):
+    D and the Pareto set equal a fresh analysis's on data with ties, exact duplicates, NaN,
+    ±inf, failed trials, a max criterion, a pseudo one and a functional constraint; a tighter
+    bound, a changed functional bound or other roles give None."""
+    rng = np.random.default_rng(3)
+    n = 3000
+    F = rng.integers(0, 12, size=(n, 3)).astype(float)  # many ties and duplicates
+    F[rng.random(n) < 0.01, 0] = np.nan
+    F[rng.random(n) < 0.005, 1] = np.inf
+    F[rng.random(n) < 0.005, 2] = -np.inf
+    G = rng.normal(size=(n, 1))
+    status = (rng.random(n) < 0.02).astype(np.int8)
+    cons = [{"name": "g1", "low": -1.5, "high": 1.5}]
+    spec, t = make(F, G, status, senses=("min", "max", "min"), roles=["pure", "pure", "pseudo"],
+                   cons=cons)  # fmt: skip
+    steps = [
+        ({"f1": 2.0, "f2": 9.0, "f3": 3.0}, {"f1": 5.0, "f2": 9.0, "f3": 3.0}),  # one loosened
+        ({"f1": 5.0, "f2": 9.0, "f3": 3.0}, {"f1": 8.0, "f2": 4.0, "f3": None}),  # three
+        ({"f1": 8.0, "f2": 4.0, "f3": None}, {"f1": 8.0, "f2": 4.0, "f3": None}),  # the same
+        ({"f1": 0.0, "f2": 11.0, "f3": -1.0}, {"f1": 1.0, "f2": 11.0, "f3": -1.0}),  # D empty
+        ({"f1": 3.0, "f2": 6.0, "f3": 5.0}, {"f1": None, "f2": None, "f3": None}),  # no limit
+    ]
+    for before, after in steps:
+        old = Analysis(spec, t, before)
+        got = old.widened(after)
+        want = Analysis(spec, t, after)
+        assert got is not None, (before, after)
+        assert np.array_equal(got.feasible, want.feasible), (before, after)
+        assert np.array_equal(got.pareto, want.pareto), (before, after)
+        assert got.n_pareto > 0 or want.n_feasible == 0
+    old = Analysis(spec, t, {"f1": 5.0, "f2": 4.0})
+    assert old.widened({"f1": 4.0, "f2": 3.0}) is None  # f1 tighter
+    assert old.widened({"f1": 6.0, "f2": 4.0, "g1": (-1.0, 1.0)}) is None  # functional changed
+    assert old.widened({"f1": 6.0, "f2": 4.0}, {"f2": "pseudo"}) is None  # other roles

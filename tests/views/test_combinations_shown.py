@@ -4,6 +4,8 @@ the report's identifiability section, on a study where only x1 + x2 is determine
 
 from __future__ import annotations
 
+from html.parser import HTMLParser
+
 import pytest
 
 pytest.importorskip("dash", reason="the UI needs the ui extra (dash)")
@@ -15,7 +17,7 @@ from vectorid.views.report import build_report
 from vectorid.views.ui import callbacks as cb
 from vectorid.views.ui.data import StoreCache
 from vectorid.views.ui.jobs import JobManager
-from vectorid.views.ui.pages.common import verdict_panel
+from vectorid.views.ui.pages.common import verdict_panel, verdict_panel_html
 
 
 @pytest.fixture(scope="module")
@@ -26,11 +28,37 @@ def store(tmp_path_factory):
     return path
 
 
-def _walk(node):
-    yield node
-    kids = getattr(node, "children", None)
-    for k in kids if isinstance(kids, list) else [kids] if kids is not None else []:
-        yield from _walk(k)
+class _Elements(HTMLParser):
+    """The panel's markup read back: per element with an id, its tag, attributes and text,
+    and the ids inside each ``<details>``."""
+
+    def __init__(self, markup: str) -> None:
+        super().__init__()
+        self.by_id: dict[str, dict] = {}
+        self.open: list[dict] = []
+        self.folded: list[list[str]] = []
+        self.summaries: list[str] = []
+        self.feed(markup)
+
+    def handle_starttag(self, tag, attrs):
+        el = {"tag": tag, **dict(attrs), "text": ""}
+        if tag == "details":
+            self.folded.append([])
+        elif "id" in el:
+            self.by_id[el["id"]] = el
+            if self.folded and any(o["tag"] == "details" for o in self.open):
+                self.folded[-1].append(el["id"])
+        self.open.append(el)
+
+    def handle_endtag(self, tag):
+        while self.open and self.open.pop()["tag"] != tag:
+            pass
+
+    def handle_data(self, data):
+        for el in self.open:
+            el["text"] += data
+        if self.open and self.open[-1]["tag"] == "summary":
+            self.summaries.append(data)
 
 
 def test_the_verdict_panel_shows_the_combination_d_pins_down(store):
@@ -45,12 +73,16 @@ def test_the_verdict_panel_shows_the_combination_d_pins_down(store):
         lo, hi = (float(v) for v in combos[0]["range"].strip("[]").split(","))
         assert lo < hi and 0 < combos[0]["width"] < 0.25
         panel = verdict_panel(s["verdict_groups"], nd=s["nd"], combinations=combos)
-        chips = {getattr(n, "id", None): n for n in _walk(panel[-1])}
-        chip = chips["vid-combo-1"]
-        assert chip.className == "vchip v-identified"
+        # one element holding the escaped markup (the page puts it in place)
+        assert panel.className == "vid-html"
+        markup = getattr(panel, "data-html")
+        assert markup == verdict_panel_html(s["verdict_groups"], nd=s["nd"], combinations=combos)
+        chip = _Elements(markup).by_id["vid-combo-1"]
+        assert chip["class"] == "vchip v-identified" and chip["data-verdict"] == "identified"
+        assert chip["text"].startswith("c1 ") and combos[0]["range"] in chip["text"]
         # hover: the reading in the gains' own units, x1 + x2 (in either order) in metres
         # around the centre the criterion asks for
-        units = chip.title.split("in the gains' units: ")[1].split(";")[0]
+        units = chip["title"].split("in the gains' units: ")[1].split(";")[0]
         assert units.startswith(("x1 + 1·x2 in [", "x2 + 1·x1 in [")) and units.endswith("] m")
         ulo, uhi = (float(v) for v in units.split("[")[1].split("]")[0].split(","))
         assert ulo < CENTRE < uhi and uhi - ulo < 0.25
@@ -79,11 +111,32 @@ def test_the_panel_folds_the_wider_weak_combinations_away():
          "own_units": f"x{k} in [0, 0.5]"}
         for k, v in enumerate(["identified"] * 5 + ["weak"] * 3, 1)
     ]  # fmt: skip
-    group = verdict_panel([], nd=100, combinations=items)[-1]
-    shown = [c.id for c in group.children if getattr(c, "id", "").startswith("vid-combo-")]
+    got = _Elements(verdict_panel_html([], nd=100, combinations=items))
+    combos = [i for i in got.by_id if i.startswith("vid-combo-")]
+    assert len(got.folded) == 1 and got.summaries == ["3 more weak"]
+    shown = [i for i in combos if i not in got.folded[0]]
     assert shown == [f"vid-combo-{k}" for k in range(1, 6)]  # every identified one
-    folded = [c for c in group.children if type(c).__name__ == "Details"]
-    assert len(folded) == 1 and folded[0].children[0].children == "3 more weak"
-    assert [c.id for c in folded[0].children[1:]] == ["vid-combo-6", "vid-combo-7", "vid-combo-8"]
-    few = verdict_panel([], nd=100, combinations=items[4:7])[-1]  # 1 identified, 2 weak
-    assert not [c for c in few.children if type(c).__name__ == "Details"]
+    assert got.folded[0] == ["vid-combo-6", "vid-combo-7", "vid-combo-8"]
+    few = _Elements(verdict_panel_html([], nd=100, combinations=items[4:7]))  # 1 id., 2 weak
+    assert not few.folded and len([i for i in few.by_id if i.startswith("vid-combo-")]) == 3
+
+
+def test_the_panel_escapes_what_it_shows():
+    """Names, meanings and reasons reach the page as text, never as markup."""
+    groups = [
+        {
+            "verdict": "weak",
+            "items": [
+                {"name": "k<b>", "range": "[0, 1]", "unit": "m/s", "meaning": 'a "quoted" <i>',
+                 "share": 0.5, "why": "x & y", "ranges": {"box": [0, 2], "feasible": [0, 1],
+                                                          "pareto": None}}
+            ],
+        }
+    ]  # fmt: skip
+    markup = verdict_panel_html(groups, nd=10, relaxed="limits relaxed x1.5 <now>")
+    assert "<i>" not in markup and "k<b>" not in markup and "<now>" not in markup
+    got = _Elements(markup)
+    chip = got.by_id["vid-vchip-k_b_"]
+    assert chip["text"] == "k<b> [0, 1] m/s" and chip["data-verdict"] == "weak"
+    assert chip["title"] == 'a "quoted" <i>; x & y'
+    assert got.by_id["vid-relaxed"]["text"] == "limits relaxed x1.5 <now>"

@@ -384,6 +384,22 @@ def test_a_tightened_constraint_narrows_the_memoised_analysis(bk):
     assert b.narrowed({"f1": 40.0}, {"f2": "pseudo"}) is None  # other roles
 
 
+def test_a_loosened_constraint_widens_the_memoised_analysis(bk):
+    """Loosening a limit beyond every memoised D is computed from the largest memoised D it
+    holds (the trials between the old and new bounds checked), equal to a fresh analysis."""
+    from vectorid.views.ui.data import Constraints
+
+    cache = StoreCache(bk)
+    roles = {"f1": "pure", "f2": "pure"}
+    for limits in ({"f1": 40.0, "f2": 20.0}, {"f1": 80.0, "f2": 20.0}, {"f1": 100.0, "f2": None}):
+        got = cache.analysis(Constraints(dict(limits), roles, {}))
+        want = _direct(bk, limits)
+        assert np.array_equal(got.feasible, want.feasible), limits
+        assert np.array_equal(got.pareto, want.pareto), limits
+        assert got.n_feasible > 0
+    assert (cache.widened, cache.narrowed) == (2, 0)
+
+
 def test_history_counts_grow_with_the_trials(ctx, bk):
     fig = _fig(cb.history_view(ctx, ["40", ""], PURE2))
     n, nd, npar = (np.asarray(t.y, float) for t in fig.data[:3])
@@ -704,10 +720,12 @@ try:
         cb.counts_view(c, [f1, ""], ["pure", "pure"])
         cb.summary_view(c, [f1, ""], ["pure", "pure"])
     cb.history_view(c, ["30", ""], ["pure", "pure"])
+    app.layout()  # a page load: the parallel axes ranked by KS without scipy.stats (~22 MB)
     print(cb.counts_view(c, ["", ""], ["pure", "pure"])["np"])
 finally:
     c.jobs.shutdown()
 assert "numba" not in sys.modules, "the UI server loaded numba"
+assert "scipy.stats" not in sys.modules, "the UI server loaded scipy.stats"
 """
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert out.returncode == 0, out.stderr[-2000:]
@@ -1062,3 +1080,32 @@ def test_verdict_table_is_one_element_with_every_text_escaped():
     assert "gain &quot;a&quot; &amp; &lt;b&gt;b&lt;/b&gt;" in markup and "<b>b</b>" not in markup
     assert "k&lt;1&gt;" in markup and "&lt;of&gt;" in markup
     assert 'class="rb-feasible" style="left: 25.00%; width: max(2px, 40.00%)' in markup
+
+
+def test_the_server_limits_blas_to_one_thread():
+    """``vectorid ui`` sets every loaded OpenBLAS to one thread (its requests run in
+    threads); read back through the library's own getter, in a process of its own."""
+    import subprocess
+    import sys
+
+    code = """
+import ctypes, numpy as np
+from vectorid.views.ui.data import limit_blas_threads
+libs = {l.split()[-1] for l in open("/proc/self/maps") if "openblas" in l.lower()}
+if not libs:
+    print("none"); raise SystemExit
+lib = ctypes.CDLL(sorted(libs)[0])
+get = next(getattr(lib, n) for n in ("scipy_openblas_get_num_threads64_",
+    "scipy_openblas_get_num_threads", "openblas_get_num_threads64_", "openblas_get_num_threads")
+    if hasattr(lib, n))
+before = get()
+done = limit_blas_threads(1)
+print(before, get(), len(done))
+"""
+    env = {**__import__("os").environ, "OPENBLAS_NUM_THREADS": "2"}
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
+    assert out.returncode == 0, out.stderr[-2000:]
+    if out.stdout.strip() == "none":
+        pytest.skip("no OpenBLAS loaded by numpy here")
+    before, after, n = map(int, out.stdout.split())
+    assert (before, after) == (2, 1) and n >= 1

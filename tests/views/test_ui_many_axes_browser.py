@@ -230,3 +230,62 @@ def test_explorer_histograms_drawn_when_scrolled_to(server):
         until(drv, lambda d: "trials" in text_of(d, "#vid-sel"), "a bin of the last row selected")
         errors = [e for e in drv.get_log("browser") if e["level"] == "SEVERE"]
         assert not errors, errors
+
+
+#: The explorer's verdict panel as the page shows it: each chip's id, verdict, text, hover,
+#: group and place; the groups' headings; how many elements the panel's markup sits in.
+_PANEL = """
+const host = document.getElementById('vid-verdicts');
+if (!host) return {chips: []};  // the page not yet laid out
+const chip = el => ({id: el.id, verdict: el.dataset.verdict, text: el.textContent.trim(),
+  tip: el.title, group: el.closest('.vgroup').querySelector('.vgroup-name').textContent,
+  folded: !!el.closest('details'), top: el.getBoundingClientRect().top});
+return {holders: host.querySelectorAll('.vid-html').length,
+  chips: [...host.querySelectorAll('[id^="vid-vchip-"]')].map(chip),
+  combos: [...host.querySelectorAll('[id^="vid-combo-"]')].map(chip),
+  heads: [...host.querySelectorAll('.vgroup-name')].map(e => e.textContent),
+  bars: host.querySelectorAll('.vchip .rangebar').length, height: window.innerHeight};
+"""
+
+
+def test_verdict_panel_shows_what_d_pins_down_on_the_first_screen(server):
+    """The explorer's first screen on the 33-gain store: every gain under its verdict with
+    D's range and unit and a range bar, hovered with why; the combinations D pins down with
+    their ranges and widths (none here: no combination is invented); all as the analysis of
+    the store has them, from one element holding the panel's escaped markup."""
+    from vectorid.analysis.combinations import identifiable_combinations
+    from vectorid.analysis.identifiability import identifiability
+    from vectorid.views.ui.verdicts import combination_items, span
+
+    url, store = server
+    with Study.open(store) as st:
+        a = st.analysis()
+        vs = {v.name: v for v in identifiability(a, stages=st.store.stages())}
+        combos = combination_items(identifiable_combinations(a))
+        units = {v.name: v.unit for v in st.spec.space}
+    assert len(vs) == 33
+    with chrome(url) as drv:
+        until(drv, lambda d: len(d.execute_script(_PANEL)["chips"]) == 33, "33 verdict chips")
+        got = drv.execute_script(_PANEL)
+    assert got["holders"] == 1 and got["bars"] == 33
+    counts = {}
+    for c in got["chips"]:
+        v = vs[c["id"].removeprefix("vid-vchip-")]
+        assert c["verdict"] == v.verdict and c["group"].startswith(v.verdict + " ("), c
+        rng = span(v.feasible) if v.feasible is not None else f"none in D (box {span(v.box)})"
+        unit = units[v.name] if units[v.name] not in ("", "-") else ""
+        assert c["text"] == f"{v.name} {rng}" + (f" {unit}" if unit else ""), c
+        assert v.reason in c["tip"], c
+        counts[v.verdict] = counts.get(v.verdict, 0) + 1
+    for verdict, n in counts.items():  # each group's heading counts its chips
+        assert f"{verdict} ({n})" in got["heads"]
+    n_id = sum(c["verdict"] == "identified" for c in combos)
+    heading = f"combinations ({n_id} identified, {len(combos) - n_id} weak)"
+    assert (heading in got["heads"]) == bool(combos)  # none shown where D pins none down
+    assert [c["id"] for c in got["combos"]] == [f"vid-combo-{k}" for k in range(1, len(combos) + 1)]
+    for c, want in zip(got["combos"], combos):
+        assert c["verdict"] == want["verdict"] and want["range"] in c["text"], (c, want)
+        assert f"width {100 * want['width']:.0f} %" in c["text"]
+        assert c["tip"].startswith(f"in the gains' units: {want['own_units']}")
+    # the gains' chips are on the first screen (the combinations may run below it)
+    assert max(c["top"] for c in got["chips"]) < got["height"]

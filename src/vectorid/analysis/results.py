@@ -364,6 +364,72 @@ class Analysis:
                 b.pareto[d[pareto_mask(sub, [self.senses[i] for i in self.pure])]] = True
         return b
 
+    def widened(
+        self,
+        limits: Iterable[Bound] | Mapping[str, Any] | None = None,
+        roles: Mapping[str, str] | None = None,
+    ) -> Analysis | None:
+        """The analysis of the same trials under ``limits``/``roles``, computed from this one
+        when every criteria bound is the same or looser, the functional bounds are the same
+        and the roles are the same; None otherwise.
+
+        Loosening only adds trials to D: the ones whose value of a loosened criterion lies
+        between its old and its new bound (found with one comparison per loosened bound
+        over that criterion's column), checked against every new bound. The Pareto set is
+        the Pareto set of this one's Pareto set and the added trials: a trial of this D
+        outside its Pareto set is dominated by a member of it (dominance is transitive), so
+        it stays dominated, and it dominates nothing that member does not.
+
+        Parameters
+        ----------
+        limits : iterable of Bound or mapping, optional
+            Bounds overriding the study's, as the constructor takes them.
+        roles : mapping, optional
+            Pure/pseudo roles by criterion name, as the constructor takes them.
+
+        Returns
+        -------
+        Analysis or None
+            The widened analysis (sharing this one's trials and functional mask), or None
+            when a bound is tighter, a functional bound differs or a role differs.
+        """
+        new = Limits(self.spec, limits)
+        b = Analysis.__new__(Analysis)
+        b._setup(self.spec, self.trials, new, roles, self.weighting)
+        if b.roles != self.roles or not self.limits.within(new):
+            return None
+        if any(new.bounds[n] != self.bounds[n] for n in self.con_names):
+            return None
+        b.ok, b.pure, b.functional_ok = self.ok, self.pure, self.functional_ok
+        F = self.trials.F
+        band = None  # trials a loosened bound may let in
+        for j, name in enumerate(self.crit_names):
+            (lo, hi), (olo, ohi) = new.bounds[name], self.bounds[name]
+            if lo == olo and hi == ohi:
+                continue
+            col = F[:, j]
+            with np.errstate(invalid="ignore"):  # NaN meets no bound
+                side = ((col >= lo) & (col < olo)) | ((col > ohi) & (col <= hi))
+            band = side if band is None else band | side
+        if band is None:
+            b.feasible, b.pareto = self.feasible, self.pareto
+            return b
+        band &= self.functional_ok
+        band &= ~self.feasible
+        cand = np.flatnonzero(band)
+        added = cand[new.criteria_mask(F, cand)]
+        if not len(added):
+            b.feasible, b.pareto = self.feasible, self.pareto
+            return b
+        b.feasible = self.feasible.copy()
+        b.feasible[added] = True
+        b.pareto = np.zeros(len(self.ok), dtype=bool)
+        if self.pure:
+            rows = np.union1d(np.flatnonzero(self.pareto), added)
+            sub = F[np.ix_(rows, self.pure)]
+            b.pareto[rows[pareto_mask(sub, [self.senses[i] for i in self.pure])]] = True
+        return b
+
     # -- computation -----------------------------------------------------------------------
 
     def _column(self, name: str) -> np.ndarray:

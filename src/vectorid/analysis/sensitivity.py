@@ -24,7 +24,14 @@ import numpy as np
 from .results import Analysis
 from .weights import kish, trial_weights, weighted_ks, weighted_pearson, weighted_ranks
 
-__all__ = ["Sensitivity", "ks_filtering", "rank_correlation", "sensitivity"]
+__all__ = [
+    "Sensitivity",
+    "ks_filtering",
+    "ks_of",
+    "ks_statistics",
+    "rank_correlation",
+    "sensitivity",
+]
 
 
 def rank_correlation(X: np.ndarray, F: np.ndarray, w: np.ndarray | None = None) -> np.ndarray:
@@ -78,6 +85,63 @@ def ks_filtering(
         for j in range(p):
             stat[j], pval[j] = weighted_ks(X[b, j], X[~b, j], wb, wo)
     return stat, pval
+
+
+def ks_statistics(
+    X: np.ndarray, behavioural: np.ndarray, w: np.ndarray | None = None
+) -> np.ndarray:
+    """The KS statistics of :func:`ks_filtering` alone (no p-value), with numpy only: the
+    largest gap between the (weighted) empirical CDFs of the behavioural rows and of the
+    others, per parameter; NaN when a group is empty. For a caller that needs no p-value
+    (the UI's axis ranking), without loading ``scipy.stats`` (~22 MB resident)."""
+    X = np.asarray(X, float)
+    b = np.asarray(behavioural, bool)
+    stat = np.full(X.shape[1], np.nan)
+    if not (b.any() and (~b).any()):
+        return stat
+    w = np.ones(len(b)) if w is None else np.asarray(w, float)
+
+    def cdf(v: np.ndarray, wv: np.ndarray, grid: np.ndarray) -> np.ndarray:
+        o = np.argsort(v, kind="stable")
+        c = np.concatenate([[0.0], np.cumsum(wv[o])]) / wv.sum()
+        return c[np.searchsorted(v[o], grid, side="right")]
+
+    for j in range(X.shape[1]):
+        x, y = X[b, j], X[~b, j]
+        grid = np.sort(np.concatenate([x, y]))
+        stat[j] = float(np.max(np.abs(cdf(x, w[b], grid) - cdf(y, w[~b], grid))))
+    return stat
+
+
+def _ks_rows(a: Analysis) -> tuple[np.ndarray, np.ndarray | None, float]:
+    """The rows :func:`sensitivity` weighs (all; on a sequential store D's and at most
+    :data:`WEIGHED_REST` others), their weights (None: every trial counts once) over all
+    trials, and the stride of the others."""
+    n_rest = a.n - a.n_feasible
+    rows = np.ones(a.n, bool)
+    stride = 1.0
+    if a.weighting is not None and n_rest > WEIGHED_REST:
+        # a seeded random subset, not every k-th row: every k-th point of a Sobol sequence
+        # is not uniform (generation 0 is one)
+        rest = np.flatnonzero(~a.feasible)
+        keep = np.random.default_rng(0).choice(rest, WEIGHED_REST, replace=False)
+        rows = a.feasible.copy()
+        rows[keep] = True
+        stride = n_rest / WEIGHED_REST
+    w_rows = trial_weights(a, rows)
+    if w_rows is None:  # a plain store (or stages mixed in): every trial counts once
+        return np.ones(a.n, bool), None, 1.0
+    w = np.zeros(a.n)
+    w[rows] = w_rows
+    w[rows & ~a.feasible] *= stride
+    return rows, w, stride
+
+
+def ks_of(a: Analysis) -> np.ndarray:
+    """The KS statistics :func:`sensitivity` gives (``Sensitivity.ks``: D against the other
+    trials per parameter, weighted alike), computed by :func:`ks_statistics` (numpy only)."""
+    rows, w, _ = _ks_rows(a)
+    return ks_statistics(a.trials.X[rows], a.feasible[rows], None if w is None else w[rows])
 
 
 @dataclass
@@ -149,23 +213,7 @@ def sensitivity(a: Analysis) -> Sensitivity:
 
     X, F = a.trials.X, a.trials.F
     n_rest = a.n - a.n_feasible
-    rows = np.ones(a.n, bool)
-    stride = 1.0
-    if a.weighting is not None and n_rest > WEIGHED_REST:
-        # a seeded random subset, not every k-th row: every k-th point of a Sobol sequence
-        # is not uniform (generation 0 is one)
-        rest = np.flatnonzero(~a.feasible)
-        keep = np.random.default_rng(0).choice(rest, WEIGHED_REST, replace=False)
-        rows = a.feasible.copy()
-        rows[keep] = True
-        stride = n_rest / WEIGHED_REST
-    w_rows = trial_weights(a, rows)
-    if w_rows is None:  # a plain store (or stages mixed in): every trial counts once
-        rows, w, stride = np.ones(a.n, bool), None, 1.0
-    else:
-        w = np.zeros(a.n)
-        w[rows] = w_rows
-        w[rows & ~a.feasible] *= stride
+    rows, w, stride = _ks_rows(a)
     d, ok = a.feasible[rows], a.ok[rows]
     wr = None if w is None else w[rows]
     ks, pv = ks_filtering(X[rows], d, wr)

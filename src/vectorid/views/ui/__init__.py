@@ -54,12 +54,13 @@ def serve(
     import logging
     import sys
 
-    from .data import limit_allocator_arenas
+    from .data import limit_allocator_arenas, limit_blas_threads
 
     limit_allocator_arenas()
     app, ctx = create_app(
         store, executor=executor, workers=workers, max_points=max_points, compare=compare
     )
+    limit_blas_threads(1)  # requests run in threads: BLAS threads on top oversubscribe
     if host not in LOCAL_HOSTS:
         print(
             f"warning: serving on {host}: anyone who can reach port {port} there can read this "

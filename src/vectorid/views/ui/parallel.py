@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from ...analysis.sensitivity import ks_filtering, sensitivity
+from ...analysis.sensitivity import ks_of, ks_statistics
 from ...analysis.weights import trial_weights
 from ...errors import StudyDefinitionError
 from ..history import history, history_figure
@@ -56,15 +56,16 @@ def _ks_ranking(a: Any) -> dict[str, float]:
     """Each parameter's KS statistic between D and the other trials (Monte Carlo filtering,
     :func:`vectorid.analysis.sensitivity.sensitivity`; importance-weighted on a sequential
     store), over at most :data:`RANK_ROWS` trials (a seeded random subset beyond). NaN where
-    D or its complement is empty."""
+    D or its complement is empty. The statistics alone, with numpy
+    (:func:`~vectorid.analysis.sensitivity.ks_statistics`): the p-values' ``scipy.stats``
+    would add ~22 MB to the server at its first page load."""
     names = a.spec.space.names
     if a.n <= RANK_ROWS:
-        s = sensitivity(a)
-        return dict(zip(names, map(float, s.ks)))
+        return dict(zip(names, map(float, ks_of(a))))
     keep = np.zeros(a.n, bool)
     keep[np.random.default_rng(0).choice(a.n, RANK_ROWS, replace=False)] = True
     w = trial_weights(a, keep)
-    ks, _ = ks_filtering(a.trials.X[keep], a.feasible[keep], w)
+    ks = ks_statistics(a.trials.X[keep], a.feasible[keep], w)
     return dict(zip(names, map(float, ks)))
 
 

@@ -16,11 +16,11 @@ from ....errors import VectoridError
 __all__ = [
     "Wiring",
     "err",
-    "range_bar",
     "rows_table",
     "safe",
     "table",
     "verdict_panel",
+    "verdict_panel_html",
     "verdict_table",
 ]
 
@@ -180,17 +180,9 @@ def _range_bar_parts(ranges: dict[str, Any], value: float | None) -> list[tuple[
 _RANGE_BAR_TITLE = "box (grey), D (blue), Pareto (green)"
 
 
-def range_bar(ranges: dict[str, Any], value: float | None = None) -> Any:
-    """A small drawing of one variable's ranges over its box: D (blue band), the Pareto
-    set (green line) and, when given, the chosen trial's value (orange tick)."""
-    from dash import html
-
-    parts = [html.Div(className=c, style=st) for c, st in _range_bar_parts(ranges, value)]
-    return html.Div(parts, className="rangebar", title=_RANGE_BAR_TITLE)
-
-
 def _range_bar_html(ranges: dict[str, Any], value: float | None = None) -> str:
-    """:func:`range_bar` as HTML text (for :func:`verdict_table`)."""
+    """A small drawing of one variable's ranges over its box, as HTML text: D (blue band),
+    the Pareto set (green line) and, when given, the chosen trial's value (orange tick)."""
     divs = "".join(
         f'<div class="{c}" style="{"; ".join(f"{k}: {v}" for k, v in st.items())};"></div>'
         for c, st in _range_bar_parts(ranges, value)
@@ -277,86 +269,87 @@ def verdict_panel(
     thin: str = "",
     relaxed: str = "",
     combinations: list[dict[str, Any]] | None = None,
-) -> list[Any]:
+) -> Any:
     """What D pins down, at a glance: the identified, weak and not identified variables,
     each a chip (``vid-vchip-<variable>``, with ``data-verdict``) holding D's range and unit
     and a small drawing of it over the box (hover: meaning and why); then the combinations
     of gains D pins down (``vid-combo-<k>``: the terms on the box-normalised gains, the
     range in z, the width as a share of a box side; hover: the reading in the gains' own
     units and why), from :func:`~vectorid.views.ui.verdicts.combination_items`; the
-    relaxation of the saved limits, where the study had to relax them, said first."""
+    relaxation of the saved limits, where the study had to relax them, said first.
+
+    The panel is one Dash component holding its markup (:func:`verdict_panel_html`, every
+    text escaped), as :func:`verdict_table` is: built chip by chip, 33 gains and their
+    combinations were ~250 Dash components mounted in the page load's longest task."""
     from dash import html
 
-    out: list[Any] = []
+    markup = verdict_panel_html(
+        groups, nd=nd, thin=thin, relaxed=relaxed, combinations=combinations
+    )
+    return html.Div(className="vid-html", **{"data-html": markup})
+
+
+def verdict_panel_html(
+    groups: list[dict[str, Any]],
+    *,
+    nd: int,
+    thin: str = "",
+    relaxed: str = "",
+    combinations: list[dict[str, Any]] | None = None,
+) -> str:
+    """The markup of :func:`verdict_panel` (every text escaped)."""
+    esc = _html.escape
+    out: list[str] = []
     if relaxed:
-        out.append(html.Div(relaxed, className="relaxed", id="vid-relaxed"))
+        out.append(f'<div class="relaxed" id="vid-relaxed">{esc(relaxed)}</div>')
     if not groups:
-        out.append(html.Span("no design variable", className="muted"))
+        out.append('<span class="muted">no design variable</span>')
     for g in groups:
+        verdict = str(g["verdict"])
+        cls = "vchip v-" + verdict.replace(" ", "-")
         chips = []
         for it in g["items"]:
             unit = f" {it['unit']}" if it["unit"] else ""
             tip = "; ".join(x for x in (it["meaning"], it["why"]) if x)
+            cid = esc("vid-vchip-" + safe(it["name"]))
+            text = esc(f" {it['range']}{unit}")
             chips.append(
-                html.Span(
-                    [
-                        html.B(it["name"]),
-                        f" {it['range']}{unit}",
-                        range_bar(it["ranges"]),
-                    ],
-                    id=f"vid-vchip-{safe(it['name'])}",
-                    className="vchip v-" + g["verdict"].replace(" ", "-"),
-                    title=tip,
-                    **{"data-verdict": g["verdict"]},
-                )
+                f'<span id="{cid}" class="{esc(cls)}" title="{esc(tip)}" '
+                f'data-verdict="{esc(verdict)}"><b>{esc(str(it["name"]))}</b>{text}'
+                f"{_range_bar_html(it['ranges'])}</span>"
             )
         out.append(
-            html.Div(
-                [html.Span(f"{g['verdict']} ({len(g['items'])})", className="vgroup-name"), *chips],
-                className="vgroup",
-            )
+            '<div class="vgroup"><span class="vgroup-name">'
+            f"{esc(verdict)} ({len(g['items'])})"
+            "</span>" + "".join(chips) + "</div>"
         )
     if combinations:
-        chips = [
-            html.Span(
-                [
-                    html.B(f"c{k}"),
-                    f" {it['text']} in {it['range']}, width {100 * it['width']:.0f} %",
-                ],
-                id=f"vid-combo-{k}",
-                className="vchip v-" + it["verdict"].replace(" ", "-"),
-                title=f"in the gains' units: {it['own_units']}; {it['why']}",
-                **{"data-verdict": it["verdict"]},
+        chips = []
+        for k, it in enumerate(combinations, 1):
+            verdict = str(it["verdict"])
+            text = f" {it['text']} in {it['range']}, width {100 * it['width']:.0f} %"
+            tip = f"in the gains' units: {it['own_units']}; {it['why']}"
+            chips.append(
+                f'<span id="vid-combo-{k}" class="{esc("vchip v-" + verdict.replace(" ", "-"))}" '
+                f'title="{esc(tip)}" data-verdict="{esc(verdict)}"><b>c{k}</b>{esc(text)}</span>'
             )
-            for k, it in enumerate(combinations, 1)
-        ]
         n_id = sum(it["verdict"] == "identified" for it in combinations)
         keep = max(n_id, COMBOS_SHOWN)  # every identified one; the narrowest weak ones
         more = chips[keep:]
+        folded = (
+            f"<details><summary>{len(more)} more weak</summary>{''.join(more)}</details>"
+            if more
+            else ""
+        )
         out.append(
-            html.Div(
-                [
-                    html.Span(
-                        f"combinations ({n_id} identified, {len(combinations) - n_id} weak)",
-                        className="vgroup-name",
-                    ),
-                    *chips[:keep],
-                    *(
-                        [html.Details([html.Summary(f"{len(more)} more weak"), *more])]
-                        if more
-                        else []
-                    ),
-                    html.Span(
-                        "z(g) = (g - low)/(high - low): each gain as a share of its box; "
-                        "range in z over D, widened to hold its boundary; width: a share of "
-                        "one box side",
-                        className="muted",
-                    ),
-                ],
-                className="vgroup",
-                id="vid-combos",
-            )
+            '<div class="vgroup" id="vid-combos"><span class="vgroup-name">'
+            f"combinations ({n_id} identified, {len(combinations) - n_id} weak)</span>"
+            + "".join(chips[:keep])
+            + folded
+            + '<span class="muted">z(g) = (g - low)/(high - low): each gain as a share of its '
+            "box; range in z over D, widened to hold its boundary; width: a share of one box "
+            "side</span></div>"
         )
     if thin:
-        out.append(html.Div(thin, className="muted"))
-    return out
+        out.append(f'<div class="muted">{esc(thin)}</div>')
+    return "".join(out)

@@ -309,6 +309,7 @@ def register(app: Any, ctx: UIContext, w: Wiring) -> None:
         Input("trial-drop", "value"),
         State("tabs", "value"),
         Input("version", "data"),
+        prevent_initial_call=True,
     )
     def trial(cons, tid, overlay, drop, tab, _v):
         if tab != "trial" or not cons:
@@ -368,6 +369,7 @@ def register(app: Any, ctx: UIContext, w: Wiring) -> None:
         Input("ref-q", "value"),
         Input("ref-margin", "value"),
         Input("version", "data"),
+        prevent_initial_call=True,
     )
     def refine(cons, tab, basis, q, margin, _v):
         if tab != "refine" or not cons:
@@ -405,6 +407,7 @@ def register(app: Any, ctx: UIContext, w: Wiring) -> None:
         w.gate(app, "refine"),
         State("tabs", "value"),
         Input("version", "data"),
+        prevent_initial_call=True,
     )
     def ref_verdicts(cons, tab, _v):
         if tab != "refine" or not cons:
@@ -416,7 +419,12 @@ def register(app: Any, ctx: UIContext, w: Wiring) -> None:
             return html.Div(err(exc), className="msg")
         return verdict_table(v["rows"], "vid-verdict")
 
-    @app.callback(Output("overview", "children"), Input("tabs", "value"), Input("version", "data"))
+    @app.callback(
+        Output("overview", "children"),
+        Input("tabs", "value"),
+        Input("version", "data"),
+        prevent_initial_call=True,
+    )
     def overview(tab, _v):
         if tab != "overview":
             raise PreventUpdate

@@ -318,6 +318,7 @@ def register(app: Any, ctx: UIContext, w: Wiring, tokens: CsvTokens) -> None:
         State("selection", "data"),
         State("tabs", "value"),
         Input("version", "data"),
+        prevent_initial_call=True,
     )
     def parallel(cons, colour, shown, view, sel, tab, _v):
         """The axes and lines under the constraints in force: sent again when the
@@ -375,6 +376,7 @@ def register(app: Any, ctx: UIContext, w: Wiring, tokens: CsvTokens) -> None:
         w.gate(app, "parallel"),
         State("tabs", "value"),
         Input("version", "data"),
+        prevent_initial_call=True,
     )
     def history(cons, tab, _v):
         if not cons or tab != "parallel":
@@ -400,6 +402,7 @@ def register(app: Any, ctx: UIContext, w: Wiring, tokens: CsvTokens) -> None:
         w.gate(app, "parallel"),
         State("tabs", "value"),
         Input("version", "data"),
+        prevent_initial_call=True,
     )
     def status(cons, tab, _v):
         """Where a brush sets the constraints, what is now in force (the limits changed in
@@ -453,6 +456,7 @@ def register(app: Any, ctx: UIContext, w: Wiring, tokens: CsvTokens) -> None:
         Input("vid-table", "sort_by"),
         State("tabs", "value"),
         Input("version", "data"),
+        prevent_initial_call=True,
     )
     def trial_table(cons, which, sel, page, size, query, sort_by, tab, _v):
         if tab != "table" or not cons:
