@@ -1016,6 +1016,7 @@ def run_parafoil_demo(
     report: bool = True,
     executor: str | None = None,
     workers: int | None = None,
+    next_drop: bool = False,
 ) -> int:
     """Run the parafoil demo into folder ``out`` and print its results (module docstring).
 
@@ -1042,6 +1043,9 @@ def run_parafoil_demo(
     executor, workers : optional
         Where every stage's trials run (default ``"inline"``, this process, see
         :data:`vectorid.demos.g12.DEMO_RUN_EXECUTOR`) and how many worker processes.
+    next_drop : bool
+        After ranking the planned second drops, fly the best one on the twin and identify
+        stage 2's gains again with both drops (:mod:`vectorid.demos.parafoil_next`).
 
     Returns
     -------
@@ -1052,7 +1056,7 @@ def run_parafoil_demo(
         return _run_parafoil_demo(
             Path(out), trials=trials, stage1_trials=stage1_trials, stage3_trials=stage3_trials,
             progress=progress, budget=budget, population=population, report=report,
-            executor=executor or DEMO_RUN_EXECUTOR,
+            executor=executor or DEMO_RUN_EXECUTOR, next_drop=next_drop,
         )  # fmt: skip
 
 
@@ -1067,6 +1071,7 @@ def _run_parafoil_demo(
     population: int,
     report: bool,
     executor: str,
+    next_drop: bool = False,
 ) -> int:
     from .. import models
     from ..identify import Identification
@@ -1227,9 +1232,14 @@ def _run_parafoil_demo(
 
     # ---- which second drop would tell the most (issue 34) ------------------------------
     t_design = time.perf_counter()
-    _next_drops(out, truth, st2)
+    ranking = _next_drops(out, truth, st2)
     t_design = time.perf_counter() - t_design
     sys.stdout.flush()
+    if next_drop:  # fly the best plan on the twin, identify with both drops (parafoil_next)
+        from .parafoil_next import run_next_drop
+
+        run_next_drop(out, truth, st2, ranking, trials=trials, budget=budget,
+                      population=population, progress=progress, executor=executor)  # fmt: skip
 
     # ---- Figure 14 -> tie / fix proposal -> stage 3 --------------------------------------
     trajectory = [c[0] for c in CRITERIA if not c[0].startswith("peak_")]
