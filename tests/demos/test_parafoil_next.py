@@ -19,7 +19,9 @@ from vectorid.demos.parafoil import DEMO_DATA, DEMO_DISCREPANCY, _planned_drop_l
 from vectorid.demos.parafoil_next import (
     NEXT_DATA,
     _judged_span,
+    _round_up,
     fly_plan,
+    plan_allowance,
     plan_criteria,
     run_next_drop,
     two_drop_toml,
@@ -161,6 +163,33 @@ def test_the_two_drop_study_file_puts_criteria_on_both_drops(flown):
     assert (d1.name, d2.name) == ("drop", "step")
     assert d2.grid[0] == pytest.approx(0.0) and d2.grid[-1] == pytest.approx(18.0)
     assert {"position", "velocity", "euler", "rates"} <= set(d2.flight.channels)
+
+
+def test_drop_two_allowance_is_read_from_twins_of_the_plan(flown):
+    """The extra allowance a drop-2 criterion needs is the truth's excess over its limit on
+    twins of the plan (other seeds): none under limits it meets, positive under limits it
+    cannot meet; the twins' files are removed; a stated allowance replaces the namesake's."""
+    crit2 = plan_criteria(_candidate())
+    names = [c[0] for c in crit2]
+    loose = dict.fromkeys(names, 1e9)
+    extra, worst, met = plan_allowance(flown.plan, _truth(), flown.out, crit2, loose,
+                                       window_end=18.0, twins=4)  # fmt: skip
+    assert extra == dict.fromkeys(names, 0.0) and met == 1.0
+    assert all(0.0 <= w < 1e-3 for w in worst.values())
+    tight = dict.fromkeys(names, 1e-12)
+    extra, worst, met = plan_allowance(flown.plan, _truth(), flown.out, crit2, tight,
+                                       window_end=18.0, twins=4)  # fmt: skip
+    assert met == 0.0 and extra["pos_h_2"] > 1.0 and extra["heading_2"] > 0.0
+    assert not (flown.out / f"{NEXT_DATA}-twins").exists()
+    text = two_drop_toml(_truth(), flown.noisy, crit2, window_end=18.0, trials=64, budget=500,
+                         population=20, allowance={"peak_yaw_2": 1.2},
+                         allowance_note="twins")  # fmt: skip
+    disc = tomllib.loads(text)["identification"]["discrepancy"]
+    assert disc["peak_yaw_2"] == 1.2 and disc["heading_2"] == DEMO_DISCREPANCY["heading"]
+    assert "# twins:" in text
+    assert [_round_up(v) for v in (1.1044, 0.0123, 0.0, 47.0)] == pytest.approx(
+        [1.2, 0.013, 0.0, 47.0]
+    )
 
 
 def test_cli_next_drop_flag():
