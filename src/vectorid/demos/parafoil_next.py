@@ -531,12 +531,11 @@ def _combos_inside(combos: Sequence[Any], true: Mapping[str, float]) -> list[boo
     return out
 
 
-def _flown_share(
-    a2: Any, spec_two: Any, criteria2: Sequence[tuple[str, ...]], limits: Mapping[str, float]
-) -> tuple[float, int, int]:
-    """The weighted share of stage 2's D whose members meet drop 2's limits on the flown
-    data (the criteria of ``criteria2`` alone); also how many members meet them and how many
-    were evaluated."""
+def _flown_criteria(
+    a2: Any, spec_two: Any, criteria2: Sequence[tuple[str, ...]]
+) -> tuple[np.ndarray, np.ndarray]:
+    """Drop 2's criteria (``criteria2``) of stage 2's D's members on the flown data, (m, q),
+    and the members' weights (mean 1)."""
     from ..identify import Identification
 
     names = [c[0] for c in criteria2]
@@ -546,13 +545,21 @@ def _flown_share(
         base_dir=spec_two.base_dir, default_model="parafoil8dof",
     )  # fmt: skip
     rows = np.flatnonzero(a2.feasible)
-    X = a2.trials.X[rows]
     w = trial_weights(a2, a2.feasible)
     w = np.ones(rows.size) if w is None else np.asarray(w, dtype=float)
-    F = ident.evaluate(X)[0]
+    return ident.evaluate(a2.trials.X[rows])[0], w
+
+
+def _kept(
+    F: np.ndarray, w: np.ndarray, names: Sequence[str], limits: Mapping[str, float]
+) -> tuple[float, int, dict[str, float]]:
+    """The weighted share of the members that meet every limit (a failed flight, NaN, meets
+    none), how many do, and per criterion the weighted share that fails it."""
     L = np.array([limits[n] for n in names])
-    meet = np.all(F <= L[None, :], axis=1)  # NaN (a failed flight) meets nothing
-    return float(w[meet].sum() / w.sum()), int(meet.sum()), int(rows.size)
+    ok = F <= L[None, :]
+    meet = np.all(ok, axis=1)
+    fails = {n: float(w[~ok[:, j]].sum() / w.sum()) for j, n in enumerate(names)}
+    return float(w[meet].sum() / w.sum()), int(meet.sum()), fails
 
 
 def run_next_drop(
@@ -688,15 +695,13 @@ def run_next_drop(
     true = truth["parameters"]
     print(f"  two drops   store {r.store}   ({r.elapsed:.1f} s)")
     print_stage_limits(st, indent="    ")
-    if st.sequential is not None:
-        print(f"    sequential sampler: {st.sequential.verdict()}")
     from ..identify import Identification
 
     ratio = [st.noise_limits[c[0]] / st2.noise_limits[c[0]] for c in CRITERIA
              if c[0] in st.noise_limits and st2.noise_limits.get(c[0])]  # fmt: skip
     if ratio:
         print(
-            f"    drop 1's limits are {min(ratio):.3g}-{max(ratio):.3g}x stage 2's (the joint "
+            f"    drop 1's limits are {min(ratio):.2f}-{max(ratio):.2f}x stage 2's (the joint "
             f"95 % now spans {len(st.noise_limits)} criteria, not {len(st2.noise_limits)})"
         )
     ok_d, text = _truth_in_d(st, Identification.from_spec(r.spec), true)
@@ -761,8 +766,11 @@ def run_next_drop(
             )
     # ---- the direct check of the ranking ------------------------------------------------
     lim2 = {c[0]: st.noise_limits[c[0]] for c in crit2}
-    share, n_meet, n_eval = _flown_share(a1, r.spec, crit2, lim2)
-    share_r, n_meet_r, _ = _flown_share(a1, r.spec, crit2, lim_rank)
+    names2 = [c[0] for c in crit2]
+    F2, w2 = _flown_criteria(a1, r.spec, crit2)
+    n_eval = F2.shape[0]
+    share, n_meet, _ = _kept(F2, w2, names2, lim2)
+    share_r, n_meet_r, fails_r = _kept(F2, w2, names2, lim_rank)
     lo, hi = best.interval
     print(
         f"  the check of the ranking: the share of stage 2's D ({n_eval} members, weighted) "
@@ -773,6 +781,13 @@ def run_next_drop(
                           ("under the two-drop study's limits", share, n_meet)):  # fmt: skip
         where = "inside" if lo <= sh <= hi else ("below" if sh < lo else "above")
         print(f"    {label:<50}{100 * sh:6.1f} % ({nm} members), {where} its interval")
+    worst_c = max(fails_r, key=fails_r.get)
+    if share_r < lo and fails_r[worst_c] > 0.5:
+        print(
+            f"    under the ranking's limits {worst_c} alone fails for "
+            f"{100 * fails_r[worst_c]:.0f} % of D: what the model lacks on this plan, which "
+            "no member\n    playing the truth could show the ranking"
+        )
     print(
         "    (the estimate averages over D's members playing the truth, each a model without "
         "what the\n    generator adds; the flown share is the generator's truth in one gust "
