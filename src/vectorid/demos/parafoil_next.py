@@ -657,9 +657,9 @@ def run_next_drop(
     )
     for n, a in widened.items():
         print(
-            f"    {n}: the truth reaches {worst[n]:.3g}x its limit; allowance "
-            f"{own[n]:g} -> {a:g} {units[n]} (covers {100 * TWIN_COVERAGE:.0f} % of the twins, "
-            "rounded up)"
+            f"    {n}: the truth reaches {worst[n]:.3g}x its limit; its allowance in {units[n]} "
+            f"{own[n]:g} -> {a:g} (beside any channel's;\n      covers "
+            f"{100 * TWIN_COVERAGE:.0f} % of the twins, rounded up)"
         )
     if not widened:
         cover = f"{100 * TWIN_COVERAGE:.0f} %"
