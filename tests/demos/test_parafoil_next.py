@@ -244,7 +244,9 @@ def test_parafoil_demo_next_drop_end_to_end_reduced(tmp_path, capsys):
         return
     for needle in ("flown: next-", "by the generator's truth", "one drop against two",
                    "gains identified", "combinations identified", "members of D",
-                   "model evaluations", "the check of the ranking: of stage 2's D"):  # fmt: skip
+                   "model evaluations", "does drop 1's allowance cover what the model lacks",
+                   "the check of the ranking: the share of stage 2's D",
+                   "under the ranking's limits (drop 1's allowance)"):  # fmt: skip
         assert needle in part, needle
     doc = json.loads((out / "next-drop.json").read_text(encoding="utf-8"))
     assert 0.0 <= doc["flown_share_kept"] <= 1.0

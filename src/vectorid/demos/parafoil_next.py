@@ -444,7 +444,7 @@ def _round_up(v: float) -> float:
     if v <= 0:
         return 0.0
     e = math.floor(math.log10(v)) - 1
-    return math.ceil(v / 10.0**e - 1e-9) * 10.0**e
+    return float(f"{math.ceil(v / 10.0**e - 1e-9) * 10.0**e:.12g}")
 
 
 def plan_allowance(
@@ -743,7 +743,16 @@ def run_next_drop(
         print("    no gain's verdict changed")
     miss = [n for n, x in in2.items() if x is False]
     if miss:
-        print(f"    the truth lies OUTSIDE the two-drop range of: {', '.join(miss)}")
+        v2 = {v.name: v for v in r.verdicts}
+        far = [f"{n} {true[n]:.4g} not in [{v2[n].feasible[0]:.4g}, {v2[n].feasible[1]:.4g}]"
+               for n in miss]  # fmt: skip
+        print("    the truth lies OUTSIDE the two-drop range of: " + ", ".join(far))
+    if (miss or not all(ci2)) and ok_d:
+        print(
+            "    yet the truth meets every limit, so it is in D: the members sampled miss the "
+            "part of D it lies\n    in (near D's boundary; the truth nearly binds a limit), "
+            "so read those ranges as too narrow"
+        )
     gained = (c2["identified"] + c2["weak"]) - (c1["identified"] + c1["weak"])
     if gained > 0:
         print(
