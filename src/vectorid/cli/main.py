@@ -1053,10 +1053,13 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     if args.which == "parafoil":
         from ..demos.parafoil import run_parafoil_demo
 
+        next_drop = None
+        if args.next_drop:
+            from ..demos.parafoil_next import run_next_drop as next_drop
         return run_parafoil_demo(
             Path(args.out), trials=args.trials or 4096, progress=_progress(args),
             budget=args.budget, population=args.population, executor=args.executor,
-            workers=args.workers, next_drop=args.next_drop,
+            workers=args.workers, next_drop=next_drop,
         )  # fmt: skip
     if args.next_drop:
         from ..errors import StudyDefinitionError
