@@ -12,7 +12,7 @@ Verbs (a contract; more may be added)::
     vectorid pareto STORE [--limit 'NAME<=VALUE' | 'NAME>=VALUE' ...] [--role NAME=pseudo] [--json]
     vectorid export STORE [--format csv|json|parquet] [--out PATH] [--limit ...] [--constraints]
     vectorid init PROBLEM [--out FILE] [--trials N]
-    vectorid demo [g12|parafoil] [--out DIR] [--trials N] [--analytic]
+    vectorid demo [g12|parafoil] [--out DIR] [--trials N] [--analytic] [--next-drop]
     vectorid descent LOG --mass KG [--columns time=COL,altitude=COL] [...] [--json]
     vectorid predict STORE DROP.toml... [--members N] [--seed S] [--json] [--out DIR]
 
@@ -325,6 +325,11 @@ def _parser() -> argparse.ArgumentParser:
     d.add_argument(
         "--population", type=positive_int, default=200,
         help="parafoil: members of D wanted per stage (default 200)",
+    )  # fmt: skip
+    d.add_argument(
+        "--next-drop", action="store_true",
+        help="parafoil: then fly the best-ranked second drop on the twin and identify the 33 "
+        "gains again with both drops (one drop against two; adds minutes)",
     )  # fmt: skip
     for module in _extensions():
         module.add_parsers(sub)
@@ -1048,10 +1053,20 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     if args.which == "parafoil":
         from ..demos.parafoil import run_parafoil_demo
 
+        next_drop = None
+        if args.next_drop:
+            from ..demos.parafoil_next import run_next_drop as next_drop
         return run_parafoil_demo(
             Path(args.out), trials=args.trials or 4096, progress=_progress(args),
             budget=args.budget, population=args.population, executor=args.executor,
-            workers=args.workers,
+            workers=args.workers, next_drop=next_drop,
+        )  # fmt: skip
+    if args.next_drop:
+        from ..errors import StudyDefinitionError
+
+        raise StudyDefinitionError(
+            "--next-drop", "only the parafoil demo ranks and flies a second drop",
+            "run vectorid demo parafoil --next-drop",
         )  # fmt: skip
     return run_demo(
         Path(args.out), trials=args.trials or 2048, progress=_progress(args),

@@ -59,7 +59,7 @@ import shutil
 import sys
 import textwrap
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -1046,6 +1046,7 @@ def run_parafoil_demo(
     report: bool = True,
     executor: str | None = None,
     workers: int | None = None,
+    next_drop: Callable[..., Any] | None = None,
 ) -> int:
     """Run the parafoil demo into folder ``out`` and print its results (module docstring).
 
@@ -1072,6 +1073,11 @@ def run_parafoil_demo(
     executor, workers : optional
         Where every stage's trials run (default ``"inline"``, this process, see
         :data:`vectorid.demos.g12.DEMO_RUN_EXECUTOR`) and how many worker processes.
+    next_drop : callable, optional
+        Called after the ranking of the planned second drops as ``next_drop(out, truth,
+        stage2, ranking, trials=, budget=, population=, progress=, executor=)``; ``vectorid demo
+        parafoil --next-drop`` passes :func:`vectorid.demos.parafoil_next.run_next_drop` (fly
+        the best plan on the twin, identify stage 2's gains again with both drops).
 
     Returns
     -------
@@ -1082,7 +1088,7 @@ def run_parafoil_demo(
         return _run_parafoil_demo(
             Path(out), trials=trials, stage1_trials=stage1_trials, stage3_trials=stage3_trials,
             progress=progress, budget=budget, population=population, report=report,
-            executor=executor or DEMO_RUN_EXECUTOR,
+            executor=executor or DEMO_RUN_EXECUTOR, next_drop=next_drop,
         )  # fmt: skip
 
 
@@ -1097,6 +1103,7 @@ def _run_parafoil_demo(
     population: int,
     report: bool,
     executor: str,
+    next_drop: Callable[..., Any] | None = None,
 ) -> int:
     from .. import models
     from ..identify import Identification
@@ -1257,9 +1264,12 @@ def _run_parafoil_demo(
 
     # ---- which second drop would tell the most (issue 34) ------------------------------
     t_design = time.perf_counter()
-    _next_drops(out, truth, st2)
+    ranking = _next_drops(out, truth, st2)
     t_design = time.perf_counter() - t_design
     sys.stdout.flush()
+    if next_drop is not None:  # e.g. fly the best plan, identify with both drops (--next-drop)
+        next_drop(out, truth, st2, ranking, trials=trials, budget=budget,
+                  population=population, progress=progress, executor=executor)  # fmt: skip
 
     # ---- Figure 14 -> tie / fix proposal -> stage 3 --------------------------------------
     trajectory = [c[0] for c in CRITERIA if not c[0].startswith("peak_")]
