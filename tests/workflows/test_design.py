@@ -15,7 +15,14 @@ import pytest
 from tests.workflows.predict_helpers import MAPPING, ORIGIN, drop_file, kinematic_store, planned
 from vectorid.spec import StudySpec
 from vectorid.study import Study
-from vectorid.workflows.design import COVERAGE, FLOOR_SEED_OFFSET, _rank, design, kept_interval
+from vectorid.workflows.design import (
+    ADEQUACY_NOTE,
+    COVERAGE,
+    FLOOR_SEED_OFFSET,
+    _rank,
+    design,
+    kept_interval,
+)
 
 GPS = {"position_h": 2.0, "position_v": 3.0}  # m
 
@@ -54,6 +61,8 @@ def test_plans_are_ranked_by_the_share_of_d_they_keep(plans):
     text = d.describe()
     assert "1. long" in text and "would not shrink D" in text and "Most informative: long" in text
     assert "judged by pos_h_abs@next <=" in text and "the truth itself meets them in" in text
+    # what every estimate assumes is said with every ranking, for people and in JSON
+    assert f"Read with care: {ADEQUACY_NOTE}." in text and doc["assumes"] == ADEQUACY_NOTE
 
 
 def test_the_truth_meets_the_plans_limits_as_often_as_the_coverage(plans):

@@ -72,6 +72,7 @@ from ..analysis.relaxation import MIN_D
 from ..analysis.sections import sections_through
 from ..identify.spectral import rate_peaks
 from ..run.executors import executor_options
+from ..workflows.design import ADEQUACY_NOTE
 from ..workflows.reduction import propose_reduction
 from ..workflows.stages import IdentificationStage, print_stage_limits, print_verdicts, run_stage
 from ..workflows.truth import check_truth
@@ -980,6 +981,7 @@ def print_design(d: Any, what: Mapping[str, str]) -> None:
                 f"own criteria{same};\n  valuing it needs a criterion on the canopy's relative "
                 "attitude in the study (none in the library yet)"
             )
+    print("  read with care: " + textwrap.fill(ADEQUACY_NOTE, 96, subsequent_indent="    "))
     if all(c.rejects_truth for c in d.candidates):
         print(
             "  no plan keeps the truth: under each the truth itself fails the limits the study "
