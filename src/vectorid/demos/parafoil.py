@@ -766,13 +766,11 @@ def planned_manoeuvre_toml(truth: Mapping[str, Any]) -> str:
     ])  # fmt: skip
 
 
-def _truth_landings(truth: Mapping[str, Any], seeds: Sequence[int]) -> np.ndarray:
-    """Where the generator's truth lands on the planned manoeuvre (north, east m of the landing
-    zone), one row per gust realisation: its gains, flap lag, payload joint and Dryden gusts
-    (the generator's, scripts/make_parafoil_demo_data.py), in the dropsonde's mean wind."""
-    from ..identify import load_dropsonde_csv
-    from ..identify.twins import ZeroMeanUpdraft
-    from ..models import InitialState, Wind, flap_deflections
+def truth_model(truth: Mapping[str, Any]) -> tuple[Any, np.ndarray]:
+    """The generator's truth (scripts/make_parafoil_demo_data.py) as ``truth.json`` states it:
+    the 8-DoF model with the payload joint's stiffness and damping (the identified model has
+    no stiffness), IMU on the payload, and its parameter vector (the true gains, the others
+    nominal)."""
     from ..models import get as get_model
 
     m = get_model("parafoil8dof", attitude="payload",
@@ -781,6 +779,18 @@ def _truth_landings(truth: Mapping[str, Any], seeds: Sequence[int]) -> np.ndarra
     x = m.nominal.copy()
     for name, value in truth["parameters"].items():
         x[m.parameter_names.index(name)] = value
+    return m, x
+
+
+def _truth_landings(truth: Mapping[str, Any], seeds: Sequence[int]) -> np.ndarray:
+    """Where the generator's truth lands on the planned manoeuvre (north, east m of the landing
+    zone), one row per gust realisation: its gains, flap lag, payload joint and Dryden gusts
+    (the generator's, scripts/make_parafoil_demo_data.py), in the dropsonde's mean wind."""
+    from ..identify import load_dropsonde_csv
+    from ..identify.twins import ZeroMeanUpdraft
+    from ..models import InitialState, Wind, flap_deflections
+
+    m, x = truth_model(truth)
     kt, kl, kr = _knots(PLANNED_PROGRAM)
     t = np.arange(0.0, PLANNED_DURATION + 1e-9, 0.05)
     lag = float(truth["actuator_lag_s"])

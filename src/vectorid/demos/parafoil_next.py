@@ -65,6 +65,7 @@ from .parafoil import (
     _lagged,
     gain_meanings,
     gain_unit,
+    truth_model,
 )
 
 __all__ = [
@@ -205,12 +206,7 @@ def fly_plan(
             f"{plan.name}: noise", "the plan states no sensor noise, so no record can be made",
             "state noise = { ... } for its sensors",
         )  # fmt: skip
-    tm = get_model("parafoil8dof", attitude="payload",
-                   joint_stiffness=tuple(truth["joint_stiffness_Nm_rad"]),
-                   joint_damping=tuple(truth["joint_damping_Nms_rad"]))  # fmt: skip
-    x = tm.nominal.copy()
-    for name, value in truth["parameters"].items():
-        x[tm.parameter_names.index(name)] = value
+    tm, x = truth_model(truth)
     n = round(d.duration / RECORD_DT)
     t = np.arange(n + 1) * RECORD_DT
     if d.inputs is not None:
